@@ -1,0 +1,42 @@
+//! Library error type. Every variant that comes from a file names the file,
+//! and the line where one is known.
+
+use std::path::PathBuf;
+
+/// Errors raised while loading, validating or solving a scene.
+#[derive(Debug, thiserror::Error)]
+pub enum Error {
+    /// A file could not be read or written.
+    #[error("{path}: {source}")]
+    Io {
+        path: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    /// The scene TOML is malformed or has a bad value.
+    #[error("{path}: {message}")]
+    SceneFile { path: PathBuf, message: String },
+    /// An OBJ or MTL file could not be parsed.
+    #[error("{path}: {message}")]
+    Obj { path: PathBuf, message: String },
+    /// A mesh has invalid geometry (non-finite coordinates, bad indices, ...).
+    #[error("{source_name}{}: {message}", line.map(|l| format!(":{l}")).unwrap_or_default())]
+    Geometry {
+        /// File path or built-in mesh name.
+        source_name: String,
+        /// 1-based line in the OBJ file, where known.
+        line: Option<usize>,
+        message: String,
+    },
+    /// A scene name was neither a file nor a built-in scene.
+    #[error("scene '{0}' is neither a file nor a built-in scene (built-ins: {1})")]
+    UnknownScene(String, String),
+    /// The scene has nothing to solve.
+    #[error("{0}: the scene has no triangles")]
+    EmptyScene(String),
+    /// A setting is out of range.
+    #[error("invalid setting: {0}")]
+    Setting(String),
+}
+
+pub type Result<T> = std::result::Result<T, Error>;

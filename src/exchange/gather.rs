@@ -1,0 +1,140 @@
+//! Bounce gathering over the link matrix `W` (DESIGN.md §4):
+//! `B_0 = rho/pi * E_d`, `E^(b) = W B_(b-1)`, `B_b = rho/pi * E^(b)`,
+//! `E_i = sum_b E^(b)`. One pass over all links is one bounce.
+//!
+//! Bounce count is fixed or `auto`: stop once the newest bounce adds less
+//! than `tolerance` of the running total (per channel, over all vertices).
+//! The ratio `q` of the last two bounces' totals estimates the remaining
+//! geometric tail `E^(b) q / (1 - q)`; in `auto` mode that tail is added to
+//! `E_i` (this is exact for the sphere furnace, whose bounces are uniform,
+//! and keeps stiff scenes with rho near 1 from stopping short), in fixed
+//! mode it is only reported. Irradiances in W/m^2.
+
+use crate::links::Links;
+use crate::scene::Bounces;
+use glam::Vec3;
+use half::slice::HalfFloatSliceExt;
+use rayon::prelude::*;
+use std::f32::consts::PI;
+use std::time::Instant;
+
+/// Parameters of the gather.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct GatherParams {
+    pub bounces: Bounces,
+    /// `auto`: relative contribution of the newest bounce at which to stop.
+    pub tolerance: f32,
+    /// `auto`: upper limit on bounces.
+    pub max_bounces: u32,
+}
+
+impl Default for GatherParams {
+    fn default() -> Self {
+        Self { bounces: Bounces::Fixed(3), tolerance: 1e-4, max_bounces: 100_000 }
+    }
+}
+
+/// Result of a gather.
+#[derive(Clone, Debug, Default)]
+pub struct GatherResult {
+    /// Indirect irradiance per vertex (unsmoothed), W/m^2.
+    pub e_indirect: Vec<Vec3>,
+    pub bounces: u32,
+    /// Sum over vertices of each bounce's irradiance, per channel.
+    pub bounce_totals: Vec<Vec3>,
+    /// Estimated remaining tail relative to the total (per channel, the largest).
+    pub tail_relative: f32,
+    /// True if the tail estimate was added to `e_indirect` (auto mode).
+    pub tail_added: bool,
+    pub ms: f64,
+}
+
+/// One bounce: `out[v] = sum_j w_vj * b[target_j]` (RGB).
+pub fn gather_bounce(links: &Links, b: &[Vec3], out: &mut [Vec3]) {
+    const CHUNK: usize = 256;
+    out.par_chunks_mut(CHUNK).enumerate().for_each_init(Vec::new, |buf: &mut Vec<f32>, (ci, chunk)| {
+        for (i, o) in chunk.iter_mut().enumerate() {
+            let v = ci * CHUNK + i;
+            let (targets, weights) = links.group(v);
+            buf.resize(weights.len(), 0.0);
+            weights.convert_to_f32_slice(buf);
+            let mut acc = Vec3::ZERO;
+            for (&t, &w) in targets.iter().zip(buf.iter()) {
+                acc += b[t as usize] * w;
+            }
+            *o = acc;
+        }
+    });
+}
+
+fn total(e: &[Vec3]) -> [f64; 3] {
+    e.par_iter()
+        .fold(|| [0f64; 3], |mut s, v| {
+            s[0] += v.x as f64;
+            s[1] += v.y as f64;
+            s[2] += v.z as f64;
+            s
+        })
+        .reduce(|| [0f64; 3], |a, b| [a[0] + b[0], a[1] + b[1], a[2] + b[2]])
+}
+
+/// Runs the bounces from direct irradiance `e_direct` with per-vertex `albedo`.
+pub fn gather(links: &Links, albedo: &[Vec3], e_direct: &[Vec3], params: &GatherParams) -> GatherResult {
+    let start = Instant::now();
+    let n = e_direct.len();
+    let mut e_i = vec![Vec3::ZERO; n];
+    let mut e_b = vec![Vec3::ZERO; n];
+    let mut b: Vec<Vec3> = e_direct.iter().zip(albedo).map(|(e, r)| *e * *r / PI).collect();
+    let (fixed, limit) = match params.bounces {
+        Bounces::Fixed(k) => (true, k),
+        Bounces::Auto => (false, params.max_bounces),
+    };
+    let mut result = GatherResult::default();
+    let mut running = [0f64; 3];
+    let mut prev = [0f64; 3];
+    let mut q = [0f64; 3];
+    for bounce in 1..=limit {
+        gather_bounce(links, &b, &mut e_b);
+        e_i.par_iter_mut().zip(&e_b).for_each(|(i, e)| *i += *e);
+        b.par_iter_mut().zip(&e_b).zip(albedo).for_each(|((b, e), r)| *b = *e * *r / PI);
+        let t = total(&e_b);
+        result.bounces = bounce;
+        result.bounce_totals.push(Vec3::new(t[0] as f32, t[1] as f32, t[2] as f32));
+        let mut newest_rel = 0f64;
+        for c in 0..3 {
+            running[c] += t[c];
+            q[c] = if prev[c] > 0.0 { (t[c] / prev[c]).min(1.0) } else { 0.0 };
+            if running[c] > 0.0 {
+                newest_rel = newest_rel.max(t[c] / running[c]);
+            }
+        }
+        prev = t;
+        if !fixed && bounce >= 2 && newest_rel < params.tolerance as f64 {
+            break;
+        }
+        if running == [0.0; 3] {
+            break; // nothing lit: every further bounce is zero
+        }
+    }
+    // Geometric tail estimate from the last ratio.
+    let mut tail_rel = 0f64;
+    let mut factor = [0f32; 3];
+    for c in 0..3 {
+        if running[c] > 0.0 && q[c] < 1.0 {
+            let f = q[c] / (1.0 - q[c]);
+            factor[c] = f as f32;
+            tail_rel = tail_rel.max(prev[c] * f / running[c]);
+        } else if running[c] > 0.0 {
+            tail_rel = f64::INFINITY;
+        }
+    }
+    if !fixed && result.bounces >= 2 {
+        let f = Vec3::from(factor);
+        e_i.par_iter_mut().zip(&e_b).for_each(|(i, e)| *i += *e * f);
+        result.tail_added = true;
+    }
+    result.tail_relative = tail_rel as f32;
+    result.e_indirect = e_i;
+    result.ms = start.elapsed().as_secs_f64() * 1e3;
+    result
+}

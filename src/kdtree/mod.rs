@@ -1,0 +1,197 @@
+//! SAH kd-tree with ropes over the scene's triangles (DESIGN.md §1).
+//!
+//! Build ([`build`]): the top `log2(cores)` levels split at the object median
+//! of the longest axis, one subtree per core; each subtree is a full SAH
+//! sweep over sorted split events, O(n log n) (Wald & Havran 2006, "On
+//! building fast kd-trees for ray tracing, and on doing that in O(N log N)"):
+//! events are sorted once per subtree and kept sorted through every split,
+//! only the triangles that straddle a split get new, clipped events.
+//! Deviation: straddling triangles are clipped by their bounding box, not by
+//! the exact polygon ("perfect splits"), which gives slightly looser leaves.
+//!
+//! Ropes ([`ropes`]): every leaf stores, for each of its six faces, the
+//! node across that face, pushed down the tree as far as it goes (Popov et al.
+//! 2007, "Stackless kd-tree traversal for high performance GPU ray tracing").
+//! Traversal ([`traverse`]) walks leaf to leaf along ropes with no stack.
+//!
+//! The flattened layout ([`KdNode`], [`KdLeaf`], [`KdTriangle`]) is
+//! `#[repr(C)]` `bytemuck::Pod` data shared with the WGSL shader. Lengths are
+//! metres (world space); costs are unitless SAH weights.
+
+pub mod build;
+pub mod ropes;
+pub mod traverse;
+pub mod triangle;
+pub mod validate;
+
+use bytemuck::{Pod, Zeroable};
+use glam::Vec3;
+
+pub use traverse::Ray;
+pub use triangle::Hit;
+
+/// `KdNode::kind` of a leaf; 0, 1 and 2 are the split axis of an inner node.
+pub const LEAF: u32 = 3;
+/// A rope that leaves the scene's bounds.
+pub const NO_ROPE: u32 = u32::MAX;
+
+/// One node of the flattened tree (16 bytes).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct KdNode {
+    /// Split plane position along `kind` (inner nodes), metres.
+    pub split: f32,
+    /// 0, 1, 2: split axis of an inner node; [`LEAF`]: a leaf.
+    pub kind: u32,
+    /// Inner: left child (below the plane). Leaf: index into the leaf array.
+    pub a: u32,
+    /// Inner: right child (above the plane). Leaf: unused (0).
+    pub b: u32,
+}
+
+/// A leaf: its box, its triangle range and its six ropes (64 bytes).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct KdLeaf {
+    pub min: [f32; 3],
+    /// First entry in the tree's triangle index list.
+    pub first: u32,
+    pub max: [f32; 3],
+    /// Number of triangle indices.
+    pub count: u32,
+    /// Node across faces -x, +x, -y, +y, -z, +z, or [`NO_ROPE`].
+    pub ropes: [u32; 6],
+    pub _pad: [u32; 2],
+}
+
+/// A triangle prepared for Möller-Trumbore: `v0`, edges `e1 = v1 - v0`,
+/// `e2 = v2 - v0`, and the solver vertex ids of its corners (48 bytes).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct KdTriangle {
+    pub v0: [f32; 3],
+    pub ia: u32,
+    pub e1: [f32; 3],
+    pub ib: u32,
+    pub e2: [f32; 3],
+    pub ic: u32,
+}
+
+/// Build parameters of the SAH kd-tree.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct KdBuildParams {
+    /// Cost of one traversal step, relative to `intersect_cost`.
+    pub traversal_cost: f32,
+    /// Cost of one ray-triangle test.
+    pub intersect_cost: f32,
+    /// Fraction of the cost waived for splits that cut off empty space, in [0, 1).
+    pub empty_bonus: f32,
+    /// Depth limit; `None`: `8 + 1.3 log2(n)` as in pbrt.
+    pub max_depth: Option<u32>,
+    /// Object-median levels at the top; `None`: `ceil(log2(threads))`, one subtree per core.
+    pub parallel_levels: Option<u32>,
+}
+
+impl Default for KdBuildParams {
+    fn default() -> Self {
+        Self { traversal_cost: 1.0, intersect_cost: 1.5, empty_bonus: 0.2, max_depth: None, parallel_levels: None }
+    }
+}
+
+/// Figures describing a built tree.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct KdStats {
+    pub nodes: usize,
+    pub leaves: usize,
+    pub empty_leaves: usize,
+    /// Mean triangle references per non-empty leaf.
+    pub mean_leaf_triangles: f32,
+    pub max_depth: u32,
+    /// Expected cost of a random ray by the surface area heuristic, in units
+    /// of `intersect_cost`-weighted operations.
+    pub sah_cost: f32,
+    pub build_ms: f64,
+}
+
+/// A built kd-tree: flattened nodes, leaves with ropes, triangle index list
+/// and the triangles themselves (in scene order).
+#[derive(Clone, Debug)]
+pub struct KdTree {
+    pub nodes: Vec<KdNode>,
+    pub leaves: Vec<KdLeaf>,
+    /// Triangle ids referenced by leaves.
+    pub leaf_triangles: Vec<u32>,
+    pub triangles: Vec<KdTriangle>,
+    /// Scene bounds (the root's box).
+    pub min: Vec3,
+    pub max: Vec3,
+    pub params: KdBuildParams,
+    pub stats: KdStats,
+}
+
+/// Axis-aligned box helper used by the build and validation.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Aabb {
+    pub min: Vec3,
+    pub max: Vec3,
+}
+
+impl Aabb {
+    pub const EMPTY: Aabb = Aabb { min: Vec3::splat(f32::INFINITY), max: Vec3::splat(f32::NEG_INFINITY) };
+
+    pub fn of_points(points: &[Vec3]) -> Aabb {
+        points.iter().fold(Aabb::EMPTY, |b, p| Aabb { min: b.min.min(*p), max: b.max.max(*p) })
+    }
+
+    pub fn area(&self) -> f32 {
+        let d = (self.max - self.min).max(Vec3::ZERO);
+        2.0 * (d.x * d.y + d.y * d.z + d.z * d.x)
+    }
+
+    pub fn intersect(&self, o: &Aabb) -> Aabb {
+        Aabb { min: self.min.max(o.min), max: self.max.min(o.max) }
+    }
+
+    /// Splits at `pos` along `axis` into (below, above).
+    pub fn split(&self, axis: usize, pos: f32) -> (Aabb, Aabb) {
+        let mut l = *self;
+        let mut r = *self;
+        l.max[axis] = pos;
+        r.min[axis] = pos;
+        (l, r)
+    }
+}
+
+impl KdTree {
+    /// Builds the tree over `triangles` (solver vertex ids into `positions`).
+    pub fn build(positions: &[Vec3], triangles: &[[u32; 3]], params: &KdBuildParams) -> KdTree {
+        build::build(positions, triangles, params)
+    }
+
+    /// Node boxes of every node (computed from the root box and splits).
+    pub fn node_boxes(&self) -> Vec<Aabb> {
+        let mut boxes = vec![Aabb::EMPTY; self.nodes.len()];
+        if self.nodes.is_empty() {
+            return boxes;
+        }
+        let mut stack = vec![(0u32, Aabb { min: self.min, max: self.max })];
+        while let Some((n, b)) = stack.pop() {
+            boxes[n as usize] = b;
+            let node = self.nodes[n as usize];
+            if node.kind != LEAF {
+                let (l, r) = b.split(node.kind as usize, node.split);
+                stack.push((node.a, l));
+                stack.push((node.b, r));
+            }
+        }
+        boxes
+    }
+
+    /// Bytes of the flattened structure (nodes, leaves, index list, triangles).
+    pub fn bytes(&self) -> usize {
+        std::mem::size_of_val(self.nodes.as_slice())
+            + std::mem::size_of_val(self.leaves.as_slice())
+            + std::mem::size_of_val(self.leaf_triangles.as_slice())
+            + std::mem::size_of_val(self.triangles.as_slice())
+    }
+}

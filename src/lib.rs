@@ -1,0 +1,16 @@
+//! linkgi: explicit-visibility vertex link radiosity (DESIGN.md).
+//!
+//! Pipeline: [`scene`] (load and prepare) → [`kdtree`] (SAH kd-tree with
+//! ropes) → [`sampling`] (cosine ray directions) → [`links`] (vertex links)
+//! → [`exchange`] (light links, bounces, smoothing), driven by [`solver`].
+
+pub mod error;
+pub mod exchange;
+pub mod export;
+pub mod kdtree;
+pub mod links;
+pub mod sampling;
+pub mod scene;
+pub mod solver;
+
+pub use error::{Error, Result};

@@ -1,0 +1,162 @@
+//! CPU ray shooting (rayon): every vertex traces the direction set in its
+//! rotated frame from its origin; hits stream into merged link groups batch
+//! by batch, so raw hits for the whole scene are never held at once.
+//!
+//! Origins (DESIGN.md §3): a vertex inside a smooth surface shoots from its
+//! own position and skips its incident triangles. A crease or border vertex
+//! shoots from a point moved `nudge * l` (l: mean incident edge length)
+//! toward its own one-ring along the surface and the same distance off it
+//! along the normal, so rays aimed at the face group on the other side of
+//! the crease land on it instead of slipping through at `t = 0`.
+
+use super::merge::{merge_vertex, HitRecord, HIT_BACK, HIT_MISS};
+use super::{LinkStats, Links};
+use crate::kdtree::{traverse::Ray, KdTree};
+use crate::sampling::{vertex_frame, vertex_rotations, DirectionSet};
+use crate::scene::prep::PreparedScene;
+use glam::Vec3;
+use half::f16;
+use rayon::prelude::*;
+use std::time::Instant;
+
+/// Parameters of link generation.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LinkParams {
+    /// Rays per vertex, `k*k`.
+    pub rays_per_vertex: u32,
+    /// Seed of the direction set and the rotations.
+    pub seed: u64,
+    /// Origin offset of crease and border vertices, as a fraction of their mean edge length.
+    pub nudge: f32,
+    /// Vertices per streamed batch (bounds the memory of raw hits).
+    pub batch_vertices: usize,
+}
+
+impl Default for LinkParams {
+    fn default() -> Self {
+        Self { rays_per_vertex: 256, seed: 1, nudge: 1e-3, batch_vertices: 8192 }
+    }
+}
+
+/// Everything a shooter (CPU or GPU) needs per vertex: origin, rotated
+/// frame, and the shared local direction set.
+#[derive(Clone, Debug)]
+pub struct RaySetup {
+    pub origins: Vec<Vec3>,
+    /// Rotation about the normal, radians.
+    pub rotations: Vec<f32>,
+    pub normals: Vec<Vec3>,
+    pub directions: DirectionSet,
+}
+
+impl RaySetup {
+    pub fn new(scene: &PreparedScene, params: &LinkParams) -> RaySetup {
+        let k = (params.rays_per_vertex as f64).sqrt().round() as u32;
+        let origins = (0..scene.vertex_count()).map(|v| ray_origin(scene, v, params.nudge)).collect();
+        RaySetup {
+            origins,
+            rotations: vertex_rotations(&scene.rings, params.seed),
+            normals: scene.normals.clone(),
+            directions: DirectionSet::new(k, params.seed),
+        }
+    }
+
+    /// World direction of ray `k` of vertex `v`.
+    #[inline]
+    pub fn direction(&self, v: usize, k: usize) -> Vec3 {
+        let (t, b, n) = vertex_frame(self.normals[v], self.rotations[v]);
+        let d = self.directions.dirs[k];
+        (t * d.x + b * d.y + n * d.z).normalize()
+    }
+
+    /// Traces all rays of vertex `v` on the CPU into `out` (one record per ray).
+    pub fn trace_vertex(&self, kd: &KdTree, v: usize, out: &mut Vec<HitRecord>) {
+        out.clear();
+        let (t, b, n) = vertex_frame(self.normals[v], self.rotations[v]);
+        let origin = self.origins[v];
+        for d in &self.directions.dirs {
+            let dir = (t * d.x + b * d.y + n * d.z).normalize();
+            let ray = Ray { origin, dir, tmin: 0.0, tmax: f32::INFINITY, skip: v as u32 };
+            out.push(match kd.intersect(&ray) {
+                None => HitRecord { tri: HIT_MISS, u: 0.0, v: 0.0, t: f32::INFINITY },
+                Some(h) => HitRecord { tri: if h.front { h.tri } else { h.tri | HIT_BACK }, u: h.u, v: h.v, t: h.t },
+            });
+        }
+    }
+}
+
+/// The ray origin of vertex `v` (see the module doc).
+pub fn ray_origin(scene: &PreparedScene, v: usize, nudge: f32) -> Vec3 {
+    let p = scene.positions[v];
+    if !scene.boundary[v] {
+        return p;
+    }
+    let n = scene.normals[v];
+    let ring = scene.rings.row(v);
+    let l = scene.mean_edge_length(v);
+    let toward: Vec3 = ring.iter().map(|&u| (scene.positions[u as usize] - p).normalize_or_zero()).sum();
+    let inward = (toward - n * toward.dot(n)).normalize_or_zero();
+    // At least a few ulps of the coordinates, so the offset survives rounding.
+    let d = (nudge * l).max(p.abs().max_element() * 8.0 * f32::EPSILON);
+    p + (inward + n) * d
+}
+
+/// Shoots every vertex's rays on the CPU and builds the merged links.
+/// `progress(done, total)` is called after each batch.
+pub fn shoot_links(
+    scene: &PreparedScene,
+    kd: &KdTree,
+    params: &LinkParams,
+    progress: &(dyn Fn(usize, usize) + Sync),
+) -> Links {
+    let start = Instant::now();
+    let setup = RaySetup::new(scene, params);
+    let n = scene.vertex_count();
+    let weight_per_ray = std::f64::consts::PI / setup.directions.len() as f64;
+    let mut links = Links { offsets: Vec::with_capacity(n + 1), ..Default::default() };
+    links.offsets.push(0);
+    let mut stats = LinkStats::default();
+    const CHUNK: usize = 32;
+    for batch_start in (0..n).step_by(params.batch_vertices.max(1)) {
+        let batch_end = (batch_start + params.batch_vertices.max(1)).min(n);
+        let chunks: Vec<(Vec<u32>, Vec<u32>, Vec<f16>, LinkStats)> = (batch_start..batch_end)
+            .step_by(CHUNK)
+            .collect::<Vec<_>>()
+            .into_par_iter()
+            .map(|c0| {
+                let mut hits = Vec::with_capacity(setup.directions.len());
+                let mut scratch = Vec::new();
+                let (mut counts, mut targets, mut weights) = (Vec::new(), Vec::new(), Vec::new());
+                let mut st = LinkStats::default();
+                for v in c0..(c0 + CHUNK).min(batch_end) {
+                    setup.trace_vertex(kd, v, &mut hits);
+                    let before = targets.len();
+                    let c = merge_vertex(&hits, &kd.triangles, weight_per_ray, &mut scratch, &mut targets, &mut weights);
+                    counts.push((targets.len() - before) as u32);
+                    st.rays += hits.len() as u64;
+                    st.front_hits += c.front as u64;
+                    st.back_hits += c.back as u64;
+                    st.misses += c.miss as u64;
+                    st.raw_links += 3 * c.front as u64;
+                }
+                (counts, targets, weights, st)
+            })
+            .collect();
+        for (counts, targets, weights, st) in chunks {
+            for c in counts {
+                let last = *links.offsets.last().unwrap();
+                links.offsets.push(last + c);
+            }
+            links.targets.extend_from_slice(&targets);
+            links.weights.extend_from_slice(&weights);
+            stats.add(&st);
+        }
+        progress(batch_end, n);
+    }
+    stats.merged_links = links.targets.len() as u64;
+    stats.raw_bytes = stats.raw_links * 8;
+    stats.merged_bytes = stats.merged_links * 6 + 4 * (n as u64 + 1);
+    stats.shoot_ms = start.elapsed().as_secs_f64() * 1e3;
+    links.stats = stats;
+    links
+}

@@ -1,0 +1,259 @@
+//! Ray directions (DESIGN.md §2): `k*k` cosine-weighted directions from a
+//! stratified, jittered grid on the unit square, mapped to the disc by the
+//! concentric map of Shirley & Chiu (1997) and lifted to the hemisphere
+//! (Malley's method), so `pdf(w) = cos(theta) / pi` (per steradian).
+//!
+//! Directions are ordered in 4*4 blocks of grid cells so consecutive rays
+//! (neighbouring GPU threads) trace neighbouring directions. One set serves
+//! every vertex: it is turned into each vertex's frame, rotated about the
+//! normal by an angle from a graph colouring of the one-rings, so that
+//! neighbours get complementary rotations (interleaved sampling: smoothing
+//! over a one-ring then averages differently rotated sets). Everything is
+//! deterministic in the seed.
+
+use glam::{Vec2, Vec3};
+use rand::{Rng, SeedableRng};
+use std::f32::consts::{FRAC_PI_2, FRAC_PI_4, PI};
+
+use crate::scene::prep::Csr;
+
+/// Concentric map from `[0,1)^2` to the unit disc.
+pub fn concentric_disk(u: Vec2) -> Vec2 {
+    let o = 2.0 * u - Vec2::ONE;
+    if o == Vec2::ZERO {
+        return Vec2::ZERO;
+    }
+    let (r, theta) = if o.x.abs() > o.y.abs() {
+        (o.x, FRAC_PI_4 * (o.y / o.x))
+    } else {
+        (o.y, FRAC_PI_2 - FRAC_PI_4 * (o.x / o.y))
+    };
+    r * Vec2::new(theta.cos(), theta.sin())
+}
+
+/// Inverse of [`concentric_disk`].
+pub fn concentric_disk_inverse(p: Vec2) -> Vec2 {
+    let r = p.length();
+    if r == 0.0 {
+        return Vec2::splat(0.5);
+    }
+    let mut phi = p.y.atan2(p.x);
+    if phi < -FRAC_PI_4 {
+        phi += 2.0 * PI;
+    }
+    // Octant pairs: |x| > |y| regions are phi in [-pi/4, pi/4) and [3pi/4, 5pi/4).
+    let (a, b) = if phi < FRAC_PI_4 {
+        (r, r * phi / FRAC_PI_4)
+    } else if phi < 3.0 * FRAC_PI_4 {
+        (-r * (phi - FRAC_PI_2) / FRAC_PI_4, r)
+    } else if phi < 5.0 * FRAC_PI_4 {
+        (-r, -r * (phi - PI) / FRAC_PI_4)
+    } else {
+        (r * (phi - 3.0 * FRAC_PI_2) / FRAC_PI_4, -r)
+    };
+    (Vec2::new(a, b) + Vec2::ONE) * 0.5
+}
+
+/// Cosine-weighted direction about +z from a point of the unit square.
+pub fn cosine_hemisphere(u: Vec2) -> Vec3 {
+    let d = concentric_disk(u);
+    let z = (1.0 - d.length_squared()).max(0.0).sqrt();
+    Vec3::new(d.x, d.y, z)
+}
+
+/// Density of [`cosine_hemisphere`] per steradian.
+pub fn cosine_hemisphere_pdf(w: Vec3) -> f32 {
+    w.z.max(0.0) / PI
+}
+
+/// Inverse of [`cosine_hemisphere`]: the unit-square point that maps to `w`.
+pub fn cosine_hemisphere_inverse(w: Vec3) -> Vec2 {
+    concentric_disk_inverse(Vec2::new(w.x, w.y))
+}
+
+/// Orthonormal basis `(t, b)` with `t x b = n` (Duff et al. 2017).
+pub fn basis(n: Vec3) -> (Vec3, Vec3) {
+    let s = 1f32.copysign(n.z);
+    let a = -1.0 / (s + n.z);
+    let b = n.x * n.y * a;
+    (Vec3::new(1.0 + s * n.x * n.x * a, s * b, -s * n.x), Vec3::new(b, s + n.y * n.y * a, -n.y))
+}
+
+/// The grid cells of a `k*k` grid in 4*4-block order.
+pub fn block_order(k: u32) -> Vec<(u32, u32)> {
+    let mut out = Vec::with_capacity((k * k) as usize);
+    for by in (0..k).step_by(4) {
+        for bx in (0..k).step_by(4) {
+            for y in by..(by + 4).min(k) {
+                for x in bx..(bx + 4).min(k) {
+                    out.push((x, y));
+                }
+            }
+        }
+    }
+    out
+}
+
+/// The shared direction set (local frame, +z = normal), in block order.
+#[derive(Clone, Debug, PartialEq)]
+pub struct DirectionSet {
+    pub k: u32,
+    pub dirs: Vec<Vec3>,
+}
+
+impl DirectionSet {
+    /// `k*k` jittered stratified cosine directions for `seed`.
+    pub fn new(k: u32, seed: u64) -> Self {
+        let mut rng = rand_pcg::Pcg32::seed_from_u64(seed);
+        let inv = 1.0 / k as f32;
+        let dirs = block_order(k)
+            .into_iter()
+            .map(|(x, y)| {
+                let j = Vec2::new(rng.random::<f32>(), rng.random::<f32>());
+                // Keep strictly inside the cell so no direction is exactly tangent.
+                let u = (Vec2::new(x as f32, y as f32) + j.clamp(Vec2::splat(1e-4), Vec2::splat(1.0 - 1e-4))) * inv;
+                cosine_hemisphere(u).normalize()
+            })
+            .collect();
+        Self { k, dirs }
+    }
+
+    pub fn len(&self) -> usize {
+        self.dirs.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.dirs.is_empty()
+    }
+}
+
+/// Van der Corput radical inverse in base 2.
+fn radical_inverse(i: u32) -> f32 {
+    (i.reverse_bits() as f64 / 4294967296.0) as f32
+}
+
+/// Per-vertex rotation about the normal, radians: a greedy colouring of the
+/// one-ring graph (vertex order, smallest free colour), colour `c` turned
+/// into `pi/2 * radical_inverse(c)` plus a seeded offset. The concentric
+/// grid repeats under quarter turns, so colours 0, 1, 2, 3 sit at 0, 1/2,
+/// 1/4, 3/4 of the quarter turn: neighbours interleave.
+pub fn vertex_rotations(rings: &Csr, seed: u64) -> Vec<f32> {
+    let n = rings.rows();
+    let mut color = vec![u32::MAX; n];
+    let mut used: Vec<u32> = Vec::new();
+    for v in 0..n {
+        used.clear();
+        used.extend(rings.row(v).iter().map(|&u| color[u as usize]).filter(|&c| c != u32::MAX));
+        used.sort_unstable();
+        let mut c = 0;
+        for &x in &used {
+            if x == c {
+                c += 1;
+            } else if x > c {
+                break;
+            }
+        }
+        color[v] = c;
+    }
+    let mut rng = rand_pcg::Pcg32::seed_from_u64(seed ^ 0x9e37_79b9_7f4a_7c15);
+    let offset: f32 = rng.random::<f32>() * FRAC_PI_2;
+    color.iter().map(|&c| offset + FRAC_PI_2 * radical_inverse(c)).collect()
+}
+
+/// World-space frame `(t, b, n)` of a vertex with normal `n` rotated by `angle`.
+pub fn vertex_frame(n: Vec3, angle: f32) -> (Vec3, Vec3, Vec3) {
+    let (t, b) = basis(n);
+    let (s, c) = angle.sin_cos();
+    (t * c + b * s, b * c - t * s, n)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn concentric_round_trip() {
+        let mut rng = rand_pcg::Pcg32::seed_from_u64(7);
+        for _ in 0..10000 {
+            let u = Vec2::new(rng.random(), rng.random());
+            let back = concentric_disk_inverse(concentric_disk(u));
+            assert!((back - u).abs().max_element() < 1e-4, "{u} -> {back}");
+        }
+    }
+
+    #[test]
+    fn cosine_round_trip_and_pdf() {
+        let mut rng = rand_pcg::Pcg32::seed_from_u64(8);
+        let mut mean_cos = 0.0f64;
+        let n = 200_000;
+        for _ in 0..n {
+            let u = Vec2::new(rng.random(), rng.random());
+            let w = cosine_hemisphere(u);
+            assert!((w.length() - 1.0).abs() < 1e-5 && w.z >= 0.0);
+            assert!((cosine_hemisphere_inverse(w) - u).abs().max_element() < 1e-3);
+            mean_cos += w.z as f64;
+        }
+        // E[cos] under cos/pi density is 2/3.
+        assert!((mean_cos / n as f64 - 2.0 / 3.0).abs() < 3e-3);
+        // The pdf integrates to 1 over the hemisphere (midpoint rule in (cos theta, phi)).
+        let m = 400;
+        let mut integral = 0.0f64;
+        for i in 0..m {
+            let z = (i as f32 + 0.5) / m as f32;
+            integral += cosine_hemisphere_pdf(Vec3::new((1.0 - z * z).sqrt(), 0.0, z)) as f64 * 2.0 * PI as f64 / m as f64;
+        }
+        assert!((integral - 1.0).abs() < 1e-4, "{integral}");
+    }
+
+    #[test]
+    fn basis_is_orthonormal() {
+        for n in [Vec3::X, Vec3::Y, Vec3::Z, -Vec3::Z, Vec3::new(1.0, 2.0, -3.0).normalize()] {
+            let (t, b) = basis(n);
+            assert!(t.dot(b).abs() < 1e-6 && t.dot(n).abs() < 1e-6 && (t.cross(b) - n).length() < 1e-5);
+            let (t2, b2, n2) = vertex_frame(n, 0.7);
+            assert!(t2.dot(b2).abs() < 1e-6 && t2.dot(n2).abs() < 1e-6 && (t2.cross(b2) - n2).length() < 1e-5);
+        }
+    }
+
+    #[test]
+    fn block_order_covers_grid_once() {
+        for k in [1, 3, 4, 6, 16] {
+            let mut cells = block_order(k);
+            assert_eq!(cells.len(), (k * k) as usize);
+            cells.sort_unstable();
+            cells.dedup();
+            assert_eq!(cells.len(), (k * k) as usize);
+        }
+        // The first 16 rays of a 16*16 set are one 4*4 block.
+        assert!(block_order(16)[..16].iter().all(|&(x, y)| x < 4 && y < 4));
+    }
+
+    #[test]
+    fn direction_set_is_stratified_and_deterministic() {
+        let a = DirectionSet::new(16, 3);
+        assert_eq!(a, DirectionSet::new(16, 3));
+        assert_ne!(a, DirectionSet::new(16, 4));
+        // Each direction maps back into its own grid cell.
+        for (w, (x, y)) in a.dirs.iter().zip(block_order(16)) {
+            let u = cosine_hemisphere_inverse(*w) * 16.0;
+            assert!(u.x.floor() as u32 == x || (u.x - x as f32).abs() < 1e-2, "{u} vs {x},{y}");
+            assert!(u.y.floor() as u32 == y || (u.y - y as f32).abs() < 1e-2, "{u} vs {x},{y}");
+        }
+        // Mean of cos over a stratified set is close to 2/3.
+        let mean: f32 = a.dirs.iter().map(|d| d.z).sum::<f32>() / a.len() as f32;
+        assert!((mean - 2.0 / 3.0).abs() < 5e-3, "{mean}");
+    }
+
+    #[test]
+    fn neighbours_get_different_rotations() {
+        // A 4-cycle plus a chord.
+        let pairs: Vec<(u32, u32)> =
+            [(0, 1), (1, 2), (2, 3), (3, 0), (0, 2)].iter().flat_map(|&(a, b)| [(a, b), (b, a)]).collect();
+        let rings = Csr::from_pairs(4, &pairs);
+        let rot = vertex_rotations(&rings, 1);
+        for &(a, b) in &pairs {
+            assert_ne!(rot[a as usize], rot[b as usize]);
+        }
+        assert_eq!(rot, vertex_rotations(&rings, 1));
+    }
+}

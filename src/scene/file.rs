@@ -1,0 +1,288 @@
+//! TOML scene files (format in README.md / issue 2): `[settings]`, `[camera]`,
+//! `[[mesh]]` tables naming OBJ files relative to the scene file, `[[light]]`s.
+//! The same serde types write scene files back out (built-in scenes are
+//! written to `scenes/` this way).
+
+use super::{obj, Bounces, Camera, Light, SceneDesc, Settings, Transform};
+use crate::{Error, Result};
+use glam::Vec3;
+use serde::{Deserialize, Serialize};
+use std::path::{Path, PathBuf};
+
+#[derive(Debug, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SceneFile {
+    #[serde(default)]
+    pub settings: SettingsFile,
+    #[serde(default)]
+    pub camera: Option<CameraFile>,
+    #[serde(default, rename = "mesh")]
+    pub meshes: Vec<MeshFile>,
+    #[serde(default, rename = "light")]
+    pub lights: Vec<LightFile>,
+}
+
+#[derive(Debug, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SettingsFile {
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub rays_per_vertex: Option<u32>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub bounces: Option<BouncesFile>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub smoothing_angle_deg: Option<f32>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub seed: Option<u64>,
+}
+
+/// `bounces = 3` or `bounces = "auto"`.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(untagged)]
+pub enum BouncesFile {
+    Count(u32),
+    Word(String),
+}
+
+#[derive(Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CameraFile {
+    pub position: [f32; 3],
+    pub target: [f32; 3],
+    #[serde(default = "default_fov")]
+    pub fov_deg: f32,
+}
+
+fn default_fov() -> f32 {
+    40.0
+}
+
+#[derive(Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MeshFile {
+    pub obj: PathBuf,
+    #[serde(default = "default_crease")]
+    pub crease_angle_deg: f32,
+    #[serde(default)]
+    pub transform: TransformFile,
+    #[serde(default)]
+    pub dynamic: bool,
+}
+
+fn default_crease() -> f32 {
+    30.0
+}
+
+#[derive(Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TransformFile {
+    #[serde(default)]
+    pub translate: [f32; 3],
+    #[serde(default)]
+    pub rotate_deg: [f32; 3],
+    #[serde(default = "one")]
+    pub scale: f32,
+}
+
+fn one() -> f32 {
+    1.0
+}
+
+impl Default for TransformFile {
+    fn default() -> Self {
+        Self { translate: [0.0; 3], rotate_deg: [0.0; 3], scale: 1.0 }
+    }
+}
+
+#[derive(Debug, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "lowercase", deny_unknown_fields)]
+pub enum LightFile {
+    Point { position: [f32; 3], intensity: [f32; 3] },
+    Directional { direction: [f32; 3], irradiance: [f32; 3] },
+}
+
+fn scene_err(path: &Path, message: impl Into<String>) -> Error {
+    Error::SceneFile { path: path.to_path_buf(), message: message.into() }
+}
+
+fn finite3(path: &Path, what: &str, v: [f32; 3]) -> Result<Vec3> {
+    let v = Vec3::from(v);
+    if !v.is_finite() {
+        return Err(scene_err(path, format!("{what} = {v} is not finite")));
+    }
+    Ok(v)
+}
+
+/// Converts parsed settings into [`Settings`], checking ranges.
+fn settings_from(path: &Path, s: &SettingsFile) -> Result<Settings> {
+    let d = Settings::default();
+    let bounces = match &s.bounces {
+        None => d.bounces,
+        Some(BouncesFile::Count(n)) => Bounces::Fixed(*n),
+        Some(BouncesFile::Word(w)) if w == "auto" => Bounces::Auto,
+        Some(BouncesFile::Word(w)) => {
+            return Err(scene_err(path, format!("settings.bounces = \"{w}\": expected a number or \"auto\"")))
+        }
+    };
+    let settings = Settings {
+        rays_per_vertex: s.rays_per_vertex.unwrap_or(d.rays_per_vertex),
+        bounces,
+        smoothing_angle_deg: s.smoothing_angle_deg.unwrap_or(d.smoothing_angle_deg),
+        seed: s.seed.unwrap_or(d.seed),
+    };
+    settings.validate().map_err(|e| scene_err(path, e.to_string()))?;
+    Ok(settings)
+}
+
+fn light_from(path: &Path, l: &LightFile) -> Result<Light> {
+    Ok(match l {
+        LightFile::Point { position, intensity } => {
+            let intensity = finite3(path, "light.intensity", *intensity)?;
+            if intensity.min_element() < 0.0 {
+                return Err(scene_err(path, format!("light.intensity = {intensity} is negative")));
+            }
+            Light::Point { position: finite3(path, "light.position", *position)?, intensity }
+        }
+        LightFile::Directional { direction, irradiance } => {
+            let d = finite3(path, "light.direction", *direction)?;
+            if d.length_squared() < 1e-20 {
+                return Err(scene_err(path, "light.direction is the zero vector"));
+            }
+            let irradiance = finite3(path, "light.irradiance", *irradiance)?;
+            if irradiance.min_element() < 0.0 {
+                return Err(scene_err(path, format!("light.irradiance = {irradiance} is negative")));
+            }
+            Light::Directional { direction: d.normalize(), irradiance }
+        }
+    })
+}
+
+/// Parses a scene TOML from text (paths in it are resolved against `dir`).
+pub fn parse_toml(path: &Path, text: &str) -> Result<SceneDesc> {
+    let file: SceneFile = toml::from_str(text).map_err(|e| scene_err(path, e.to_string()))?;
+    let dir = path.parent().unwrap_or(Path::new("."));
+    let settings = settings_from(path, &file.settings)?;
+    let camera = match &file.camera {
+        None => Camera::default(),
+        Some(c) => Camera {
+            position: finite3(path, "camera.position", c.position)?,
+            target: finite3(path, "camera.target", c.target)?,
+            fov_deg: c.fov_deg,
+        },
+    };
+    if file.meshes.is_empty() {
+        return Err(scene_err(path, "no [[mesh]] tables: the scene has no geometry"));
+    }
+    let mut meshes = Vec::with_capacity(file.meshes.len());
+    let mut warnings = Vec::new();
+    for m in &file.meshes {
+        let t = &m.transform;
+        let transform = Transform {
+            translate: finite3(path, "mesh.transform.translate", t.translate)?,
+            rotate_deg: finite3(path, "mesh.transform.rotate_deg", t.rotate_deg)?,
+            scale: t.scale,
+        };
+        if !(t.scale.is_finite() && t.scale > 0.0) {
+            return Err(scene_err(path, format!("mesh.transform.scale = {} must be positive", t.scale)));
+        }
+        if !(m.crease_angle_deg.is_finite() && (0.0..=180.0).contains(&m.crease_angle_deg)) {
+            return Err(scene_err(path, format!("mesh.crease_angle_deg = {} is not in [0, 180]", m.crease_angle_deg)));
+        }
+        let mut mesh = obj::load_obj(&dir.join(&m.obj), &mut warnings)?;
+        mesh.crease_angle_deg = m.crease_angle_deg;
+        mesh.transform = transform;
+        mesh.dynamic = m.dynamic;
+        meshes.push(mesh);
+    }
+    let lights = file.lights.iter().map(|l| light_from(path, l)).collect::<Result<Vec<_>>>()?;
+    let name = path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
+    Ok(SceneDesc { name, settings, camera, meshes, lights, warnings })
+}
+
+/// Loads a scene TOML file.
+pub fn load_toml(path: &Path) -> Result<SceneDesc> {
+    let text = std::fs::read_to_string(path).map_err(|source| Error::Io { path: path.to_path_buf(), source })?;
+    parse_toml(path, &text)
+}
+
+/// Loads a bare OBJ as a scene with default settings, camera and no lights.
+pub fn load_bare_obj(path: &Path) -> Result<SceneDesc> {
+    let mut warnings = Vec::new();
+    let mesh = obj::load_obj(path, &mut warnings)?;
+    let name = path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
+    Ok(SceneDesc {
+        name,
+        settings: Settings::default(),
+        camera: Camera::default(),
+        meshes: vec![mesh],
+        lights: vec![],
+        warnings,
+    })
+}
+
+/// Builds the TOML text describing `scene`, naming mesh `i`'s OBJ as `obj_names[i]`.
+pub fn to_toml(scene: &SceneDesc, obj_names: &[String]) -> String {
+    let s = &scene.settings;
+    let file = SceneFile {
+        settings: SettingsFile {
+            rays_per_vertex: Some(s.rays_per_vertex),
+            bounces: Some(match s.bounces {
+                Bounces::Fixed(n) => BouncesFile::Count(n),
+                Bounces::Auto => BouncesFile::Word("auto".into()),
+            }),
+            smoothing_angle_deg: Some(s.smoothing_angle_deg),
+            seed: Some(s.seed),
+        },
+        camera: Some(CameraFile {
+            position: scene.camera.position.into(),
+            target: scene.camera.target.into(),
+            fov_deg: scene.camera.fov_deg,
+        }),
+        meshes: scene
+            .meshes
+            .iter()
+            .zip(obj_names)
+            .map(|(m, name)| MeshFile {
+                obj: PathBuf::from(name),
+                crease_angle_deg: m.crease_angle_deg,
+                transform: TransformFile {
+                    translate: m.transform.translate.into(),
+                    rotate_deg: m.transform.rotate_deg.into(),
+                    scale: m.transform.scale,
+                },
+                dynamic: m.dynamic,
+            })
+            .collect(),
+        lights: scene
+            .lights
+            .iter()
+            .map(|l| match *l {
+                Light::Point { position, intensity } => {
+                    LightFile::Point { position: position.into(), intensity: intensity.into() }
+                }
+                Light::Directional { direction, irradiance } => {
+                    LightFile::Directional { direction: direction.into(), irradiance: irradiance.into() }
+                }
+            })
+            .collect(),
+    };
+    toml::to_string_pretty(&file).expect("scene description serializes")
+}
+
+/// Writes `scene` as `dir/<name>.toml` plus one `.obj`/`.mtl` pair per mesh.
+pub fn write_scene(scene: &SceneDesc, dir: &Path) -> Result<PathBuf> {
+    std::fs::create_dir_all(dir).map_err(|source| Error::Io { path: dir.to_path_buf(), source })?;
+    let mut names = Vec::new();
+    for (i, mesh) in scene.meshes.iter().enumerate() {
+        let stem = if scene.meshes.len() == 1 { scene.name.clone() } else { format!("{}_{i}", scene.name) };
+        obj::write_obj(mesh, &dir.join(format!("{stem}.obj")))?;
+        names.push(format!("{stem}.obj"));
+    }
+    let path = dir.join(format!("{}.toml", scene.name));
+    let text = format!(
+        "# linkgi scene '{}' (written by `linkgi scenes`; the same scene is built in under this name)\n{}",
+        scene.name,
+        to_toml(scene, &names)
+    );
+    std::fs::write(&path, text).map_err(|source| Error::Io { path: path.clone(), source })?;
+    Ok(path)
+}

@@ -1,0 +1,183 @@
+//! Scene description: meshes, materials, lights, camera and solver settings,
+//! as read from a TOML scene file (with OBJ/MTL meshes) or built in code.
+//!
+//! Units (DESIGN.md): right-handed, y up, metres; albedo `rho` per RGB channel
+//! in [0, 1); point lights carry radiant intensity `I` in W/sr per channel;
+//! directional lights carry irradiance in W/m^2 on a surface facing them and a
+//! `direction` of travel. Nothing here is prepared for solving yet: see
+//! [`prep`] for welding, crease splitting and one-rings.
+
+pub mod builtin;
+pub mod file;
+pub mod obj;
+pub mod prep;
+pub mod shapes;
+
+use glam::{Mat4, Quat, Vec3};
+use std::path::PathBuf;
+
+/// Largest albedo the solver accepts; larger values are clamped with a warning
+/// (an albedo of 1 makes the bounce series diverge).
+pub const MAX_ALBEDO: f32 = 0.999;
+
+/// A named Lambertian material.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Material {
+    pub name: String,
+    /// Diffuse albedo per channel, in [0, MAX_ALBEDO].
+    pub albedo: Vec3,
+}
+
+/// Placement of a mesh: scale, then rotate (x, then y, then z, degrees), then translate.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Transform {
+    pub translate: Vec3,
+    pub rotate_deg: Vec3,
+    pub scale: f32,
+}
+
+impl Default for Transform {
+    fn default() -> Self {
+        Self { translate: Vec3::ZERO, rotate_deg: Vec3::ZERO, scale: 1.0 }
+    }
+}
+
+impl Transform {
+    /// The affine matrix of this transform.
+    pub fn matrix(&self) -> Mat4 {
+        let r = self.rotate_deg * (std::f32::consts::PI / 180.0);
+        let q = Quat::from_rotation_z(r.z) * Quat::from_rotation_y(r.y) * Quat::from_rotation_x(r.x);
+        Mat4::from_scale_rotation_translation(Vec3::splat(self.scale), q, self.translate)
+    }
+}
+
+/// One triangle mesh as loaded, before preparation.
+#[derive(Clone, Debug)]
+pub struct MeshDesc {
+    /// Name used in messages (file path or built-in name).
+    pub name: String,
+    /// Object-space positions, metres.
+    pub positions: Vec<Vec3>,
+    /// Counter-clockwise triangles (front face where the normal points).
+    pub triangles: Vec<[u32; 3]>,
+    /// Material index per triangle.
+    pub triangle_material: Vec<u32>,
+    pub materials: Vec<Material>,
+    /// Vertices are split where adjacent face normals differ by more than this.
+    pub crease_angle_deg: f32,
+    pub transform: Transform,
+    /// True if the mesh may deform.
+    pub dynamic: bool,
+    /// The OBJ file this mesh came from, if any (for errors and for writing scenes back).
+    pub source: Option<PathBuf>,
+}
+
+/// A light source.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Light {
+    /// Isotropic point light; `intensity` in W/sr per channel.
+    Point { position: Vec3, intensity: Vec3 },
+    /// Distant light; `direction` is where the light travels (unit),
+    /// `irradiance` in W/m^2 on a surface facing it.
+    Directional { direction: Vec3, irradiance: Vec3 },
+}
+
+/// How many bounces the gather runs.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Bounces {
+    /// Exactly this many bounces.
+    Fixed(u32),
+    /// Until the newest bounce (plus its estimated tail) adds less than the
+    /// tolerance of the running total.
+    Auto,
+}
+
+/// Solver settings (the scene file's `[settings]` table).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Settings {
+    /// Rays shot per vertex, `k*k` (a square number).
+    pub rays_per_vertex: u32,
+    pub bounces: Bounces,
+    /// Feature angle `alpha_f` of one-ring smoothing, degrees; 0 turns smoothing off.
+    pub smoothing_angle_deg: f32,
+    /// Seed of the direction set and per-vertex rotations.
+    pub seed: u64,
+}
+
+impl Default for Settings {
+    fn default() -> Self {
+        Self { rays_per_vertex: 256, bounces: Bounces::Fixed(3), smoothing_angle_deg: 30.0, seed: 1 }
+    }
+}
+
+impl Settings {
+    /// Checks ranges: rays a non-zero perfect square, finite non-negative angle.
+    pub fn validate(&self) -> crate::Result<()> {
+        let k = (self.rays_per_vertex as f64).sqrt().round() as u32;
+        if self.rays_per_vertex == 0 || k * k != self.rays_per_vertex {
+            return Err(crate::Error::Setting(format!(
+                "rays_per_vertex = {} is not a non-zero square number (k*k)",
+                self.rays_per_vertex
+            )));
+        }
+        if !(self.smoothing_angle_deg.is_finite() && (0.0..=180.0).contains(&self.smoothing_angle_deg)) {
+            return Err(crate::Error::Setting(format!(
+                "smoothing_angle_deg = {} is not in [0, 180]",
+                self.smoothing_angle_deg
+            )));
+        }
+        if self.bounces == Bounces::Fixed(0) {
+            return Err(crate::Error::Setting("bounces must be at least 1 (or \"auto\")".into()));
+        }
+        Ok(())
+    }
+}
+
+/// Pinhole camera (used by renderers; stored so exported scenes keep it).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Camera {
+    pub position: Vec3,
+    pub target: Vec3,
+    pub fov_deg: f32,
+}
+
+impl Default for Camera {
+    fn default() -> Self {
+        Self { position: Vec3::new(0.0, 1.0, 3.5), target: Vec3::new(0.0, 1.0, 0.0), fov_deg: 40.0 }
+    }
+}
+
+/// A whole scene as described, before preparation.
+#[derive(Clone, Debug)]
+pub struct SceneDesc {
+    pub name: String,
+    pub settings: Settings,
+    pub camera: Camera,
+    pub meshes: Vec<MeshDesc>,
+    pub lights: Vec<Light>,
+    /// Problems that were fixed up while loading (clamped albedo, missing MTL, ...),
+    /// for the caller to show. Empty for built-in scenes.
+    pub warnings: Vec<String>,
+}
+
+/// Loads a scene given a path to a `.toml` file (or a bare `.obj`), or the
+/// name of a built-in scene.
+pub fn load(name_or_path: &str) -> crate::Result<SceneDesc> {
+    let path = std::path::Path::new(name_or_path);
+    if path.exists() {
+        if path.extension().is_some_and(|e| e.eq_ignore_ascii_case("obj")) {
+            return file::load_bare_obj(path);
+        }
+        return file::load_toml(path);
+    }
+    if let Some(scene) = builtin::builtin(name_or_path) {
+        return Ok(scene);
+    }
+    if path.extension().is_some() || name_or_path.contains('/') {
+        return Err(crate::Error::Io {
+            path: path.to_path_buf(),
+            source: std::io::Error::new(std::io::ErrorKind::NotFound, "no such file"),
+        });
+    }
+    Err(crate::Error::UnknownScene(name_or_path.to_string(), builtin::NAMES.join(", ")))
+}

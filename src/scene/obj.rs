@@ -1,0 +1,212 @@
+//! Wavefront OBJ/MTL meshes: reading through `tobj` and writing back out.
+//!
+//! Never `single_index`, which duplicates vertices per corner attribute and
+//! disconnects faces (breaking one-rings). Deviation: `tobj`'s
+//! `merge_identical_points` needs a nightly compiler (its `merging` feature
+//! uses `generic_const_exprs`), so positions are kept as indexed in the file
+//! and [`super::prep`] welds corners by exact position, which joins the same
+//! faces that option would.
+//!
+//! `Kd` is the diffuse albedo. Fallbacks, each reported as a warning: an MTL
+//! that is missing or unreadable gives grey albedo [`DEFAULT_ALBEDO`]; faces
+//! without a material get the same; albedo above [`MAX_ALBEDO`] or below 0 is
+//! clamped. Non-finite coordinates and out-of-range face indices are errors
+//! naming the file and line (found by a pre-scan of the text, since `tobj`
+//! does not report lines).
+
+use super::{Material, MeshDesc, Transform, MAX_ALBEDO};
+use crate::{Error, Result};
+use glam::Vec3;
+use std::fmt::Write as _;
+use std::path::Path;
+
+/// Albedo used where an OBJ names no usable material.
+pub const DEFAULT_ALBEDO: f32 = 0.5;
+
+fn geometry_err(path: &Path, line: Option<usize>, message: impl Into<String>) -> Error {
+    Error::Geometry { source_name: path.display().to_string(), line, message: message.into() }
+}
+
+/// Checks vertex coordinates and face indices line by line.
+fn prescan(path: &Path, text: &str) -> Result<()> {
+    let mut vertex_count: i64 = 0;
+    // Positive face indices may refer forward; check them once the total is known.
+    let mut positive_refs: Vec<(usize, i64)> = Vec::new();
+    for (i, line) in text.lines().enumerate() {
+        let line_no = i + 1;
+        let mut parts = line.split_whitespace();
+        match parts.next() {
+            Some("v") => {
+                let coords: Vec<&str> = parts.take(3).collect();
+                if coords.len() < 3 {
+                    return Err(geometry_err(path, Some(line_no), "vertex has fewer than 3 coordinates"));
+                }
+                for c in coords {
+                    match c.parse::<f32>() {
+                        Ok(x) if x.is_finite() => {}
+                        Ok(x) => {
+                            return Err(geometry_err(path, Some(line_no), format!("vertex coordinate {x} is not finite")))
+                        }
+                        Err(_) => {
+                            return Err(geometry_err(path, Some(line_no), format!("vertex coordinate '{c}' is not a number")))
+                        }
+                    }
+                }
+                vertex_count += 1;
+            }
+            Some("f") => {
+                let mut corners = 0;
+                for corner in parts {
+                    corners += 1;
+                    let idx = corner.split('/').next().unwrap_or("");
+                    let Ok(idx) = idx.parse::<i64>() else {
+                        return Err(geometry_err(path, Some(line_no), format!("face index '{corner}' is not an integer")));
+                    };
+                    if idx == 0 {
+                        return Err(geometry_err(path, Some(line_no), "face index 0 (OBJ indices start at 1)"));
+                    }
+                    if idx < 0 && -idx > vertex_count {
+                        return Err(geometry_err(
+                            path,
+                            Some(line_no),
+                            format!("relative face index {idx} reaches before the first vertex ({vertex_count} so far)"),
+                        ));
+                    }
+                    if idx > 0 {
+                        positive_refs.push((line_no, idx));
+                    }
+                }
+                if corners < 3 {
+                    return Err(geometry_err(path, Some(line_no), format!("face has {corners} corners (needs 3 or more)")));
+                }
+            }
+            _ => {}
+        }
+    }
+    if let Some(&(line, idx)) = positive_refs.iter().find(|&&(_, idx)| idx > vertex_count) {
+        return Err(geometry_err(
+            path,
+            Some(line),
+            format!("face index {idx} is out of range (the file has {vertex_count} vertices)"),
+        ));
+    }
+    Ok(())
+}
+
+fn clamp_albedo(path: &Path, name: &str, kd: Vec3, warnings: &mut Vec<String>) -> Vec3 {
+    if !kd.is_finite() {
+        warnings.push(format!("{}: material '{name}' has non-finite Kd {kd}; using {DEFAULT_ALBEDO}", path.display()));
+        return Vec3::splat(DEFAULT_ALBEDO);
+    }
+    let c = kd.clamp(Vec3::ZERO, Vec3::splat(MAX_ALBEDO));
+    if c != kd {
+        warnings.push(format!(
+            "{}: material '{name}' has Kd {kd} outside [0, {MAX_ALBEDO}]; clamped to {c}",
+            path.display()
+        ));
+    }
+    c
+}
+
+/// Loads an OBJ (and its MTL) as one mesh. Settings from the scene file
+/// (crease angle, transform, dynamic) are left at defaults for the caller.
+pub fn load_obj(path: &Path, warnings: &mut Vec<String>) -> Result<MeshDesc> {
+    let text = std::fs::read_to_string(path).map_err(|source| Error::Io { path: path.to_path_buf(), source })?;
+    prescan(path, &text)?;
+    let options = tobj::LoadOptions {
+        triangulate: true,
+        single_index: false,
+        ignore_points: true,
+        ignore_lines: true,
+        ..Default::default()
+    };
+    let dir = path.parent().unwrap_or(Path::new(".")).to_path_buf();
+    let mut reader = std::io::BufReader::new(text.as_bytes());
+    let (models, materials) = tobj::load_obj_buf(&mut reader, &options, |mtl| {
+        let full = dir.join(mtl);
+        tobj::load_mtl(&full)
+    })
+    .map_err(|e| Error::Obj { path: path.to_path_buf(), message: e.to_string() })?;
+
+    let mut mats: Vec<Material> = match materials {
+        Ok(ms) => ms
+            .iter()
+            .map(|m| {
+                let kd = Vec3::from(m.diffuse.unwrap_or([DEFAULT_ALBEDO; 3]));
+                Material { name: m.name.clone(), albedo: clamp_albedo(path, &m.name, kd, warnings) }
+            })
+            .collect(),
+        Err(e) => {
+            if text.lines().any(|l| l.trim_start().starts_with("mtllib")) {
+                warnings.push(format!(
+                    "{}: its material library could not be loaded ({e}); using grey albedo {DEFAULT_ALBEDO}",
+                    path.display()
+                ));
+            }
+            Vec::new()
+        }
+    };
+    let mut default_mat: Option<u32> = None;
+    let mut positions = Vec::new();
+    let mut triangles = Vec::new();
+    let mut triangle_material = Vec::new();
+    for model in &models {
+        let mesh = &model.mesh;
+        let base = positions.len() as u32;
+        positions.extend(mesh.positions.chunks_exact(3).map(|p| Vec3::new(p[0], p[1], p[2])));
+        let mat = match mesh.material_id {
+            Some(id) if id < mats.len() => id as u32,
+            _ => *default_mat.get_or_insert_with(|| {
+                mats.push(Material { name: "default".into(), albedo: Vec3::splat(DEFAULT_ALBEDO) });
+                (mats.len() - 1) as u32
+            }),
+        };
+        for t in mesh.indices.chunks_exact(3) {
+            triangles.push([base + t[0], base + t[1], base + t[2]]);
+            triangle_material.push(mat);
+        }
+    }
+    if triangles.is_empty() {
+        return Err(geometry_err(path, None, "the file has no faces"));
+    }
+    Ok(MeshDesc {
+        name: path.display().to_string(),
+        positions,
+        triangles,
+        triangle_material,
+        materials: mats,
+        crease_angle_deg: 30.0,
+        transform: Transform::default(),
+        dynamic: false,
+        source: Some(path.to_path_buf()),
+    })
+}
+
+/// Writes `mesh` (object space, without its transform) as `path` plus a
+/// `.mtl` beside it. Coordinates are written so they read back bit-exact.
+pub fn write_obj(mesh: &MeshDesc, path: &Path) -> Result<()> {
+    let mtl_path = path.with_extension("mtl");
+    let mtl_name = mtl_path.file_name().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
+    let mut mtl = String::new();
+    for m in &mesh.materials {
+        let _ = writeln!(mtl, "newmtl {}\nKd {} {} {}\n", m.name, m.albedo.x, m.albedo.y, m.albedo.z);
+    }
+    let mut obj = String::with_capacity(mesh.positions.len() * 32 + mesh.triangles.len() * 24);
+    let _ = writeln!(obj, "# {} ({} vertices, {} triangles)\nmtllib {mtl_name}", mesh.name, mesh.positions.len(), mesh.triangles.len());
+    for p in &mesh.positions {
+        let _ = writeln!(obj, "v {} {} {}", p.x, p.y, p.z);
+    }
+    for (mi, m) in mesh.materials.iter().enumerate() {
+        let mut first = true;
+        for (t, _) in mesh.triangles.iter().zip(&mesh.triangle_material).filter(|(_, &tm)| tm as usize == mi) {
+            if first {
+                let _ = writeln!(obj, "g {}\nusemtl {}", m.name, m.name);
+                first = false;
+            }
+            let _ = writeln!(obj, "f {} {} {}", t[0] + 1, t[1] + 1, t[2] + 1);
+        }
+    }
+    std::fs::write(path, obj).map_err(|source| Error::Io { path: path.to_path_buf(), source })?;
+    std::fs::write(&mtl_path, mtl).map_err(|source| Error::Io { path: mtl_path.clone(), source })?;
+    Ok(())
+}

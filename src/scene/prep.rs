@@ -1,0 +1,380 @@
+//! Mesh preparation: turns a [`SceneDesc`] into the solver's vertex set.
+//!
+//! Steps, per mesh: apply the transform (object space to world metres),
+//! validate (finite coordinates, indices in range), weld corners by exact
+//! position, drop zero-area triangles (counted, reported), then split welded
+//! vertices at creases and material borders: two triangles sharing an edge
+//! stay joined at that edge's ends when their face normals differ by at most
+//! the crease angle, their windings agree and their materials match. Every
+//! resulting class of triangle corners is one *solver vertex* with an
+//! angle-weighted normal, an albedo, a one-ring and a position-welded id.
+//!
+//! Solver vertices on a crease (their welded position has more than one
+//! solver vertex) or on an open border are flagged `boundary`: their ray
+//! origins are nudged into their own face group (DESIGN.md §3).
+
+use super::{Light, SceneDesc, Settings};
+use crate::{Error, Result};
+use glam::Vec3;
+use std::collections::HashMap;
+use std::ops::Range;
+
+/// Which vertices and triangles of the prepared scene came from one mesh.
+#[derive(Clone, Debug)]
+pub struct MeshRange {
+    pub name: String,
+    pub vertices: Range<u32>,
+    pub triangles: Range<u32>,
+    pub dynamic: bool,
+}
+
+/// Compressed sparse rows: `items[offsets[i]..offsets[i+1]]` belong to row `i`.
+#[derive(Clone, Debug, Default)]
+pub struct Csr {
+    pub offsets: Vec<u32>,
+    pub items: Vec<u32>,
+}
+
+impl Csr {
+    /// Builds rows from `(row, item)` pairs; items keep the order given.
+    pub fn from_pairs(rows: usize, pairs: &[(u32, u32)]) -> Self {
+        let mut offsets = vec![0u32; rows + 1];
+        for &(r, _) in pairs {
+            offsets[r as usize + 1] += 1;
+        }
+        for i in 0..rows {
+            offsets[i + 1] += offsets[i];
+        }
+        let mut fill = offsets.clone();
+        let mut items = vec![0u32; pairs.len()];
+        for &(r, it) in pairs {
+            items[fill[r as usize] as usize] = it;
+            fill[r as usize] += 1;
+        }
+        Self { offsets, items }
+    }
+
+    /// Row `i`.
+    #[inline]
+    pub fn row(&self, i: usize) -> &[u32] {
+        &self.items[self.offsets[i] as usize..self.offsets[i + 1] as usize]
+    }
+
+    pub fn rows(&self) -> usize {
+        self.offsets.len().saturating_sub(1)
+    }
+}
+
+/// The scene ready for the solver: world-space solver vertices and triangles.
+#[derive(Clone, Debug)]
+pub struct PreparedScene {
+    pub name: String,
+    pub settings: Settings,
+    pub lights: Vec<Light>,
+    /// World positions of solver vertices, metres.
+    pub positions: Vec<Vec3>,
+    /// Unit normals of solver vertices (front side).
+    pub normals: Vec<Vec3>,
+    /// Albedo per solver vertex and channel, in [0, 1).
+    pub albedo: Vec<Vec3>,
+    /// Triangles over solver vertices, counter-clockwise seen from the front.
+    pub triangles: Vec<[u32; 3]>,
+    /// Welded position id per solver vertex (equal ids: same point in space, same mesh).
+    pub position_id: Vec<u32>,
+    /// Crease or border vertex (its ray origin is nudged).
+    pub boundary: Vec<bool>,
+    /// One-ring: neighbouring solver vertices, sorted.
+    pub rings: Csr,
+    /// Triangles incident to each solver vertex.
+    pub vertex_triangles: Csr,
+    pub meshes: Vec<MeshRange>,
+    /// Zero-area triangles dropped during preparation.
+    pub dropped_triangles: usize,
+}
+
+fn geom_err(name: &str, message: String) -> Error {
+    Error::Geometry { source_name: name.to_string(), line: None, message }
+}
+
+struct UnionFind(Vec<u32>);
+
+impl UnionFind {
+    fn find(&mut self, mut x: u32) -> u32 {
+        while self.0[x as usize] != x {
+            let p = self.0[x as usize];
+            self.0[x as usize] = self.0[p as usize];
+            x = p;
+        }
+        x
+    }
+    fn union(&mut self, a: u32, b: u32) {
+        let (ra, rb) = (self.find(a), self.find(b));
+        if ra != rb {
+            // Smaller root wins so classes are numbered deterministically.
+            let (lo, hi) = if ra < rb { (ra, rb) } else { (rb, ra) };
+            self.0[hi as usize] = lo;
+        }
+    }
+}
+
+/// Result of preparing one mesh, in local indices.
+struct MeshPrep {
+    positions: Vec<Vec3>,
+    normals: Vec<Vec3>,
+    albedo: Vec<Vec3>,
+    triangles: Vec<[u32; 3]>,
+    position_id: Vec<u32>,
+    welded_count: u32,
+    dropped: usize,
+}
+
+fn prepare_mesh(mesh: &super::MeshDesc) -> Result<MeshPrep> {
+    let name = &mesh.name;
+    let m = mesh.transform.matrix();
+    let mut world = Vec::with_capacity(mesh.positions.len());
+    for (i, p) in mesh.positions.iter().enumerate() {
+        if !p.is_finite() {
+            return Err(geom_err(name, format!("vertex {i} has non-finite coordinates {p}")));
+        }
+        let w = m.transform_point3(*p);
+        if !w.is_finite() {
+            return Err(geom_err(name, format!("vertex {i} is not finite after the transform ({w})")));
+        }
+        world.push(w);
+    }
+    if mesh.triangle_material.len() != mesh.triangles.len() {
+        return Err(geom_err(name, "triangle and material counts differ".into()));
+    }
+    for (ti, t) in mesh.triangles.iter().enumerate() {
+        if let Some(&bad) = t.iter().find(|&&i| i as usize >= world.len()) {
+            return Err(geom_err(
+                name,
+                format!("triangle {ti} uses vertex {bad}, but the mesh has {} vertices", world.len()),
+            ));
+        }
+        let mat = mesh.triangle_material[ti];
+        if mat as usize >= mesh.materials.len() {
+            return Err(geom_err(name, format!("triangle {ti} uses material {mat}, which does not exist")));
+        }
+    }
+    // Weld by exact position.
+    let mut weld: HashMap<[u32; 3], u32> = HashMap::with_capacity(world.len());
+    let mut welded_pos: Vec<Vec3> = Vec::new();
+    let remap: Vec<u32> = world
+        .iter()
+        .map(|p| {
+            let key = [p.x.to_bits(), p.y.to_bits(), p.z.to_bits()].map(|b| if b == 0x8000_0000 { 0 } else { b });
+            *weld.entry(key).or_insert_with(|| {
+                welded_pos.push(*p);
+                (welded_pos.len() - 1) as u32
+            })
+        })
+        .collect();
+    // Drop zero-area triangles; compute face normals and corner angles.
+    let mut tris: Vec<[u32; 3]> = Vec::with_capacity(mesh.triangles.len());
+    let mut tri_mat = Vec::with_capacity(mesh.triangles.len());
+    let mut face_n = Vec::with_capacity(mesh.triangles.len());
+    let mut dropped = 0;
+    for (t, &mat) in mesh.triangles.iter().zip(&mesh.triangle_material) {
+        let w = t.map(|i| remap[i as usize]);
+        let [a, b, c] = w.map(|i| welded_pos[i as usize]);
+        let cross = (b - a).cross(c - a);
+        let longest = (b - a).length_squared().max((c - b).length_squared()).max((a - c).length_squared());
+        if w[0] == w[1] || w[1] == w[2] || w[0] == w[2] || cross.length_squared() <= 1e-24 * longest * longest {
+            dropped += 1;
+            continue;
+        }
+        tris.push(w);
+        tri_mat.push(mat);
+        face_n.push(cross.normalize());
+    }
+    // Edges: (lo, hi) welded ids -> list of (triangle, corner of lo, forward?)
+    let mut edges: HashMap<(u32, u32), Vec<(u32, bool)>> = HashMap::with_capacity(tris.len() * 2);
+    for (ti, t) in tris.iter().enumerate() {
+        for k in 0..3 {
+            let (a, b) = (t[k], t[(k + 1) % 3]);
+            let key = if a < b { (a, b) } else { (b, a) };
+            edges.entry(key).or_default().push((ti as u32, a < b));
+        }
+    }
+    let cos_crease = (mesh.crease_angle_deg.to_radians()).cos() - 1e-6;
+    let corner = |ti: u32, v: u32| -> u32 {
+        let t = &tris[ti as usize];
+        ti * 3 + t.iter().position(|&x| x == v).unwrap() as u32
+    };
+    let mut uf = UnionFind((0..tris.len() as u32 * 3).collect());
+    let mut keys: Vec<_> = edges.keys().copied().collect();
+    keys.sort_unstable();
+    for key in keys {
+        let list = &edges[&key];
+        for i in 0..list.len() {
+            for j in i + 1..list.len() {
+                let (t1, f1) = list[i];
+                let (t2, f2) = list[j];
+                let joined = f1 != f2
+                    && tri_mat[t1 as usize] == tri_mat[t2 as usize]
+                    && face_n[t1 as usize].dot(face_n[t2 as usize]) >= cos_crease;
+                if joined {
+                    uf.union(corner(t1, key.0), corner(t2, key.0));
+                    uf.union(corner(t1, key.1), corner(t2, key.1));
+                }
+            }
+        }
+    }
+    // Classes -> solver vertices, numbered in order of first corner.
+    let mut class_id: HashMap<u32, u32> = HashMap::new();
+    let mut positions = Vec::new();
+    let mut normals: Vec<Vec3> = Vec::new();
+    let mut albedo = Vec::new();
+    let mut position_id = Vec::new();
+    let mut triangles = Vec::with_capacity(tris.len());
+    for (ti, t) in tris.iter().enumerate() {
+        let mut out = [0u32; 3];
+        for k in 0..3 {
+            let root = uf.find(ti as u32 * 3 + k as u32);
+            let id = *class_id.entry(root).or_insert_with(|| {
+                positions.push(welded_pos[t[k] as usize]);
+                normals.push(Vec3::ZERO);
+                albedo.push(mesh.materials[tri_mat[ti] as usize].albedo);
+                position_id.push(t[k]);
+                (positions.len() - 1) as u32
+            });
+            // Angle-weighted normal.
+            let p = welded_pos[t[k] as usize];
+            let e1 = (welded_pos[t[(k + 1) % 3] as usize] - p).normalize_or_zero();
+            let e2 = (welded_pos[t[(k + 2) % 3] as usize] - p).normalize_or_zero();
+            let angle = e1.dot(e2).clamp(-1.0, 1.0).acos();
+            normals[id as usize] += face_n[ti] * angle;
+            out[k] = id;
+        }
+        triangles.push(out);
+    }
+    for (i, n) in normals.iter_mut().enumerate() {
+        *n = n.try_normalize().unwrap_or_else(|| {
+            // Corner angles all zero (needle triangles): take a face normal.
+            face_n[triangles.iter().position(|t: &[u32; 3]| t.contains(&(i as u32))).unwrap_or(0)]
+        });
+    }
+    Ok(MeshPrep {
+        positions,
+        normals,
+        albedo: albedo.iter().map(|a: &Vec3| a.clamp(Vec3::ZERO, Vec3::splat(super::MAX_ALBEDO))).collect(),
+        triangles,
+        position_id,
+        welded_count: welded_pos.len() as u32,
+        dropped,
+    })
+}
+
+/// Prepares a scene for solving. Errors name the mesh and the problem.
+pub fn prepare(scene: &SceneDesc) -> Result<PreparedScene> {
+    scene.settings.validate()?;
+    let mut out = PreparedScene {
+        name: scene.name.clone(),
+        settings: scene.settings,
+        lights: scene.lights.clone(),
+        positions: vec![],
+        normals: vec![],
+        albedo: vec![],
+        triangles: vec![],
+        position_id: vec![],
+        boundary: vec![],
+        rings: Csr::default(),
+        vertex_triangles: Csr::default(),
+        meshes: vec![],
+        dropped_triangles: 0,
+    };
+    let mut pos_base = 0u32;
+    for mesh in &scene.meshes {
+        let mp = prepare_mesh(mesh)?;
+        let vbase = out.positions.len() as u32;
+        let tbase = out.triangles.len() as u32;
+        out.positions.extend(&mp.positions);
+        out.normals.extend(&mp.normals);
+        out.albedo.extend(&mp.albedo);
+        out.triangles.extend(mp.triangles.iter().map(|t| t.map(|i| i + vbase)));
+        out.position_id.extend(mp.position_id.iter().map(|&i| i + pos_base));
+        out.dropped_triangles += mp.dropped;
+        out.meshes.push(MeshRange {
+            name: mesh.name.clone(),
+            vertices: vbase..out.positions.len() as u32,
+            triangles: tbase..out.triangles.len() as u32,
+            dynamic: mesh.dynamic,
+        });
+        pos_base += mp.welded_count;
+    }
+    if out.triangles.is_empty() {
+        return Err(Error::EmptyScene(scene.name.clone()));
+    }
+    for l in &out.lights {
+        let ok = match *l {
+            Light::Point { position, intensity } => position.is_finite() && intensity.is_finite(),
+            Light::Directional { direction, irradiance } => {
+                direction.is_finite() && direction.length_squared() > 0.0 && irradiance.is_finite()
+            }
+        };
+        if !ok {
+            return Err(Error::Setting(format!("light {l:?} has non-finite or zero values")));
+        }
+    }
+    out.build_topology();
+    Ok(out)
+}
+
+impl PreparedScene {
+    pub fn vertex_count(&self) -> usize {
+        self.positions.len()
+    }
+
+    /// Rebuilds one-rings, vertex-triangle adjacency and boundary flags from
+    /// `triangles` and `position_id`.
+    pub fn build_topology(&mut self) {
+        let n = self.positions.len();
+        let mut vt = Vec::with_capacity(self.triangles.len() * 3);
+        let mut ring_pairs = Vec::with_capacity(self.triangles.len() * 6);
+        let mut edge_count: HashMap<(u32, u32), u32> = HashMap::with_capacity(self.triangles.len() * 2);
+        for (ti, t) in self.triangles.iter().enumerate() {
+            for k in 0..3 {
+                let (a, b) = (t[k], t[(k + 1) % 3]);
+                vt.push((a, ti as u32));
+                ring_pairs.push((a, b));
+                ring_pairs.push((b, a));
+                *edge_count.entry((a.min(b), a.max(b))).or_insert(0) += 1;
+            }
+        }
+        ring_pairs.sort_unstable();
+        ring_pairs.dedup();
+        self.rings = Csr::from_pairs(n, &ring_pairs);
+        self.vertex_triangles = Csr::from_pairs(n, &vt);
+        // Crease: more than one solver vertex at a welded position.
+        let mut copies: HashMap<u32, u32> = HashMap::new();
+        for &p in &self.position_id {
+            *copies.entry(p).or_insert(0) += 1;
+        }
+        let mut boundary: Vec<bool> = self.position_id.iter().map(|p| copies[p] > 1).collect();
+        for (&(a, b), &c) in &edge_count {
+            if c == 1 {
+                boundary[a as usize] = true;
+                boundary[b as usize] = true;
+            }
+        }
+        self.boundary = boundary;
+    }
+
+    /// Mean length of the edges at vertex `v`, metres.
+    pub fn mean_edge_length(&self, v: usize) -> f32 {
+        let ring = self.rings.row(v);
+        if ring.is_empty() {
+            return 0.0;
+        }
+        let p = self.positions[v];
+        ring.iter().map(|&u| (self.positions[u as usize] - p).length()).sum::<f32>() / ring.len() as f32
+    }
+
+    /// Axis-aligned bounds of all vertices.
+    pub fn bounds(&self) -> (Vec3, Vec3) {
+        self.positions
+            .iter()
+            .fold((Vec3::splat(f32::MAX), Vec3::splat(f32::MIN)), |(lo, hi), p| (lo.min(*p), hi.max(*p)))
+    }
+}
