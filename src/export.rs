@@ -1,0 +1,131 @@
+//! Export of a solved scene for other tools: `mesh.ply` (binary little-endian
+//! PLY; per vertex position, normal, albedo, direct and smoothed indirect
+//! irradiance in W/m^2; faces as `uchar`-counted `uint` lists, in the
+//! solver's vertex order with transforms applied) and `scene.json` (lights,
+//! settings, stats).
+
+use crate::scene::prep::PreparedScene;
+use crate::scene::{Bounces, Light};
+use crate::solver::{Solution, SolveStats};
+use crate::{Error, Result};
+use serde_json::json;
+use std::io::Write;
+use std::path::Path;
+
+/// Vertex properties written to the PLY, in order (all `float`).
+pub const PLY_VERTEX_PROPERTIES: [&str; 15] = [
+    "x",
+    "y",
+    "z",
+    "nx",
+    "ny",
+    "nz",
+    "albedo_r",
+    "albedo_g",
+    "albedo_b",
+    "e_direct_r",
+    "e_direct_g",
+    "e_direct_b",
+    "e_indirect_r",
+    "e_indirect_g",
+    "e_indirect_b",
+];
+
+fn io_err(path: &Path) -> impl FnOnce(std::io::Error) -> Error + '_ {
+    move |source| Error::Io { path: path.to_path_buf(), source }
+}
+
+/// Writes the PLY bytes for `scene` and `solution`.
+pub fn ply_bytes(scene: &PreparedScene, solution: &Solution) -> Vec<u8> {
+    let n = scene.vertex_count();
+    let mut out = Vec::with_capacity(300 + n * 60 + scene.triangles.len() * 13);
+    let mut header = format!("ply\nformat binary_little_endian 1.0\ncomment linkgi scene {}\n", scene.name);
+    header += &format!("element vertex {n}\n");
+    for p in PLY_VERTEX_PROPERTIES {
+        header += &format!("property float {p}\n");
+    }
+    header += &format!("element face {}\nproperty list uchar uint vertex_indices\nend_header\n", scene.triangles.len());
+    out.extend_from_slice(header.as_bytes());
+    for v in 0..n {
+        for vec in [scene.positions[v], scene.normals[v], scene.albedo[v], solution.e_direct[v], solution.e_indirect[v]]
+        {
+            for c in vec.to_array() {
+                out.extend_from_slice(&c.to_le_bytes());
+            }
+        }
+    }
+    for t in &scene.triangles {
+        out.push(3u8);
+        for i in t {
+            out.extend_from_slice(&i.to_le_bytes());
+        }
+    }
+    out
+}
+
+/// The `scene.json` document.
+pub fn scene_json(scene: &PreparedScene, stats: &SolveStats) -> serde_json::Value {
+    let lights: Vec<_> = scene
+        .lights
+        .iter()
+        .map(|l| match *l {
+            Light::Point { position, intensity } => {
+                json!({"kind": "point", "position": position.to_array(), "intensity": intensity.to_array()})
+            }
+            Light::Directional { direction, irradiance } => {
+                json!({"kind": "directional", "direction": direction.to_array(), "irradiance": irradiance.to_array()})
+            }
+        })
+        .collect();
+    let s = &scene.settings;
+    let bounces = match s.bounces {
+        Bounces::Fixed(n) => json!(n),
+        Bounces::Auto => json!("auto"),
+    };
+    json!({
+        "lights": lights,
+        "settings": {
+            "rays_per_vertex": s.rays_per_vertex,
+            "bounces": bounces,
+            "smoothing_angle_deg": s.smoothing_angle_deg,
+            "seed": s.seed,
+        },
+        "stats": {
+            "vertices": stats.vertices,
+            "triangles": stats.triangles,
+            "dropped_triangles": stats.dropped_triangles,
+            "kd_nodes": stats.kd.nodes,
+            "kd_leaves": stats.kd.leaves,
+            "kd_mean_leaf_triangles": stats.kd.mean_leaf_triangles,
+            "kd_max_depth": stats.kd.max_depth,
+            "kd_sah_cost": stats.kd.sah_cost,
+            "kd_build_ms": stats.kd.build_ms,
+            "rays": stats.links.rays,
+            "ray_misses": stats.links.misses,
+            "ray_back_hits": stats.links.back_hits,
+            "links_raw": stats.links.raw_links,
+            "links_merged": stats.links.merged_links,
+            "links_raw_bytes": stats.links.raw_bytes,
+            "links_merged_bytes": stats.links.merged_bytes,
+            "links_ms": stats.links.shoot_ms,
+            "rays_per_second": stats.links.rays_per_second(),
+            "shadow_rays": stats.shadow_rays,
+            "light_links_ms": stats.light_links_ms,
+            "bounces": stats.bounces,
+            "tail_relative": stats.tail_relative,
+            "gather_ms": stats.gather_ms,
+            "smooth_ms": stats.smooth_ms,
+        }
+    })
+}
+
+/// Writes `dir/mesh.ply` and `dir/scene.json`.
+pub fn export(dir: &Path, scene: &PreparedScene, solution: &Solution, stats: &SolveStats) -> Result<()> {
+    std::fs::create_dir_all(dir).map_err(io_err(dir))?;
+    let ply = dir.join("mesh.ply");
+    std::fs::File::create(&ply).and_then(|mut f| f.write_all(&ply_bytes(scene, solution))).map_err(io_err(&ply))?;
+    let js = dir.join("scene.json");
+    let text = serde_json::to_string_pretty(&scene_json(scene, stats)).expect("json serializes");
+    std::fs::write(&js, text).map_err(io_err(&js))?;
+    Ok(())
+}

@@ -23,11 +23,8 @@ pub fn concentric_disk(u: Vec2) -> Vec2 {
     if o == Vec2::ZERO {
         return Vec2::ZERO;
     }
-    let (r, theta) = if o.x.abs() > o.y.abs() {
-        (o.x, FRAC_PI_4 * (o.y / o.x))
-    } else {
-        (o.y, FRAC_PI_2 - FRAC_PI_4 * (o.x / o.y))
-    };
+    let (r, theta) =
+        if o.x.abs() > o.y.abs() { (o.x, FRAC_PI_4 * (o.y / o.x)) } else { (o.y, FRAC_PI_2 - FRAC_PI_4 * (o.x / o.y)) };
     r * Vec2::new(theta.cos(), theta.sin())
 }
 
@@ -200,7 +197,8 @@ mod tests {
         let mut integral = 0.0f64;
         for i in 0..m {
             let z = (i as f32 + 0.5) / m as f32;
-            integral += cosine_hemisphere_pdf(Vec3::new((1.0 - z * z).sqrt(), 0.0, z)) as f64 * 2.0 * PI as f64 / m as f64;
+            integral +=
+                cosine_hemisphere_pdf(Vec3::new((1.0 - z * z).sqrt(), 0.0, z)) as f64 * 2.0 * PI as f64 / m as f64;
         }
         assert!((integral - 1.0).abs() < 1e-4, "{integral}");
     }

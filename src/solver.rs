@@ -90,8 +90,12 @@ impl Solver {
     pub fn solve(&self) -> Solution {
         let e_direct = self.light_links.direct(&self.scene.lights, self.scene.vertex_count());
         let gather = exchange::gather(&self.links, &self.scene.albedo, &e_direct, &self.params.gather);
-        let e_indirect =
-            exchange::smooth(&gather.e_indirect, &self.scene.rings, &self.scene.normals, self.params.smoothing_angle_deg);
+        let e_indirect = exchange::smooth(
+            &gather.e_indirect,
+            &self.scene.rings,
+            &self.scene.normals,
+            self.params.smoothing_angle_deg,
+        );
         Solution { e_direct, e_indirect_raw: gather.e_indirect.clone(), e_indirect, gather }
     }
 

@@ -69,12 +69,15 @@ pub fn gather_bounce(links: &Links, b: &[Vec3], out: &mut [Vec3]) {
 
 fn total(e: &[Vec3]) -> [f64; 3] {
     e.par_iter()
-        .fold(|| [0f64; 3], |mut s, v| {
-            s[0] += v.x as f64;
-            s[1] += v.y as f64;
-            s[2] += v.z as f64;
-            s
-        })
+        .fold(
+            || [0f64; 3],
+            |mut s, v| {
+                s[0] += v.x as f64;
+                s[1] += v.y as f64;
+                s[2] += v.z as f64;
+                s
+            },
+        )
         .reduce(|| [0f64; 3], |a, b| [a[0] + b[0], a[1] + b[1], a[2] + b[2]])
 }
 

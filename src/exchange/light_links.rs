@@ -97,7 +97,12 @@ impl LightLinks {
     }
 
     /// One light's column: `(G * V_avg per vertex, shadow rays traced)`.
-    pub fn compute_light(scene: &PreparedScene, kd: &KdTree, light: &Light, params: &LightLinkParams) -> (Vec<f32>, u64) {
+    pub fn compute_light(
+        scene: &PreparedScene,
+        kd: &KdTree,
+        light: &Light,
+        params: &LightLinkParams,
+    ) -> (Vec<f32>, u64) {
         let n = scene.vertex_count();
         let res: Vec<(f32, u64)> = (0..n)
             .into_par_iter()

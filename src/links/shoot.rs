@@ -131,7 +131,8 @@ pub fn shoot_links(
                 for v in c0..(c0 + CHUNK).min(batch_end) {
                     setup.trace_vertex(kd, v, &mut hits);
                     let before = targets.len();
-                    let c = merge_vertex(&hits, &kd.triangles, weight_per_ray, &mut scratch, &mut targets, &mut weights);
+                    let c =
+                        merge_vertex(&hits, &kd.triangles, weight_per_ray, &mut scratch, &mut targets, &mut weights);
                     counts.push((targets.len() - before) as u32);
                     st.rays += hits.len() as u64;
                     st.front_hits += c.front as u64;

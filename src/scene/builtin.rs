@@ -133,7 +133,13 @@ fn cornell() -> SceneDesc {
     let white = r.add_material("white", Vec3::splat(0.73));
     let red = r.add_material("red", Vec3::new(0.63, 0.065, 0.05));
     let green = r.add_material("green", Vec3::new(0.14, 0.45, 0.09));
-    room(&mut r, Vec3::new(-1.0, 0.0, -1.0), Vec3::new(1.0, 2.0, 1.0), [20; 3], [red, green, white, white, white, white]);
+    room(
+        &mut r,
+        Vec3::new(-1.0, 0.0, -1.0),
+        Vec3::new(1.0, 2.0, 1.0),
+        [20; 3],
+        [red, green, white, white, white, white],
+    );
 
     let mut b = MeshBuilder::new();
     let w = b.add_material("white", Vec3::splat(0.73));
@@ -157,7 +163,17 @@ fn cornell() -> SceneDesc {
 /// A closed thin conical shell (lamp shade): outer surface facing out, inner
 /// surface facing the axis, joined by flat rims; open at top and bottom.
 #[allow(clippy::too_many_arguments)]
-fn shade(b: &mut MeshBuilder, base: Vec3, r_bottom: f32, r_top: f32, height: f32, thickness: f32, segments: u32, rings: u32, mat: u32) {
+fn shade(
+    b: &mut MeshBuilder,
+    base: Vec3,
+    r_bottom: f32,
+    r_top: f32,
+    height: f32,
+    thickness: f32,
+    segments: u32,
+    rings: u32,
+    mat: u32,
+) {
     let mut profile = Vec::new();
     for k in 0..=rings {
         let t = k as f32 / rings as f32;
@@ -177,7 +193,13 @@ fn colorlamp() -> SceneDesc {
     let blue = r.add_material("blue wall", Vec3::new(0.3, 0.4, 0.65));
     let floor = r.add_material("floor", Vec3::new(0.55, 0.4, 0.28));
     let ceiling = r.add_material("ceiling", Vec3::splat(0.8));
-    room(&mut r, Vec3::new(-2.0, 0.0, -2.0), Vec3::new(2.0, 2.5, 2.0), [12, 8, 12], [blue, wall, floor, ceiling, wall, wall]);
+    room(
+        &mut r,
+        Vec3::new(-2.0, 0.0, -2.0),
+        Vec3::new(2.0, 2.5, 2.0),
+        [12, 8, 12],
+        [blue, wall, floor, ceiling, wall, wall],
+    );
 
     let lamp_at = Vec3::new(-1.0, 0.0, -1.0);
     let mut l = MeshBuilder::new();
@@ -209,7 +231,13 @@ fn torso() -> SceneDesc {
     let mut r = MeshBuilder::new();
     let wall = r.add_material("wall", Vec3::new(0.7, 0.7, 0.68));
     let floor = r.add_material("floor", Vec3::new(0.45, 0.45, 0.5));
-    room(&mut r, Vec3::new(-2.0, 0.0, -2.0), Vec3::new(2.0, 2.8, 2.0), [20, 14, 20], [wall, wall, floor, wall, wall, wall]);
+    room(
+        &mut r,
+        Vec3::new(-2.0, 0.0, -2.0),
+        Vec3::new(2.0, 2.8, 2.0),
+        [20, 14, 20],
+        [wall, wall, floor, wall, wall, wall],
+    );
 
     let mut b = MeshBuilder::new();
     let skin = b.add_material("skin", Vec3::new(0.75, 0.55, 0.45));
@@ -267,7 +295,10 @@ fn torso() -> SceneDesc {
         "torso",
         camera(Vec3::new(0.4, 1.4, 1.8), Vec3::new(0.0, 1.1, 0.0), 60.0),
         vec![r.finish("torso/room", 30.0), figure],
-        vec![point(Vec3::new(1.2, 2.4, 1.1), Vec3::splat(3.0)), point(Vec3::new(-1.4, 2.2, -0.9), Vec3::new(1.4, 1.5, 1.9))],
+        vec![
+            point(Vec3::new(1.2, 2.4, 1.1), Vec3::splat(3.0)),
+            point(Vec3::new(-1.4, 2.2, -0.9), Vec3::new(1.4, 1.5, 1.9)),
+        ],
     )
 }
 
@@ -303,7 +334,13 @@ fn tearoom() -> SceneDesc {
     let floor = r.add_material("floor", Vec3::new(0.45, 0.28, 0.16));
     let ceiling = r.add_material("ceiling", Vec3::new(0.8, 0.75, 0.68));
     let accent = r.add_material("red wall", Vec3::new(0.6, 0.25, 0.18));
-    room(&mut r, Vec3::new(-2.5, 0.0, -2.5), Vec3::new(2.5, 2.6, 2.5), [24, 13, 24], [wall, wall, floor, ceiling, accent, wall]);
+    room(
+        &mut r,
+        Vec3::new(-2.5, 0.0, -2.5),
+        Vec3::new(2.5, 2.6, 2.5),
+        [24, 13, 24],
+        [wall, wall, floor, ceiling, accent, wall],
+    );
 
     // Table: top 1.4 x 0.9 m at 0.75 m, legs reaching 1 cm into the top.
     let mut t = MeshBuilder::new();
@@ -311,7 +348,13 @@ fn tearoom() -> SceneDesc {
     let top_y = 0.75f32;
     t.cuboid_spaced(Vec3::new(-0.7, top_y - 0.04, -0.45), Vec3::new(0.7, top_y, 0.45), 0.05, wood, false);
     for (x, z) in [(-0.62f32, -0.37f32), (0.62, -0.37), (-0.62, 0.37), (0.62, 0.37)] {
-        t.cuboid_faces(Vec3::new(x - 0.03, 0.0, z - 0.03), Vec3::new(x + 0.03, top_y - 0.03, z + 0.03), [2, 12, 2], [wood; 6], false);
+        t.cuboid_faces(
+            Vec3::new(x - 0.03, 0.0, z - 0.03),
+            Vec3::new(x + 0.03, top_y - 0.03, z + 0.03),
+            [2, 12, 2],
+            [wood; 6],
+            false,
+        );
     }
 
     let mut w = MeshBuilder::new();
@@ -319,7 +362,7 @@ fn tearoom() -> SceneDesc {
     let glaze = w.add_material("glaze", Vec3::new(0.7, 0.35, 0.15));
     let green = w.add_material("green glaze", Vec3::new(0.35, 0.5, 0.3));
     let sink = 0.003; // objects sit 3 mm into the table top.
-    // Teapot: squashed sphere, lid knob, handle, spout.
+                      // Teapot: squashed sphere, lid knob, handle, spout.
     let body_c = Vec3::new(0.0, top_y + 0.1 - sink, 0.0);
     let first = w.positions.len();
     w.icosphere(Vec3::ZERO, 0.125, 3, glaze, false);
@@ -348,7 +391,10 @@ fn tearoom() -> SceneDesc {
         "tearoom",
         camera(Vec3::new(1.2, 1.5, 1.7), Vec3::new(0.0, 0.8, 0.0), 55.0),
         vec![r.finish("tearoom/room", 30.0), t.finish("tearoom/table", 30.0), w.finish("tearoom/tableware", 60.0)],
-        vec![point(Vec3::new(0.3, 2.3, 0.2), Vec3::new(3.0, 2.7, 2.2)), point(Vec3::new(-1.8, 1.9, 1.6), Vec3::new(1.2, 1.0, 0.8))],
+        vec![
+            point(Vec3::new(0.3, 2.3, 0.2), Vec3::new(3.0, 2.7, 2.2)),
+            point(Vec3::new(-1.8, 1.9, 1.6), Vec3::new(1.2, 1.0, 0.8)),
+        ],
     )
 }
 
@@ -357,7 +403,13 @@ fn sculpture() -> SceneDesc {
     let wall = r.add_material("wall", Vec3::splat(0.72));
     let floor = r.add_material("floor", Vec3::new(0.4, 0.38, 0.36));
     let warm = r.add_material("warm wall", Vec3::new(0.75, 0.55, 0.35));
-    room(&mut r, Vec3::new(-2.5, 0.0, -2.5), Vec3::new(2.5, 3.0, 2.5), [30, 18, 30], [warm, wall, floor, wall, wall, wall]);
+    room(
+        &mut r,
+        Vec3::new(-2.5, 0.0, -2.5),
+        Vec3::new(2.5, 3.0, 2.5),
+        [30, 18, 30],
+        [warm, wall, floor, wall, wall, wall],
+    );
 
     // A (2, 3) torus knot: centre line C(phi) = ((R + a cos 3phi) cos 2phi,
     // a sin 3phi, (R + a cos 3phi) sin 2phi), a tube of radius `tube` around it.
@@ -401,7 +453,10 @@ fn sculpture() -> SceneDesc {
         "sculpture",
         camera(Vec3::new(0.3, 1.5, 2.3), Vec3::new(0.0, 1.25, 0.0), 60.0),
         vec![r.finish("sculpture/room", 30.0), b.finish("sculpture/knot", 60.0)],
-        vec![point(Vec3::new(1.5, 2.6, 1.2), Vec3::splat(4.0)), point(Vec3::new(-1.6, 2.3, -1.0), Vec3::new(2.0, 2.2, 2.6))],
+        vec![
+            point(Vec3::new(1.5, 2.6, 1.2), Vec3::splat(4.0)),
+            point(Vec3::new(-1.6, 2.3, -1.0), Vec3::new(2.0, 2.2, 2.6)),
+        ],
     )
 }
 
@@ -412,7 +467,13 @@ fn chair(b: &mut MeshBuilder, at: Vec3, deg: f32, mat: u32) {
     b.cuboid_faces(Vec3::new(-0.22, 0.43, -0.22), Vec3::new(0.22, 0.47, 0.22), [6, 1, 6], [mat; 6], false);
     b.cuboid_faces(Vec3::new(-0.22, 0.45, 0.18), Vec3::new(0.22, 0.92, 0.22), [6, 6, 1], [mat; 6], false);
     for (x, z) in [(-0.19f32, -0.19f32), (0.19, -0.19), (-0.19, 0.19), (0.19, 0.19)] {
-        b.cuboid_faces(Vec3::new(x - 0.015, 0.0, z - 0.015), Vec3::new(x + 0.015, 0.45, z + 0.015), [1, 6, 1], [mat; 6], false);
+        b.cuboid_faces(
+            Vec3::new(x - 0.015, 0.0, z - 0.015),
+            Vec3::new(x + 0.015, 0.45, z + 0.015),
+            [1, 6, 1],
+            [mat; 6],
+            false,
+        );
     }
     b.transform_from(first, turn_y(deg, at));
 }
@@ -422,7 +483,13 @@ fn table(b: &mut MeshBuilder, at: Vec3, mat: u32) {
     let first = b.positions.len();
     b.cuboid_faces(Vec3::new(-0.9, 0.72, -0.3), Vec3::new(0.9, 0.75, 0.3), [24, 1, 8], [mat; 6], false);
     for (x, z) in [(-0.85f32, -0.25f32), (0.85, -0.25), (-0.85, 0.25), (0.85, 0.25)] {
-        b.cuboid_faces(Vec3::new(x - 0.025, 0.0, z - 0.025), Vec3::new(x + 0.025, 0.73, z + 0.025), [1, 9, 1], [mat; 6], false);
+        b.cuboid_faces(
+            Vec3::new(x - 0.025, 0.0, z - 0.025),
+            Vec3::new(x + 0.025, 0.73, z + 0.025),
+            [1, 9, 1],
+            [mat; 6],
+            false,
+        );
     }
     b.transform_from(first, move |p| p + at);
 }
@@ -464,7 +531,11 @@ fn conference() -> SceneDesc {
     scene(
         "conference",
         camera(Vec3::new(0.0, 1.7, 6.5), Vec3::new(0.0, 1.0, 0.0), 60.0),
-        vec![r.finish("conference/room", 30.0), t.finish("conference/tables", 30.0), c.finish("conference/chairs", 30.0)],
+        vec![
+            r.finish("conference/room", 30.0),
+            t.finish("conference/tables", 30.0),
+            c.finish("conference/chairs", 30.0),
+        ],
         lights,
     )
 }
@@ -499,7 +570,11 @@ mod tests {
                 assert_eq!(m.triangles.len(), m.triangle_material.len(), "{}", m.name);
                 assert!(m.positions.iter().all(|p| p.is_finite()), "{}: non-finite position", m.name);
                 for (k, t) in m.triangles.iter().enumerate() {
-                    assert!(t.iter().all(|&i| (i as usize) < m.positions.len()), "{}: triangle {k} out of range", m.name);
+                    assert!(
+                        t.iter().all(|&i| (i as usize) < m.positions.len()),
+                        "{}: triangle {k} out of range",
+                        m.name
+                    );
                     assert!((m.triangle_material[k] as usize) < m.materials.len(), "{}: material of {k}", m.name);
                     let [a, b, c] = t.map(|i| m.positions[i as usize]);
                     assert!((b - a).cross(c - a).length() > 0.0, "{}: triangle {k} has zero area", m.name);
@@ -530,7 +605,8 @@ mod tests {
             let (a, b) = (builtin(name).unwrap(), builtin(name).unwrap());
             assert_eq!(a.meshes.len(), b.meshes.len());
             for (ma, mb) in a.meshes.iter().zip(&b.meshes) {
-                let bits = |m: &MeshDesc| m.positions.iter().map(|&p| p.to_array().map(f32::to_bits)).collect::<Vec<_>>();
+                let bits =
+                    |m: &MeshDesc| m.positions.iter().map(|&p| p.to_array().map(f32::to_bits)).collect::<Vec<_>>();
                 assert_eq!(bits(ma), bits(mb), "{name}");
                 assert_eq!(ma.triangles, mb.triangles, "{name}");
             }
@@ -620,7 +696,8 @@ mod tests {
         for &name in NAMES.iter().filter(|&&n| n != "furnace") {
             let s = builtin(name).unwrap();
             let room = &s.meshes[0];
-            let (lo, hi) = room.positions.iter().fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), &p| (lo.min(p), hi.max(p)));
+            let (lo, hi) =
+                room.positions.iter().fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), &p| (lo.min(p), hi.max(p)));
             let inside = |p: Vec3| p.cmpgt(lo).all() && p.cmplt(hi).all();
             assert!(inside(s.camera.position), "{name}: camera outside");
             for l in &s.lights {

@@ -45,10 +45,18 @@ fn prescan(path: &Path, text: &str) -> Result<()> {
                     match c.parse::<f32>() {
                         Ok(x) if x.is_finite() => {}
                         Ok(x) => {
-                            return Err(geometry_err(path, Some(line_no), format!("vertex coordinate {x} is not finite")))
+                            return Err(geometry_err(
+                                path,
+                                Some(line_no),
+                                format!("vertex coordinate {x} is not finite"),
+                            ))
                         }
                         Err(_) => {
-                            return Err(geometry_err(path, Some(line_no), format!("vertex coordinate '{c}' is not a number")))
+                            return Err(geometry_err(
+                                path,
+                                Some(line_no),
+                                format!("vertex coordinate '{c}' is not a number"),
+                            ))
                         }
                     }
                 }
@@ -60,7 +68,11 @@ fn prescan(path: &Path, text: &str) -> Result<()> {
                     corners += 1;
                     let idx = corner.split('/').next().unwrap_or("");
                     let Ok(idx) = idx.parse::<i64>() else {
-                        return Err(geometry_err(path, Some(line_no), format!("face index '{corner}' is not an integer")));
+                        return Err(geometry_err(
+                            path,
+                            Some(line_no),
+                            format!("face index '{corner}' is not an integer"),
+                        ));
                     };
                     if idx == 0 {
                         return Err(geometry_err(path, Some(line_no), "face index 0 (OBJ indices start at 1)"));
@@ -69,7 +81,9 @@ fn prescan(path: &Path, text: &str) -> Result<()> {
                         return Err(geometry_err(
                             path,
                             Some(line_no),
-                            format!("relative face index {idx} reaches before the first vertex ({vertex_count} so far)"),
+                            format!(
+                                "relative face index {idx} reaches before the first vertex ({vertex_count} so far)"
+                            ),
                         ));
                     }
                     if idx > 0 {
@@ -77,7 +91,11 @@ fn prescan(path: &Path, text: &str) -> Result<()> {
                     }
                 }
                 if corners < 3 {
-                    return Err(geometry_err(path, Some(line_no), format!("face has {corners} corners (needs 3 or more)")));
+                    return Err(geometry_err(
+                        path,
+                        Some(line_no),
+                        format!("face has {corners} corners (needs 3 or more)"),
+                    ));
                 }
             }
             _ => {}
@@ -192,7 +210,13 @@ pub fn write_obj(mesh: &MeshDesc, path: &Path) -> Result<()> {
         let _ = writeln!(mtl, "newmtl {}\nKd {} {} {}\n", m.name, m.albedo.x, m.albedo.y, m.albedo.z);
     }
     let mut obj = String::with_capacity(mesh.positions.len() * 32 + mesh.triangles.len() * 24);
-    let _ = writeln!(obj, "# {} ({} vertices, {} triangles)\nmtllib {mtl_name}", mesh.name, mesh.positions.len(), mesh.triangles.len());
+    let _ = writeln!(
+        obj,
+        "# {} ({} vertices, {} triangles)\nmtllib {mtl_name}",
+        mesh.name,
+        mesh.positions.len(),
+        mesh.triangles.len()
+    );
     for p in &mesh.positions {
         let _ = writeln!(obj, "v {} {} {}", p.x, p.y, p.z);
     }

@@ -75,7 +75,7 @@ impl MeshBuilder {
         let (pa, pb, pc) = (self.positions[a as usize], self.positions[b as usize], self.positions[c as usize]);
         let cross = (pb - pa).cross(pc - pa).length();
         let longest = (pb - pa).length_squared().max((pc - pb).length_squared()).max((pa - pc).length_squared());
-        if !(cross > 1e-6 * longest) {
+        if cross.is_nan() || cross <= 1e-6 * longest {
             return false;
         }
         self.triangles.push([a, b, c]);
@@ -356,7 +356,16 @@ impl MeshBuilder {
     /// bands along its height; with `caps`, closed by flat discs (split in
     /// rings so their triangles stay well shaped), else open at both ends.
     #[allow(clippy::too_many_arguments)]
-    pub fn cylinder(&mut self, base_center: Vec3, radius: f32, height: f32, segments: u32, rings: u32, mat: u32, caps: bool) {
+    pub fn cylinder(
+        &mut self,
+        base_center: Vec3,
+        radius: f32,
+        height: f32,
+        segments: u32,
+        rings: u32,
+        mat: u32,
+        caps: bool,
+    ) {
         let rings = rings.max(1);
         let cap_rings = ((segments as f32 / TAU).round() as u32).max(1);
         let mut profile = Vec::new();
@@ -412,13 +421,25 @@ impl MeshBuilder {
         // Outer: from the bottom pole up to the rim.
         for k in 0..=rings {
             let a = std::f32::consts::FRAC_PI_2 * k as f32 / rings as f32;
-            let (s, c) = if k == 0 { (0.0, 1.0) } else if k == rings { (1.0, 0.0) } else { a.sin_cos() };
+            let (s, c) = if k == 0 {
+                (0.0, 1.0)
+            } else if k == rings {
+                (1.0, 0.0)
+            } else {
+                a.sin_cos()
+            };
             profile.push(Vec2::new(radius * s, -radius * c));
         }
         // Inner: from the rim down to the inner pole.
         for k in (0..=rings).rev() {
             let a = std::f32::consts::FRAC_PI_2 * k as f32 / rings as f32;
-            let (s, c) = if k == 0 { (0.0, 1.0) } else if k == rings { (1.0, 0.0) } else { a.sin_cos() };
+            let (s, c) = if k == 0 {
+                (0.0, 1.0)
+            } else if k == rings {
+                (1.0, 0.0)
+            } else {
+                a.sin_cos()
+            };
             profile.push(Vec2::new(inner * s, -inner * c));
         }
         self.revolve(rim_center, &profile, segments, mat, false);
@@ -427,7 +448,15 @@ impl MeshBuilder {
     /// A torus in the xz plane around `center`: `major_radius` to the tube's
     /// centre line, `minor_radius` of the tube; `segments_major` around the
     /// ring, `segments_minor` around the tube.
-    pub fn torus(&mut self, center: Vec3, major_radius: f32, minor_radius: f32, segments_major: u32, segments_minor: u32, mat: u32) {
+    pub fn torus(
+        &mut self,
+        center: Vec3,
+        major_radius: f32,
+        minor_radius: f32,
+        segments_major: u32,
+        segments_minor: u32,
+        mat: u32,
+    ) {
         self.parametric(
             segments_major,
             segments_minor,

@@ -1,0 +1,36 @@
+//! Shared helpers of the integration tests.
+#![allow(dead_code)]
+
+use glam::Vec3;
+use linkgi::scene::{prep, Bounces, SceneDesc};
+use linkgi::solver::{SolveParams, Solution, Solver};
+
+/// Prepares and solves `desc` with its own settings; validates the tree and links.
+pub fn solve(desc: &SceneDesc) -> (Solver, Solution) {
+    let scene = prep::prepare(desc).expect("scene prepares");
+    let params = SolveParams::from_settings(&scene.settings);
+    solve_with(scene, params)
+}
+
+pub fn solve_with(scene: prep::PreparedScene, params: SolveParams) -> (Solver, Solution) {
+    let solver = Solver::new(scene, params, &|_, _| {});
+    solver.kd.validate().expect("kd-tree valid");
+    solver.links.validate().expect("links valid");
+    let sol = solver.solve();
+    for v in sol.e_direct.iter().chain(&sol.e_indirect).chain(&sol.e_indirect_raw) {
+        assert!(v.is_finite(), "non-finite irradiance {v}");
+        assert!(v.min_element() >= 0.0, "negative irradiance {v}");
+    }
+    (solver, sol)
+}
+
+pub fn with_settings(mut desc: SceneDesc, rays: u32, bounces: Bounces, smoothing: f32) -> SceneDesc {
+    desc.settings.rays_per_vertex = rays;
+    desc.settings.bounces = bounces;
+    desc.settings.smoothing_angle_deg = smoothing;
+    desc
+}
+
+pub fn mean(v: &[Vec3]) -> Vec3 {
+    v.iter().copied().sum::<Vec3>() / v.len() as f32
+}
