@@ -13,7 +13,7 @@
 //! Storage: a link is a `u32` target plus an IEEE half-precision weight
 //! (6 bytes). Weights are rounded to f16 in target order with the rounding
 //! error carried to the next link (error diffusion), so a group's total stays
-//! within one f16 ulp of the exact sum.
+//! within half an f16 ulp of its largest link (2^-11 relative) of the exact sum.
 
 pub mod merge;
 pub mod shoot;
@@ -21,7 +21,7 @@ pub mod shoot;
 use half::f16;
 
 pub use merge::{merge_vertex, HitRecord, HIT_BACK, HIT_MISS};
-pub use shoot::{shoot_links, LinkParams, RaySetup};
+pub use shoot::{shoot_links, LinkParams, RaySetup, Wedge};
 
 /// Counters of one link generation.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]

@@ -8,6 +8,14 @@
 //! toward its own one-ring along the surface and the same distance off it
 //! along the normal, so rays aimed at the face group on the other side of
 //! the crease land on it instead of slipping through at `t = 0`.
+//!
+//! Rays under the surface: the vertex normal is an average, so on a concave
+//! (or saddle) vertex a grazing direction can lie above the tangent plane
+//! yet below one of the incident triangles. Such a ray would pass through
+//! that (skipped) triangle at `t = 0` and leave the surface, escaping a
+//! closed scene. It is recorded instead as a hit at the vertex itself (a
+//! self link): a grazing ray in a concave region meets the surface right
+//! next to its origin, where the radiosity is the vertex's own.
 
 use super::merge::{merge_vertex, HitRecord, HIT_BACK, HIT_MISS};
 use super::{LinkStats, Links};
@@ -38,14 +46,52 @@ impl Default for LinkParams {
     }
 }
 
+/// One incident triangle seen from a vertex: its unit normal, its two
+/// edges leaving the vertex (counter-clockwise), its id and the vertex's
+/// corner in it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Wedge {
+    pub normal: Vec3,
+    pub edge_a: Vec3,
+    pub edge_b: Vec3,
+    pub tri: u32,
+    pub corner: u32,
+}
+
+impl Wedge {
+    /// True if `d` leaves the vertex into the back of this triangle.
+    #[inline]
+    pub fn dives_under(&self, d: Vec3) -> bool {
+        let dn = d.dot(self.normal);
+        if dn >= 0.0 {
+            return false;
+        }
+        let dp = d - self.normal * dn;
+        self.edge_a.cross(dp).dot(self.normal) >= 0.0 && dp.cross(self.edge_b).dot(self.normal) >= 0.0
+    }
+
+    /// The hit record of a ray that dives under this wedge: the vertex's corner, `t = 0`.
+    pub fn self_hit(&self) -> HitRecord {
+        let (u, v) = match self.corner {
+            0 => (0.0, 0.0),
+            1 => (1.0, 0.0),
+            _ => (0.0, 1.0),
+        };
+        HitRecord { tri: self.tri, u, v, t: 0.0 }
+    }
+}
+
 /// Everything a shooter (CPU or GPU) needs per vertex: origin, rotated
-/// frame, and the shared local direction set.
+/// frame, incident-triangle wedges, and the shared local direction set.
 #[derive(Clone, Debug)]
 pub struct RaySetup {
     pub origins: Vec<Vec3>,
     /// Rotation about the normal, radians.
     pub rotations: Vec<f32>,
     pub normals: Vec<Vec3>,
+    /// Wedges of vertex `v`: `wedges[wedge_offsets[v]..wedge_offsets[v+1]]`.
+    pub wedge_offsets: Vec<u32>,
+    pub wedges: Vec<Wedge>,
     pub directions: DirectionSet,
 }
 
@@ -53,12 +99,31 @@ impl RaySetup {
     pub fn new(scene: &PreparedScene, params: &LinkParams) -> RaySetup {
         let k = (params.rays_per_vertex as f64).sqrt().round() as u32;
         let origins = (0..scene.vertex_count()).map(|v| ray_origin(scene, v, params.nudge)).collect();
+        let mut wedges = Vec::with_capacity(scene.vertex_triangles.items.len());
+        for v in 0..scene.vertex_count() {
+            for &t in scene.vertex_triangles.row(v) {
+                let tri = scene.triangles[t as usize];
+                let corner = tri.iter().position(|&i| i as usize == v).expect("incident") as u32;
+                let p = |k: u32| scene.positions[tri[((corner + k) % 3) as usize] as usize];
+                let (edge_a, edge_b) = (p(1) - p(0), p(2) - p(0));
+                let normal = edge_a.cross(edge_b).normalize_or_zero();
+                wedges.push(Wedge { normal, edge_a, edge_b, tri: t, corner });
+            }
+        }
         RaySetup {
             origins,
             rotations: vertex_rotations(&scene.rings, params.seed),
             normals: scene.normals.clone(),
+            wedge_offsets: scene.vertex_triangles.offsets.clone(),
+            wedges,
             directions: DirectionSet::new(k, params.seed),
         }
+    }
+
+    /// Wedges of vertex `v`.
+    #[inline]
+    pub fn wedges(&self, v: usize) -> &[Wedge] {
+        &self.wedges[self.wedge_offsets[v] as usize..self.wedge_offsets[v + 1] as usize]
     }
 
     /// World direction of ray `k` of vertex `v`.
@@ -74,8 +139,13 @@ impl RaySetup {
         out.clear();
         let (t, b, n) = vertex_frame(self.normals[v], self.rotations[v]);
         let origin = self.origins[v];
+        let wedges = self.wedges(v);
         for d in &self.directions.dirs {
             let dir = (t * d.x + b * d.y + n * d.z).normalize();
+            if let Some(w) = wedges.iter().find(|w| w.dives_under(dir)) {
+                out.push(w.self_hit());
+                continue;
+            }
             let ray = Ray { origin, dir, tmin: 0.0, tmax: f32::INFINITY, skip: v as u32 };
             out.push(match kd.intersect(&ray) {
                 None => HitRecord { tri: HIT_MISS, u: 0.0, v: 0.0, t: f32::INFINITY },

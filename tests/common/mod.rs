@@ -3,7 +3,7 @@
 
 use glam::Vec3;
 use linkgi::scene::{prep, Bounces, SceneDesc};
-use linkgi::solver::{SolveParams, Solution, Solver};
+use linkgi::solver::{Solution, SolveParams, Solver};
 
 /// Prepares and solves `desc` with its own settings; validates the tree and links.
 pub fn solve(desc: &SceneDesc) -> (Solver, Solution) {

@@ -1,0 +1,116 @@
+//! Vertex links: closed scenes lose no rays, merging keeps weights,
+//! determinism.
+
+mod common;
+
+use linkgi::kdtree::{KdBuildParams, KdTree};
+use linkgi::links::{merge_vertex, shoot_links, HitRecord, LinkParams, RaySetup, HIT_BACK, HIT_MISS};
+use linkgi::scene::{builtin, prep};
+use std::f64::consts::PI;
+
+fn build(name_or_scene: prep::PreparedScene, params: &LinkParams) -> (KdTree, linkgi::links::Links) {
+    let kd = KdTree::build(&name_or_scene.positions, &name_or_scene.triangles, &KdBuildParams::default());
+    kd.validate().unwrap();
+    let links = shoot_links(&name_or_scene, &kd, params, &|_, _| {});
+    links.validate().unwrap();
+    (kd, links)
+}
+
+#[test]
+fn closed_room_rows_sum_to_pi() {
+    for n in [4, 10] {
+        let scene = prep::prepare(&builtin::closed_room(n, 0.5)).unwrap();
+        // Creases split every edge and corner vertex of the box.
+        assert!(scene.boundary.iter().filter(|&&b| b).count() > 0);
+        let (_, links) = build(scene.clone(), &LinkParams::default());
+        let s = links.stats;
+        eprintln!("room n={n}: {} rays, {} misses, {} back hits", s.rays, s.misses, s.back_hits);
+        assert!(s.misses as f64 <= 1e-5 * s.rays as f64, "{} of {} rays escaped", s.misses, s.rays);
+        assert_eq!(s.back_hits, 0);
+        for v in 0..scene.vertex_count() {
+            let sum = links.row_sum(v);
+            // Every ray hits a front face: pi, up to f16 rounding of the last link.
+            assert!((sum - PI).abs() < 2e-3, "vertex {v} (boundary {}): row sum {sum}", scene.boundary[v]);
+        }
+    }
+}
+
+#[test]
+fn builtin_rooms_lose_almost_no_rays() {
+    for name in ["cornell", "colorlamp"] {
+        let scene = prep::prepare(&builtin::builtin(name).unwrap()).unwrap();
+        let params = LinkParams { rays_per_vertex: 64, ..Default::default() };
+        let (_, links) = build(scene, &params);
+        let s = links.stats;
+        eprintln!("{name}: {} rays, {} misses, {} back hits", s.rays, s.misses, s.back_hits);
+        assert!(s.misses as f64 <= 1e-5 * s.rays as f64, "{name}: {} of {} rays escaped", s.misses, s.rays);
+    }
+}
+
+#[test]
+fn merging_preserves_total_weight() {
+    let scene = prep::prepare(&builtin::builtin("cornell").unwrap()).unwrap();
+    let kd = KdTree::build(&scene.positions, &scene.triangles, &KdBuildParams::default());
+    let params = LinkParams { rays_per_vertex: 64, ..Default::default() };
+    let setup = RaySetup::new(&scene, &params);
+    let wpr = PI / 64.0;
+    let mut hits = Vec::new();
+    let mut scratch = Vec::new();
+    let mut raw_links = 0usize;
+    let mut merged_links = 0usize;
+    for v in (0..scene.vertex_count()).step_by(7) {
+        setup.trace_vertex(&kd, v, &mut hits);
+        let raw: f64 = hits.iter().filter(|h| h.tri != HIT_MISS && h.tri & HIT_BACK == 0).count() as f64 * wpr;
+        let (mut t, mut w) = (Vec::new(), Vec::new());
+        merge_vertex(&hits, &kd.triangles, wpr, &mut scratch, &mut t, &mut w);
+        let merged: f64 = w.iter().map(|x| x.to_f64()).sum();
+        // Error diffusion keeps the group within half an f16 ulp (2^-11
+        // relative) of its largest link of the exact sum.
+        let largest = w.iter().map(|x| x.to_f64()).fold(0.0, f64::max);
+        assert!((merged - raw).abs() <= largest / 2048.0 + 1e-12, "vertex {v}: raw {raw} merged {merged}");
+        raw_links += 3 * hits.iter().filter(|h| h.tri != HIT_MISS && h.tri & HIT_BACK == 0).count();
+        merged_links += t.len();
+        assert!(t.windows(2).all(|p| p[0] < p[1]));
+    }
+    assert!(merged_links < raw_links, "merging removed nothing");
+}
+
+#[test]
+fn merge_handles_misses_back_faces_and_edges() {
+    let tri = linkgi::kdtree::KdTriangle { ia: 0, ib: 1, ic: 2, ..Default::default() };
+    let hits = [
+        HitRecord { tri: 0, u: 0.0, v: 0.0, t: 1.0 }, // corner: one link to vertex 0
+        HitRecord { tri: 0, u: 0.5, v: 0.5, t: 1.0 }, // edge: links to 1 and 2
+        HitRecord { tri: HIT_MISS, u: 0.0, v: 0.0, t: 0.0 },
+        HitRecord { tri: HIT_BACK, u: 0.2, v: 0.2, t: 1.0 },
+    ];
+    let (mut t, mut w, mut s) = (Vec::new(), Vec::new(), Vec::new());
+    let c = merge_vertex(&hits, &[tri], 0.25, &mut s, &mut t, &mut w);
+    assert_eq!((c.front, c.back, c.miss), (2, 1, 1));
+    assert_eq!(t, vec![0, 1, 2]);
+    let w: Vec<f32> = w.iter().map(|x| x.to_f32()).collect();
+    assert_eq!(w, vec![0.25, 0.125, 0.125]);
+}
+
+#[test]
+fn same_seed_same_links() {
+    let scene = prep::prepare(&builtin::builtin("colorlamp").unwrap()).unwrap();
+    let p = LinkParams { rays_per_vertex: 16, ..Default::default() };
+    let (_, a) = build(scene.clone(), &p);
+    let (_, b) = build(scene.clone(), &p);
+    assert_eq!(a.offsets, b.offsets);
+    assert_eq!(a.targets, b.targets);
+    assert_eq!(a.weights, b.weights);
+    let (_, c) = build(scene, &LinkParams { seed: 2, ..p });
+    assert_ne!(a.targets, c.targets);
+    // Batch size does not change the result.
+}
+
+#[test]
+fn batch_size_does_not_change_links() {
+    let scene = prep::prepare(&builtin::closed_room(6, 0.5)).unwrap();
+    let p = LinkParams { rays_per_vertex: 16, ..Default::default() };
+    let (_, a) = build(scene.clone(), &p);
+    let (_, b) = build(scene, &LinkParams { batch_vertices: 7, ..p });
+    assert_eq!((a.offsets, a.targets, a.weights), (b.offsets, b.targets, b.weights));
+}
