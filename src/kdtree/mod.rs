@@ -6,8 +6,13 @@
 //! building fast kd-trees for ray tracing, and on doing that in O(N log N)"):
 //! events are sorted once per subtree and kept sorted through every split,
 //! only the triangles that straddle a split get new, clipped events.
-//! Deviation: straddling triangles are clipped by their bounding box, not by
-//! the exact polygon ("perfect splits"), which gives slightly looser leaves.
+//! Deviations: straddling triangles are clipped by their bounding box, not
+//! by the exact polygon ("perfect splits"), which gives slightly looser
+//! leaves; and a triangle that only touches a split plane (ends or starts
+//! exactly on it) goes to both children. Together with the watertight
+//! triangle test this makes traversal crack-free: a ray through a vertex or
+//! edge lying on leaf boundaries meets every triangle there in whichever
+//! adjacent leaf it visits.
 //!
 //! Ropes ([`ropes`]): every leaf stores, for each of its six faces, the
 //! node across that face, pushed down the tree as far as it goes (Popov et al.
@@ -64,16 +69,18 @@ pub struct KdLeaf {
     pub _pad: [u32; 2],
 }
 
-/// A triangle prepared for Möller-Trumbore: `v0`, edges `e1 = v1 - v0`,
-/// `e2 = v2 - v0`, and the solver vertex ids of its corners (48 bytes).
+/// A triangle: its corners `v0, v1, v2` (counter-clockwise from the front;
+/// stored as corners, not edges, so triangles sharing an edge see the same
+/// floats and the watertight test leaves no cracks) and the solver vertex
+/// ids of its corners (48 bytes).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct KdTriangle {
     pub v0: [f32; 3],
     pub ia: u32,
-    pub e1: [f32; 3],
+    pub v1: [f32; 3],
     pub ib: u32,
-    pub e2: [f32; 3],
+    pub v2: [f32; 3],
     pub ic: u32,
 }
 

@@ -8,7 +8,7 @@
 //! direction; hits with equal `t` are ordered by triangle id so every path
 //! returns the same hit.
 
-use super::triangle::{intersect, Hit};
+use super::triangle::{intersect, Hit, RayShear};
 use super::{KdTree, LEAF, NO_ROPE};
 use glam::Vec3;
 
@@ -63,7 +63,7 @@ impl KdTree {
 
     /// Tests a leaf's triangles, keeping the nearest hit (or stopping at any hit).
     #[inline(always)]
-    fn test_leaf<const ANY: bool>(&self, leaf: u32, ray: &Ray, best: &mut Option<Hit>) -> bool {
+    fn test_leaf<const ANY: bool>(&self, leaf: u32, ray: &Ray, shear: &RayShear, best: &mut Option<Hit>) -> bool {
         let l = &self.leaves[leaf as usize];
         let ids = &self.leaf_triangles[l.first as usize..(l.first + l.count) as usize];
         let tmax = best.map_or(ray.tmax, |b| b.t);
@@ -72,7 +72,7 @@ impl KdTree {
             if tri.ia == ray.skip || tri.ib == ray.skip || tri.ic == ray.skip {
                 continue;
             }
-            if let Some((t, u, v, front)) = intersect(tri, ray.origin, ray.dir, ray.tmin, tmax) {
+            if let Some((t, u, v, front)) = intersect(tri, ray.origin, shear, ray.tmin, tmax) {
                 if closer(t, id, best) {
                     *best = Some(Hit { tri: id, u, v, t, front });
                     if ANY {
@@ -87,6 +87,7 @@ impl KdTree {
     fn walk_ropes<const ANY: bool>(&self, ray: &Ray) -> Option<Hit> {
         let inv = ray.dir.recip();
         let (mut t_enter, t_exit_root) = self.clip_root(ray, inv)?;
+        let shear = RayShear::new(ray.dir);
         let mut best: Option<Hit> = None;
         let mut node = 0u32;
         // Each step moves to a leaf further along the ray; the bound only guards
@@ -99,7 +100,7 @@ impl KdTree {
                 node = if p[a] < n.split || (p[a] == n.split && ray.dir[a] <= 0.0) { n.a } else { n.b };
                 n = self.nodes[node as usize];
             }
-            if self.test_leaf::<ANY>(n.a, ray, &mut best) {
+            if self.test_leaf::<ANY>(n.a, ray, &shear, &mut best) {
                 return best;
             }
             let leaf = &self.leaves[n.a as usize];
@@ -150,6 +151,7 @@ impl KdTree {
     pub fn intersect_stack(&self, ray: &Ray) -> Option<Hit> {
         let inv = ray.dir.recip();
         let (t0, t1) = self.clip_root(ray, inv)?;
+        let shear = RayShear::new(ray.dir);
         let mut best: Option<Hit> = None;
         let mut stack: Vec<(u32, f32, f32)> = vec![(0, t0, t1)];
         while let Some((mut node, tmin, mut tmax)) = stack.pop() {
@@ -159,7 +161,7 @@ impl KdTree {
             loop {
                 let n = self.nodes[node as usize];
                 if n.kind == LEAF {
-                    self.test_leaf::<false>(n.a, ray, &mut best);
+                    self.test_leaf::<false>(n.a, ray, &shear, &mut best);
                     break;
                 }
                 let a = n.kind as usize;
@@ -184,11 +186,12 @@ impl KdTree {
 /// Nearest hit by testing every triangle (test oracle).
 pub fn brute_force(kd: &KdTree, ray: &Ray) -> Option<Hit> {
     let mut best: Option<Hit> = None;
+    let shear = RayShear::new(ray.dir);
     for (id, tri) in kd.triangles.iter().enumerate() {
         if tri.ia == ray.skip || tri.ib == ray.skip || tri.ic == ray.skip {
             continue;
         }
-        if let Some((t, u, v, front)) = intersect(tri, ray.origin, ray.dir, ray.tmin, ray.tmax) {
+        if let Some((t, u, v, front)) = intersect(tri, ray.origin, &shear, ray.tmin, ray.tmax) {
             if closer(t, id as u32, &best) {
                 best = Some(Hit { tri: id as u32, u, v, t, front });
             }

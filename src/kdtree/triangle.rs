@@ -1,12 +1,20 @@
-//! Ray-triangle intersection (Möller & Trumbore 1997), two-sided: the hit
-//! records whether the ray met the front (counter-clockwise) face. A back
-//! face blocks the ray and brings no light (DESIGN.md units and conventions).
+//! Watertight ray-triangle intersection (Woop, Benthin & Wald 2013,
+//! "Watertight Ray/Triangle Intersection", JCGT 2(1)): the triangle is
+//! sheared into the ray's frame and the three edge functions are evaluated
+//! on the shared corner coordinates, falling back to f64 when one is exactly
+//! zero. A ray through a shared edge or vertex hits at least one of the
+//! triangles, so closed meshes have no cracks (Möller-Trumbore lets about
+//! one ray in 10^3-10^4 slip through edges of a regular grid).
+//!
+//! Two-sided: the hit records whether the ray met the front
+//! (counter-clockwise) face. A back face blocks the ray and brings no light
+//! (DESIGN.md units and conventions).
 
 use super::KdTriangle;
 use glam::Vec3;
 
 /// Nearest hit of a ray: triangle id, barycentrics of corners 1 and 2
-/// (`a = 1 - u - v` for corner 0), distance `t` in metres along a unit
+/// (`1 - u - v` for corner 0), distance `t` in metres along a unit
 /// direction, and which face was met.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Hit {
@@ -25,31 +33,122 @@ impl Hit {
     }
 }
 
-/// Intersects a ray with `tri`; returns `(t, u, v, front)` for `t` in `[tmin, tmax]`.
+/// Per-ray constants of the watertight test: the permuted axes and shear.
+#[derive(Clone, Copy, Debug)]
+pub struct RayShear {
+    kx: usize,
+    ky: usize,
+    kz: usize,
+    sx: f32,
+    sy: f32,
+    sz: f32,
+}
+
+impl RayShear {
+    #[inline]
+    pub fn new(d: Vec3) -> RayShear {
+        let kz = d.abs().max_position();
+        let mut kx = (kz + 1) % 3;
+        let mut ky = (kx + 1) % 3;
+        if d[kz] < 0.0 {
+            std::mem::swap(&mut kx, &mut ky);
+        }
+        RayShear { kx, ky, kz, sx: d[kx] / d[kz], sy: d[ky] / d[kz], sz: 1.0 / d[kz] }
+    }
+}
+
+/// Intersects a ray (origin `o`, shear of its direction) with `tri`;
+/// returns `(t, u, v, front)` for `t` in `[tmin, tmax]`.
 #[inline(always)]
-pub fn intersect(tri: &KdTriangle, o: Vec3, d: Vec3, tmin: f32, tmax: f32) -> Option<(f32, f32, f32, bool)> {
-    let e1 = Vec3::from(tri.e1);
-    let e2 = Vec3::from(tri.e2);
-    let pvec = d.cross(e2);
-    let det = e1.dot(pvec);
+pub fn intersect(tri: &KdTriangle, o: Vec3, s: &RayShear, tmin: f32, tmax: f32) -> Option<(f32, f32, f32, bool)> {
+    let a = Vec3::from(tri.v0) - o;
+    let b = Vec3::from(tri.v1) - o;
+    let c = Vec3::from(tri.v2) - o;
+    let (ax, ay) = (a[s.kx] - s.sx * a[s.kz], a[s.ky] - s.sy * a[s.kz]);
+    let (bx, by) = (b[s.kx] - s.sx * b[s.kz], b[s.ky] - s.sy * b[s.kz]);
+    let (cx, cy) = (c[s.kx] - s.sx * c[s.kz], c[s.ky] - s.sy * c[s.kz]);
+    let mut u = cx * by - cy * bx;
+    let mut v = ax * cy - ay * cx;
+    let mut w = bx * ay - by * ax;
+    if u == 0.0 || v == 0.0 || w == 0.0 {
+        let (ax, ay, bx, by, cx, cy) = (ax as f64, ay as f64, bx as f64, by as f64, cx as f64, cy as f64);
+        u = (cx * by - cy * bx) as f32;
+        v = (ax * cy - ay * cx) as f32;
+        w = (bx * ay - by * ax) as f32;
+    }
+    if (u < 0.0 || v < 0.0 || w < 0.0) && (u > 0.0 || v > 0.0 || w > 0.0) {
+        return None;
+    }
+    let det = u + v + w;
     if det == 0.0 {
         return None;
     }
+    let t_scaled = s.sz * (u * a[s.kz] + v * b[s.kz] + w * c[s.kz]);
     let inv = 1.0 / det;
-    let tvec = o - Vec3::from(tri.v0);
-    let u = tvec.dot(pvec) * inv;
-    if !(0.0..=1.0).contains(&u) {
+    let t = t_scaled * inv;
+    if !(t >= tmin && t <= tmax) {
         return None;
     }
-    let qvec = tvec.cross(e1);
-    let v = d.dot(qvec) * inv;
-    if v < 0.0 || u + v > 1.0 {
-        return None;
+    // det > 0: the corners run counter-clockwise as seen along the ray, i.e.
+    // the ray meets the front face.
+    Some((t, v * inv, w * inv, det > 0.0))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::{Rng, SeedableRng};
+
+    fn tri(a: Vec3, b: Vec3, c: Vec3) -> KdTriangle {
+        KdTriangle { v0: a.into(), v1: b.into(), v2: c.into(), ..Default::default() }
     }
-    let t = e2.dot(qvec) * inv;
-    if t < tmin || t > tmax {
-        return None;
+
+    #[test]
+    fn hit_matches_geometry_and_facing() {
+        let mut rng = rand_pcg::Pcg32::seed_from_u64(3);
+        let mut r = || Vec3::new(rng.random_range(-1.0..1.0), rng.random_range(-1.0..1.0), rng.random_range(-1.0..1.0));
+        let mut hits = 0;
+        for _ in 0..20000 {
+            let (a, b, c, o) = (r(), r(), r(), r() * 3.0);
+            let target = r();
+            let d = (target - o).normalize();
+            let t = tri(a, b, c);
+            if let Some((tt, u, v, front)) = intersect(&t, o, &RayShear::new(d), 0.0, f32::INFINITY) {
+                hits += 1;
+                let p = a * (1.0 - u - v) + b * u + c * v;
+                assert!((o + d * tt - p).length() < 1e-4, "hit point mismatch");
+                let n = (b - a).cross(c - a);
+                assert_eq!(front, d.dot(n) < 0.0);
+                assert!(u >= 0.0 && v >= 0.0 && u + v <= 1.0 + 1e-6);
+            }
+        }
+        assert!(hits > 1000);
     }
-    // det = -d . (e1 x e2): positive when the ray meets the front face.
-    Some((t, u, v, det > 0.0))
+
+    #[test]
+    fn shared_edges_are_watertight() {
+        // A fan of thin triangles around a vertex; rays aimed exactly at the
+        // shared edges and at the centre vertex must hit something.
+        let centre = Vec3::new(0.1, 0.2, 0.0);
+        let n = 37;
+        let ring: Vec<Vec3> = (0..n)
+            .map(|i| {
+                let a = i as f32 / n as f32 * std::f32::consts::TAU;
+                centre + Vec3::new(a.cos(), a.sin(), 0.0) * 0.7
+            })
+            .collect();
+        let tris: Vec<KdTriangle> = (0..n).map(|i| tri(centre, ring[i], ring[(i + 1) % n])).collect();
+        let o = Vec3::new(0.05, -0.1, 2.0);
+        for i in 0..n {
+            for f in [0.0f32, 0.13, 0.5, 0.77, 0.999] {
+                let p = centre + (ring[i] - centre) * f;
+                let d = (p - o).normalize();
+                let s = RayShear::new(d);
+                assert!(
+                    tris.iter().any(|t| intersect(t, o, &s, 0.0, f32::INFINITY).is_some()),
+                    "ray at {p} slipped through"
+                );
+            }
+        }
+    }
 }

@@ -86,7 +86,7 @@ impl KdTree {
         let mut leaves = Vec::new();
         for (id, tri) in self.triangles.iter().enumerate() {
             let v0 = Vec3::from(tri.v0);
-            let (e1, e2) = (Vec3::from(tri.e1), Vec3::from(tri.e2));
+            let (e1, e2) = (Vec3::from(tri.v1) - v0, Vec3::from(tri.v2) - v0);
             // The centroid and points near each corner.
             for (u, v) in [(1.0 / 3.0, 1.0 / 3.0), (0.02, 0.02), (0.96, 0.02), (0.02, 0.96)] {
                 let p = v0 + e1 * u + e2 * v;

@@ -1,0 +1,141 @@
+//! Direct light through light links: `E_d = I cos / r^2` exactly where the
+//! whole one-ring sees the light, 0 where it is fully blocked; directional
+//! lights give `E cos`.
+
+mod common;
+
+use glam::Vec3;
+use linkgi::exchange::{LightLinkParams, LightLinks};
+use linkgi::kdtree::{KdBuildParams, KdTree};
+use linkgi::scene::shapes::MeshBuilder;
+use linkgi::scene::{prep, Camera, Light, SceneDesc, Settings};
+
+/// A 2x2 m floor at y = 0 (20x20 grid), optionally a 0.6 m square occluder
+/// facing down at y = 0.5 over the centre.
+fn floor_scene(occluder: bool, lights: Vec<Light>) -> prep::PreparedScene {
+    let mut meshes = Vec::new();
+    let mut b = MeshBuilder::new();
+    let m = b.add_material("floor", Vec3::splat(0.5));
+    b.quad_grid(Vec3::new(-1.0, 0.0, 1.0), Vec3::new(2.0, 0.0, 0.0), Vec3::new(0.0, 0.0, -2.0), 20, 20, m);
+    meshes.push(b.finish("floor", 30.0));
+    if occluder {
+        let mut b = MeshBuilder::new();
+        let m = b.add_material("occluder", Vec3::splat(0.5));
+        b.quad_grid(Vec3::new(-0.3, 0.5, -0.3), Vec3::new(0.6, 0.0, 0.0), Vec3::new(0.0, 0.0, 0.6), 3, 3, m);
+        meshes.push(b.finish("occluder", 30.0));
+    }
+    let desc = SceneDesc {
+        name: "floor".into(),
+        settings: Settings::default(),
+        camera: Camera::default(),
+        meshes,
+        lights,
+        warnings: vec![],
+    };
+    let s = prep::prepare(&desc).unwrap();
+    assert!(s.normals[..441].iter().all(|n| (*n - Vec3::Y).length() < 1e-6), "floor faces up");
+    s
+}
+
+fn direct(scene: &prep::PreparedScene) -> Vec<Vec3> {
+    let kd = KdTree::build(&scene.positions, &scene.triangles, &KdBuildParams::default());
+    kd.validate().unwrap();
+    let ll = LightLinks::compute(scene, &kd, &LightLinkParams::default());
+    ll.direct(&scene.lights, scene.vertex_count())
+}
+
+#[test]
+fn point_light_unblocked_is_exact() {
+    let (lp, i) = (Vec3::new(0.2, 1.5, -0.1), Vec3::new(3.0, 2.0, 1.0));
+    let scene = floor_scene(false, vec![Light::Point { position: lp, intensity: i }]);
+    let e = direct(&scene);
+    for v in 0..scene.vertex_count() {
+        let d = lp - scene.positions[v];
+        let expect = i * (d.y / d.length()) / d.length_squared();
+        assert!((e[v] - expect).abs().max_element() <= 1e-6 * expect.max_element(), "{v}: {} vs {expect}", e[v]);
+    }
+}
+
+#[test]
+fn point_light_shadow_is_zero_in_umbra_and_exact_outside() {
+    let lp = Vec3::new(0.0, 1.5, 0.0);
+    let i = Vec3::splat(5.0);
+    let scene = floor_scene(true, vec![Light::Point { position: lp, intensity: i }]);
+    let e = direct(&scene);
+    let (mut umbra, mut lit) = (0, 0);
+    for v in 0..441 {
+        let p = scene.positions[v];
+        // The occluder's shadow on the floor spans |x|,|z| < 0.3 * 1.5 / 1.0 = 0.45.
+        let d = lp - p;
+        let expect = i * (d.y / d.length()) / d.length_squared();
+        if p.x.abs().max(p.z.abs()) < 0.35 {
+            assert_eq!(e[v], Vec3::ZERO, "vertex at {p} should be in the umbra");
+            umbra += 1;
+        } else if p.x.abs().max(p.z.abs()) > 0.55 {
+            assert!((e[v] - expect).abs().max_element() <= 1e-6 * expect.max_element(), "{p}: {} vs {expect}", e[v]);
+            lit += 1;
+        } else {
+            // Penumbra vertices of the one-ring oversampling: between 0 and the full value.
+            assert!(e[v].x >= 0.0 && e[v].x <= expect.x * (1.0 + 1e-6));
+        }
+    }
+    assert!(umbra > 20 && lit > 200, "{umbra} umbra, {lit} lit vertices");
+}
+
+#[test]
+fn penumbra_is_partial_with_oversampling() {
+    // A vertex exactly under the shadow edge sees part of its one-ring.
+    let lp = Vec3::new(0.0, 1.5, 0.0);
+    let scene = floor_scene(true, vec![Light::Point { position: lp, intensity: Vec3::ONE }]);
+    let e = direct(&scene);
+    let partial = (0..441)
+        .filter(|&v| {
+            let d = lp - scene.positions[v];
+            let full = (d.y / d.length()) / d.length_squared();
+            e[v].x > 0.01 * full && e[v].x < 0.99 * full
+        })
+        .count();
+    assert!(partial >= 8, "only {partial} penumbra vertices");
+}
+
+#[test]
+fn directional_light_is_irradiance_times_cosine() {
+    let dir = Vec3::new(0.3, -1.0, 0.2).normalize();
+    let irr = Vec3::new(2.0, 1.0, 0.5);
+    let scene = floor_scene(true, vec![Light::Directional { direction: dir, irradiance: irr }]);
+    let e = direct(&scene);
+    let expect = irr * (-dir).dot(Vec3::Y);
+    let mut shadowed = 0;
+    for v in 0..441 {
+        let p = scene.positions[v];
+        // Where the occluder's shadow falls: p + t*(-dir) crosses y = 0.5 inside the square.
+        let q = p + (-dir) * (0.5 / (-dir).y);
+        let inside = q.x.abs() < 0.3 && q.z.abs() < 0.3;
+        let clear = q.x.abs() > 0.45 || q.z.abs() > 0.45;
+        if clear {
+            assert!((e[v] - expect).abs().max_element() <= 1e-6 * expect.max_element(), "{p}: {}", e[v]);
+        } else if inside && q.x.abs() < 0.15 && q.z.abs() < 0.15 {
+            assert_eq!(e[v], Vec3::ZERO, "{p} should be shadowed");
+            shadowed += 1;
+        }
+    }
+    assert!(shadowed > 5);
+}
+
+#[test]
+fn light_on_a_vertex_and_behind_surfaces_stay_finite() {
+    let scene = floor_scene(false, vec![]);
+    let on_vertex = scene.positions[220];
+    let scene = floor_scene(
+        false,
+        vec![
+            Light::Point { position: on_vertex, intensity: Vec3::splat(1.0) },
+            Light::Point { position: Vec3::new(0.0, -1.0, 0.0), intensity: Vec3::splat(100.0) },
+        ],
+    );
+    let e = direct(&scene);
+    assert!(e.iter().all(|x| x.is_finite() && x.min_element() >= 0.0));
+    // The light below the floor lights nothing (back side); the one on the floor
+    // plane has cos = 0 everywhere.
+    assert!(e.iter().all(|x| *x == Vec3::ZERO), "{:?}", e.iter().find(|x| **x != Vec3::ZERO));
+}
