@@ -9,11 +9,18 @@
 //! Primitives do not share vertices with each other; where two pieces of one
 //! primitive meet (the faces of a cuboid, the caps of a cylinder) their shared
 //! positions are bit-identical, so the exact-position weld of mesh
-//! preparation joins them. Pieces of different primitives in one mesh should
-//! overlap (interpenetrate) rather than touch, so that no weld joins them by
-//! accident. No primitive produces zero-area triangles: poles are single
-//! vertices with triangle fans, and [`MeshBuilder::add_triangle`] drops any
-//! degenerate triangle that a caller's parametric function would create.
+//! preparation joins them. Pieces of different primitives in one mesh must
+//! not share positions, so that no weld joins them by accident: they may
+//! overlap, or one may end on the face of another (a leg ending at the
+//! underside of a table top), as long as no vertex of one coincides with a
+//! vertex of the other. Faces that would lie hidden against another surface
+//! (the bottom of a box standing on the floor, the top of a table leg) are
+//! left out rather than buried: [`MeshBuilder::cuboid_open`] takes an optional material per face
+//! and [`MeshBuilder::cylinder_caps`] a flag per cap; the surface is then
+//! open there, still consistently wound. No primitive produces zero-area
+//! triangles: poles are single vertices with triangle fans, and
+//! [`MeshBuilder::add_triangle`] drops any degenerate triangle that a
+//! caller's parametric function would create.
 
 use super::{Material, MeshDesc, Transform};
 use glam::{Vec2, Vec3};
@@ -200,15 +207,23 @@ impl MeshBuilder {
     /// same `min` and `max`, so edges and corners shared by two faces have
     /// bit-identical positions.
     pub fn cuboid_faces(&mut self, min: Vec3, max: Vec3, res: [u32; 3], mats: [u32; 6], inward: bool) {
+        self.cuboid_open(min, max, res, mats.map(Some), inward);
+    }
+
+    /// [`MeshBuilder::cuboid_faces`] with face f left out where `mats[f]` is
+    /// `None` (faces ordered -x, +x, -y, +y, -z, +z), e.g. the hidden bottom
+    /// of a box resting on the floor. The box is then open there: the edges
+    /// around a missing face are borders, each used by one triangle.
+    pub fn cuboid_open(&mut self, min: Vec3, max: Vec3, res: [u32; 3], mats: [Option<u32>; 6], inward: bool) {
         let res = res.map(|n| n.max(1));
         let (lo, hi) = (min.to_array(), max.to_array());
         for a in 0..3 {
             let (b, c) = ((a + 1) % 3, (a + 2) % 3);
             for side in 0..2 {
+                let Some(mat) = mats[2 * a + side] else { continue };
                 let fixed = if side == 0 { lo[a] } else { hi[a] };
                 // e_b x e_c = e_a: the grid's natural front faces +a.
                 let flip = (side == 0) != inward;
-                let mat = mats[2 * a + side];
                 let base = self.positions.len() as u32;
                 for j in 0..=res[c] {
                     for i in 0..=res[b] {
@@ -316,6 +331,21 @@ impl MeshBuilder {
     /// `r == 0.0` is a pole (one vertex, a triangle fan). With `closed_loop`
     /// the last point joins the first. `segments` vertices per ring.
     pub fn revolve(&mut self, center: Vec3, profile: &[Vec2], segments: u32, mat: u32, closed_loop: bool) {
+        self.revolve_with(center, profile, segments, |_| mat, closed_loop);
+    }
+
+    /// [`MeshBuilder::revolve`] with material `mat(k)` on the band between
+    /// profile points `k` and `k + 1` (the last band of a closed loop is
+    /// `k = profile.len() - 1`), so one seamless surface can carry several
+    /// materials (a cup on its saucer).
+    pub fn revolve_with(
+        &mut self,
+        center: Vec3,
+        profile: &[Vec2],
+        segments: u32,
+        mat: impl Fn(usize) -> u32,
+        closed_loop: bool,
+    ) {
         let segments = segments.max(3);
         let trig: Vec<(f32, f32)> = (0..segments)
             .map(|j| {
@@ -344,10 +374,11 @@ impl MeshBuilder {
         let spans = if closed_loop { n } else { n.saturating_sub(1) };
         for k in 0..spans {
             let (r0, r1) = (rings[k], rings[(k + 1) % n]);
+            let m = mat(k);
             for j in 0..segments {
                 let (a, b, c, d) = (at(r0, j), at(r0, j + 1), at(r1, j + 1), at(r1, j));
-                self.add_triangle(a, d, c, mat);
-                self.add_triangle(a, c, b, mat);
+                self.add_triangle(a, d, c, m);
+                self.add_triangle(a, c, b, m);
             }
         }
     }
@@ -366,10 +397,28 @@ impl MeshBuilder {
         mat: u32,
         caps: bool,
     ) {
+        self.cylinder_caps(base_center, radius, height, segments, rings, mat, caps, caps);
+    }
+
+    /// [`MeshBuilder::cylinder`] with the bottom disc (at `base_center`) and
+    /// the top disc each present or left out on their own, e.g. no bottom
+    /// for a post standing on the floor.
+    #[allow(clippy::too_many_arguments)]
+    pub fn cylinder_caps(
+        &mut self,
+        base_center: Vec3,
+        radius: f32,
+        height: f32,
+        segments: u32,
+        rings: u32,
+        mat: u32,
+        bottom: bool,
+        top: bool,
+    ) {
         let rings = rings.max(1);
         let cap_rings = ((segments as f32 / TAU).round() as u32).max(1);
         let mut profile = Vec::new();
-        if caps {
+        if bottom {
             for k in 0..cap_rings {
                 profile.push(Vec2::new(lerp_step(0.0, radius, k, cap_rings), 0.0));
             }
@@ -377,7 +426,7 @@ impl MeshBuilder {
         for k in 0..=rings {
             profile.push(Vec2::new(radius, lerp_step(0.0, height, k, rings)));
         }
-        if caps {
+        if top {
             for k in (0..cap_rings).rev() {
                 profile.push(Vec2::new(lerp_step(0.0, radius, k, cap_rings), height));
             }
