@@ -1,1 +1,38 @@
-fn main() {}
+//! Criterion benchmarks of the CPU stages on built-in scenes: kd-tree build,
+//! ray shooting (link generation, reported as rays/s), one gather bounce
+//! (reported as links/s; multiply by 6 bytes + 12 bytes of gathered RGB for
+//! an upper bound on memory traffic).
+//!
+//! Run: `cargo bench --bench solver` (all), or with a filter, e.g.
+//! `cargo bench --bench solver -- conference`.
+
+use criterion::{criterion_group, criterion_main, Criterion, Throughput};
+use linkgi::exchange::gather::gather_bounce;
+use linkgi::kdtree::{KdBuildParams, KdTree};
+use linkgi::links::{shoot_links, LinkParams};
+use linkgi::scene::{builtin, prep};
+use std::time::Duration;
+
+fn stages(c: &mut Criterion) {
+    for name in ["tearoom", "conference"] {
+        let scene = prep::prepare(&builtin::builtin(name).unwrap()).unwrap();
+        let mut g = c.benchmark_group(name);
+        g.sample_size(10).measurement_time(Duration::from_secs(20)).warm_up_time(Duration::from_secs(2));
+        g.bench_function("kd_build", |b| {
+            b.iter(|| KdTree::build(&scene.positions, &scene.triangles, &KdBuildParams::default()))
+        });
+        let kd = KdTree::build(&scene.positions, &scene.triangles, &KdBuildParams::default());
+        let params = LinkParams::default();
+        g.throughput(Throughput::Elements(scene.vertex_count() as u64 * params.rays_per_vertex as u64));
+        g.bench_function("shoot_256_rays_per_vertex", |b| b.iter(|| shoot_links(&scene, &kd, &params, &|_, _| {})));
+        let links = shoot_links(&scene, &kd, &params, &|_, _| {});
+        let b0 = vec![glam::Vec3::splat(0.1); scene.vertex_count()];
+        let mut out = vec![glam::Vec3::ZERO; scene.vertex_count()];
+        g.throughput(Throughput::Elements(links.targets.len() as u64));
+        g.bench_function("gather_bounce", |b| b.iter(|| gather_bounce(&links, &b0, &mut out)));
+        g.finish();
+    }
+}
+
+criterion_group!(benches, stages);
+criterion_main!(benches);

@@ -3,9 +3,17 @@
 //! Units are metres, y up. Every room is a closed box whose faces point
 //! inward, so no ray leaves the scene; cameras stand inside the rooms; all
 //! albedos are below 0.9. Furniture and figures are separate meshes from the
-//! room, and pieces of one mesh overlap rather than touch, so the
-//! exact-position weld of mesh preparation never joins unrelated surfaces.
-//! Vertex counts below are unique positions (after welding exact positions).
+//! room. No face lies hidden against, or buried in, another surface (as in
+//! the original Cornell box data): what stands on the floor, a table top or
+//! a seat stands exactly on it and has no bottom face there; legs run from
+//! the floor to the underside of their top, open at both ends; ends that
+//! reach inside another part (the figure's legs and neck, the spout) have
+//! no cap. Such meshes are open there but consistently wound. Pieces of one
+//! mesh never share a position, so the exact-position weld of mesh
+//! preparation never joins unrelated surfaces; where they interpenetrate
+//! (handles, spout, limbs) the buried ends lie strictly inside the other
+//! piece. Vertex counts below are unique positions (after welding exact
+//! positions).
 //!
 //! - `cornell`: the Cornell box as a closed 2 m room (x, z in [-1, 1], y in
 //!   [0, 2]), red wall at x = -1, green wall at x = +1, white elsewhere; a
@@ -15,16 +23,18 @@
 //!   1.0)`: the inside of a closed unit icosphere (2562 vertices) of grey
 //!   albedo 0.5 lit by one point light.
 //! - `colorlamp`: a 4 x 2.5 x 4 m room with a pale blue wall and a floor
-//!   lamp: base disc, thin stand, and an orange conical shade with inner and
+//!   lamp: base disc and thin stand (one surface of revolution), a low
+//!   cabinet, and an orange conical shade with inner and
 //!   outer surfaces (a thin closed shell, open at top and bottom) around a
 //!   point light, so the room is lit mostly by light bounced off the shade.
 //!   About 1600 vertices (the paper's COLORLAMP).
 //! - `torso`: a figure (superellipsoid body, sphere head, neck, cylinder arms
-//!   and legs, separate closed pieces in one *dynamic* mesh) standing in a
+//!   and legs, separate pieces in one *dynamic* mesh) standing in a
 //!   4 x 2.8 x 4 m room, two point lights. About 7100 vertices (TORSO).
 //! - `tearoom`: a warm-coloured 5 x 2.6 x 5 m room with a table (top and four
-//!   legs) carrying a teapot (squashed sphere, torus handle, spout, knob),
-//!   cups with handles on saucers, and bowls; two point lights. About 11900
+//!   legs) carrying a teapot (squashed sphere cut flat at its foot, with its
+//!   knob, a torus handle and a spout), cups with handles on saucers, and
+//!   bowls, all standing exactly on the table top; two point lights. About 11900
 //!   vertices (TEAROOM).
 //! - `sculpture`: a large (2, 3) torus-knot tube floating in a 5 x 3 x 5 m
 //!   room, two point lights. About 76500 vertices (the paper's IPHI
@@ -39,7 +49,7 @@
 use super::shapes::{divisions, MeshBuilder};
 use super::{Camera, Light, MeshDesc, SceneDesc, Settings};
 use glam::{Vec2, Vec3};
-use std::f32::consts::{PI, TAU};
+use std::f32::consts::{FRAC_PI_2, PI, TAU};
 
 /// Names accepted by [`builtin`].
 pub const NAMES: &[&str] = &["cornell", "furnace", "colorlamp", "torso", "tearoom", "sculpture", "conference"];
@@ -88,6 +98,49 @@ fn turn_z(rad: f32, offset: Vec3) -> impl Fn(Vec3) -> Vec3 {
 fn stand_up(deg: f32, offset: Vec3) -> impl Fn(Vec3) -> Vec3 {
     let turn = turn_y(deg, offset);
     move |p: Vec3| turn(Vec3::new(p.x, -p.z, p.y))
+}
+
+/// Face materials (ordered -x, +x, -y, +y, -z, +z) of a box standing on
+/// the floor or a table: `mat` everywhere but the hidden bottom (-y), which
+/// is left out.
+fn standing(mat: u32) -> [Option<u32>; 6] {
+    [Some(mat), Some(mat), None, Some(mat), Some(mat), Some(mat)]
+}
+
+/// Face materials of a post from the floor to the underside of a top (a
+/// table or chair leg): the four sides only, open at both ends.
+fn post(mat: u32) -> [Option<u32>; 6] {
+    [Some(mat), Some(mat), None, None, Some(mat), Some(mat)]
+}
+
+/// Points `(r0 + rr sin a, y0 - ry cos a)` for `a` in `n` equal steps from
+/// `a0` to `a1` (a = 0 is the bottom of the ellipse, a = pi its top):
+/// an elliptic arc of a revolution profile, walked upward.
+fn arc(r0: f32, y0: f32, rr: f32, ry: f32, a0: f32, a1: f32, n: u32) -> Vec<Vec2> {
+    (0..=n)
+        .map(|k| {
+            let a = a0 + (a1 - a0) * (k as f32 / n as f32);
+            Vec2::new(r0 + rr * a.sin(), y0 - ry * a.cos())
+        })
+        .collect()
+}
+
+/// A horizontal slab that other parts stand on or end at (a table top, a
+/// seat): heights of its underside and top, and its footprint in x and z.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Slab {
+    bottom: f32,
+    top: f32,
+    min_xz: Vec2,
+    max_xz: Vec2,
+}
+
+impl Slab {
+    /// A slab centred on `at` (x, z) with half extents `half` (x, z).
+    fn centred(at: Vec3, half: Vec2, bottom: f32, top: f32) -> Slab {
+        let c = Vec2::new(at.x, at.z);
+        Slab { bottom, top, min_xz: c - half, max_xz: c + half }
+    }
 }
 
 /// A closed room with inward faces and materials ordered -x, +x, -y
@@ -145,11 +198,11 @@ fn cornell() -> SceneDesc {
     let w = b.add_material("white", Vec3::splat(0.73));
     // Short box, front right, turned -17 degrees.
     let first = b.positions.len();
-    b.cuboid(Vec3::new(-0.3, 0.0, -0.3), Vec3::new(0.3, 0.6, 0.3), 6, w, false);
+    b.cuboid_open(Vec3::new(-0.3, 0.0, -0.3), Vec3::new(0.3, 0.6, 0.3), [6; 3], standing(w), false);
     b.transform_from(first, turn_y(-17.0, Vec3::new(0.35, 0.0, 0.25)));
     // Tall box, back left, turned 17 degrees.
     let first = b.positions.len();
-    b.cuboid_faces(Vec3::new(-0.3, 0.0, -0.3), Vec3::new(0.3, 1.2, 0.3), [6, 12, 6], [w; 6], false);
+    b.cuboid_open(Vec3::new(-0.3, 0.0, -0.3), Vec3::new(0.3, 1.2, 0.3), [6, 12, 6], standing(w), false);
     b.transform_from(first, turn_y(17.0, Vec3::new(-0.35, 0.0, -0.35)));
 
     scene(
@@ -205,14 +258,25 @@ fn colorlamp() -> SceneDesc {
     let mut l = MeshBuilder::new();
     let metal = l.add_material("metal", Vec3::new(0.3, 0.3, 0.32));
     let orange = l.add_material("shade", Vec3::new(0.8, 0.45, 0.1));
-    l.cylinder(lamp_at, 0.18, 0.03, 24, 1, metal, true);
-    l.cylinder(lamp_at + Vec3::new(0.0, 0.02, 0.0), 0.015, 1.36, 10, 14, metal, true);
+    // Base disc and stand as one surface of revolution, open at the bottom
+    // where the base stands on the floor.
+    let mut profile = vec![
+        Vec2::new(0.18, 0.0),
+        Vec2::new(0.18, 0.03),
+        Vec2::new(0.135, 0.03),
+        Vec2::new(0.09, 0.03),
+        Vec2::new(0.045, 0.03),
+    ];
+    profile.extend((0..=14).map(|k| Vec2::new(0.015, if k == 14 { 1.38 } else { 0.03 + 1.35 * k as f32 / 14.0 })));
+    profile.push(Vec2::new(0.0, 1.38));
+    l.revolve(lamp_at, &profile, 16, metal, false);
     shade(&mut l, lamp_at + Vec3::new(0.0, 1.32, 0.0), 0.26, 0.15, 0.3, 0.006, 36, 5, orange);
 
     // A low cabinet against the far wall catches the lamp's light.
     let mut f = MeshBuilder::new();
     let wood = f.add_material("wood", Vec3::new(0.5, 0.32, 0.18));
-    f.cuboid_spaced(Vec3::new(0.2, 0.0, -1.95), Vec3::new(1.4, 0.6, -1.5), 0.15, wood, false);
+    let (lo, hi) = (Vec3::new(0.2, 0.0, -1.95), Vec3::new(1.4, 0.6, -1.5));
+    f.cuboid_open(lo, hi, divisions(hi - lo, 0.15), standing(wood), false);
 
     scene(
         "colorlamp",
@@ -274,7 +338,8 @@ fn torso() -> SceneDesc {
     );
     // Head and neck.
     b.icosphere(Vec3::new(0.0, 1.70, 0.0), 0.11, 3, skin, false);
-    b.cylinder(Vec3::new(0.0, 1.50, 0.0), 0.045, 0.14, 16, 6, skin, true);
+    // The neck's ends lie inside the body and the head: no caps.
+    b.cylinder_caps(Vec3::new(0.0, 1.50, 0.0), 0.045, 0.14, 16, 6, skin, false, false);
     // Arms hang from the shoulders, splayed a little.
     for side in [-1.0f32, 1.0] {
         let first = b.positions.len();
@@ -284,9 +349,11 @@ fn torso() -> SceneDesc {
         let hand = turn_z(0.2 * side, Vec3::new(0.2 * side, 1.46, 0.0))(Vec3::new(0.0, -0.7, 0.0));
         b.icosphere(hand, 0.055, 2, skin, false);
     }
-    // Legs from the floor into the hips.
+    // Legs from the floor into the hips, open at both ends: the bottom
+    // stands on the floor, the top lies inside the body (about 3 mm clear of
+    // its surface).
     for side in [-1.0f32, 1.0] {
-        b.cylinder(Vec3::new(0.085 * side, 0.0, 0.0), 0.07, 1.0, 24, 20, trousers, true);
+        b.cylinder_caps(Vec3::new(0.085 * side, 0.0, 0.0), 0.07, 1.1, 24, 22, trousers, false, false);
     }
     let mut figure = b.finish("torso/figure", 60.0);
     figure.dynamic = true;
@@ -302,20 +369,51 @@ fn torso() -> SceneDesc {
     )
 }
 
-/// A closed cup standing on `base`: outer wall and bottom, a rim ring, the
-/// inner wall and inner bottom; `rings` bands on each wall.
+/// A cup on its saucer, one surface of revolution standing on `base` (open
+/// at the bottom, where the saucer rests on the table): the saucer's rim and
+/// top, then the cup's outer wall, rim ring, inner wall and inner bottom;
+/// `rings` bands on each wall. The saucer carries `saucer_mat`, the cup `mat`.
 #[allow(clippy::too_many_arguments)]
-fn cup(b: &mut MeshBuilder, base: Vec3, radius: f32, height: f32, thickness: f32, segments: u32, rings: u32, mat: u32) {
+fn cup_on_saucer(
+    b: &mut MeshBuilder,
+    base: Vec3,
+    saucer: (f32, f32),
+    radius: f32,
+    height: f32,
+    thickness: f32,
+    segments: u32,
+    rings: u32,
+    saucer_mat: u32,
+    mat: u32,
+) {
+    let (sr, sh) = saucer;
     let inner = radius - thickness;
-    let mut p = vec![Vec2::new(0.0, 0.0), Vec2::new(radius * 0.5, 0.0)];
+    let mut p = vec![Vec2::new(sr, 0.0), Vec2::new(sr, sh), Vec2::new((sr + radius) * 0.5, sh)];
+    let saucer_bands = p.len();
     for k in 0..=rings {
-        p.push(Vec2::new(radius, height * k as f32 / rings as f32));
+        p.push(Vec2::new(radius, sh + height * k as f32 / rings as f32));
     }
     for k in (0..=rings).rev() {
-        p.push(Vec2::new(inner, thickness + (height - thickness) * k as f32 / rings as f32));
+        p.push(Vec2::new(inner, sh + thickness + (height - thickness) * k as f32 / rings as f32));
     }
-    p.push(Vec2::new(inner * 0.5, thickness));
-    p.push(Vec2::new(0.0, thickness));
+    p.push(Vec2::new(inner * 0.5, sh + thickness));
+    p.push(Vec2::new(0.0, sh + thickness));
+    b.revolve_with(base, &p, segments, |k| if k < saucer_bands { saucer_mat } else { mat }, false);
+}
+
+/// A bowl standing on `base`: a hemispherical shell of outer `radius` and
+/// `thickness` whose outer surface is cut flat 3 mm above its lowest point,
+/// where it rests (open there); the rim is `radius - 0.003` above `base`.
+/// `rings` bands per wall.
+fn bowl_on(b: &mut MeshBuilder, base: Vec3, radius: f32, thickness: f32, segments: u32, rings: u32, mat: u32) {
+    let rim = radius - 0.003;
+    let inner = radius - thickness;
+    let a0 = (rim / radius).acos();
+    let mut p = arc(0.0, rim, radius, radius, a0, FRAC_PI_2, rings);
+    p[0].y = 0.0;
+    let mut inside = arc(0.0, rim, inner, inner, FRAC_PI_2, 0.0, rings);
+    *inside.last_mut().unwrap() = Vec2::new(0.0, rim - inner);
+    p.extend(inside);
     b.revolve(base, &p, segments, mat, false);
 }
 
@@ -326,6 +424,11 @@ fn handle(b: &mut MeshBuilder, center: Vec3, deg: f32, major: f32, minor: f32, n
     let first = b.positions.len();
     b.torus(Vec3::ZERO, major, minor, nu, nv, mat);
     b.transform_from(first, stand_up(deg, center));
+}
+
+/// The tearoom's table top: 1.4 x 0.9 m, 4 cm thick, top at 0.75 m.
+fn tearoom_table() -> Slab {
+    Slab::centred(Vec3::ZERO, Vec2::new(0.7, 0.45), 0.71, 0.75)
 }
 
 fn tearoom() -> SceneDesc {
@@ -342,49 +445,67 @@ fn tearoom() -> SceneDesc {
         [wall, wall, floor, ceiling, accent, wall],
     );
 
-    // Table: top 1.4 x 0.9 m at 0.75 m, legs reaching 1 cm into the top.
+    // Table: the top, and four legs from the floor to its underside, open
+    // at both ends. Leg corners stay off the top's 5 cm grid, so no leg
+    // vertex coincides with one of the top.
     let mut t = MeshBuilder::new();
     let wood = t.add_material("table", Vec3::new(0.5, 0.3, 0.15));
-    let top_y = 0.75f32;
-    t.cuboid_spaced(Vec3::new(-0.7, top_y - 0.04, -0.45), Vec3::new(0.7, top_y, 0.45), 0.05, wood, false);
-    for (x, z) in [(-0.62f32, -0.37f32), (0.62, -0.37), (-0.62, 0.37), (0.62, 0.37)] {
-        t.cuboid_faces(
+    let slab = tearoom_table();
+    let top_y = slab.top;
+    t.cuboid_spaced(
+        Vec3::new(slab.min_xz.x, slab.bottom, slab.min_xz.y),
+        Vec3::new(slab.max_xz.x, slab.top, slab.max_xz.y),
+        0.05,
+        wood,
+        false,
+    );
+    for (x, z) in [(-0.615f32, -0.365f32), (0.615, -0.365), (-0.615, 0.365), (0.615, 0.365)] {
+        t.cuboid_open(
             Vec3::new(x - 0.03, 0.0, z - 0.03),
-            Vec3::new(x + 0.03, top_y - 0.03, z + 0.03),
+            Vec3::new(x + 0.03, slab.bottom, z + 0.03),
             [2, 12, 2],
-            [wood; 6],
+            post(wood),
             false,
         );
     }
 
+    // Everything on the table stands exactly on its top (y = top_y) and is
+    // open at the bottom there.
     let mut w = MeshBuilder::new();
     let china = w.add_material("china", Vec3::new(0.82, 0.78, 0.7));
     let glaze = w.add_material("glaze", Vec3::new(0.7, 0.35, 0.15));
     let green = w.add_material("green glaze", Vec3::new(0.35, 0.5, 0.3));
-    let sink = 0.003; // objects sit 3 mm into the table top.
-                      // Teapot: squashed sphere, lid knob, handle, spout.
-    let body_c = Vec3::new(0.0, top_y + 0.1 - sink, 0.0);
-    let first = w.positions.len();
-    w.icosphere(Vec3::ZERO, 0.125, 3, glaze, false);
-    w.transform_from(first, |p| Vec3::new(p.x, p.y * 0.8, p.z) + body_c);
-    w.icosphere(body_c + Vec3::new(0.0, 0.105, 0.0), 0.022, 2, glaze, false);
+    // Teapot: a squashed sphere (semi-axes 0.125 and 0.1 m) cut flat where
+    // it stands, with the lid knob on the same surface of revolution; a
+    // handle and a spout reach into it.
+    let (ra, rc, h) = (0.125f32, 0.1f32, 0.092f32);
+    let neck = 0.012f32;
+    let mut profile = arc(0.0, h, ra, rc, (h / rc).acos(), PI - (neck / ra).asin(), 20);
+    profile[0].y = 0.0;
+    let (knob_y, knob_r) = (h + rc + 0.015, 0.018f32);
+    let mut knob = arc(0.0, knob_y, knob_r, knob_r, (neck / knob_r).asin(), PI, 6);
+    *knob.last_mut().unwrap() = Vec2::new(0.0, knob_y + knob_r);
+    profile.extend(knob);
+    w.revolve(Vec3::new(0.0, top_y, 0.0), &profile, 32, glaze, false);
+    let body_c = Vec3::new(0.0, top_y + h, 0.0);
     handle(&mut w, body_c + Vec3::new(-0.13, 0.0, 0.0), 0.0, 0.065, 0.014, 32, 10, glaze);
+    // The spout's base lies inside the body: no cap there.
     let first = w.positions.len();
-    w.cylinder(Vec3::ZERO, 0.018, 0.15, 16, 10, glaze, true);
+    w.cylinder_caps(Vec3::ZERO, 0.018, 0.15, 16, 10, glaze, false, true);
     w.transform_from(first, turn_z(-0.9, body_c + Vec3::new(0.06, -0.02, 0.0)));
-    // Cups with handles on saucers.
+    // Cups on saucers, with handles.
+    let saucer = (0.075f32, 0.008f32);
     for (k, (x, z)) in [(-0.42f32, -0.22f32), (0.42, -0.22), (-0.42, 0.22), (0.42, 0.22)].into_iter().enumerate() {
-        let base = Vec3::new(x, top_y - sink, z);
+        let base = Vec3::new(x, top_y, z);
         let mat = if k % 2 == 0 { china } else { green };
-        w.cylinder(base, 0.075, 0.008 + sink, 32, 1, china, true);
-        cup(&mut w, base + Vec3::new(0.0, 0.006, 0.0), 0.042, 0.08, 0.004, 32, 10, mat);
+        cup_on_saucer(&mut w, base, saucer, 0.042, 0.08, 0.004, 32, 10, china, mat);
         let deg = if x < 0.0 { 180.0 } else { 0.0 };
         // The ring reaches into the cup's wall but not through it.
-        handle(&mut w, base + Vec3::new(0.068 * x.signum(), 0.05, 0.0), deg, 0.022, 0.006, 16, 8, mat);
+        handle(&mut w, base + Vec3::new(0.068 * x.signum(), saucer.1 + 0.044, 0.0), deg, 0.022, 0.006, 16, 8, mat);
     }
     // Bowls.
     for (x, z, rad) in [(0.0f32, 0.3f32, 0.09f32), (-0.2, -0.3, 0.07), (0.22, -0.3, 0.07)] {
-        w.bowl(Vec3::new(x, top_y + rad - sink, z), rad, 0.005, 36, 10, china);
+        bowl_on(&mut w, Vec3::new(x, top_y, z), rad, 0.005, 36, 10, china);
     }
 
     scene(
@@ -460,38 +581,88 @@ fn sculpture() -> SceneDesc {
     )
 }
 
+/// Seat of a chair standing on `at` (not turned): 0.44 x 0.44 m, from 0.43
+/// to 0.47 m.
+fn chair_seat(at: Vec3) -> Slab {
+    Slab::centred(at, Vec2::splat(0.22), 0.43, 0.47)
+}
+
 /// A chair facing -z (its back at +z), standing on `at` and turned `deg`
-/// about y: seat, back and four legs, each a box overlapping the next.
+/// about y: a seat, a back standing on the seat (open at its bottom), and
+/// four legs from the floor to the seat's underside (open at both ends).
+/// The back and the legs keep their corners off the seat's grid, so no
+/// vertex of one part coincides with one of another.
 fn chair(b: &mut MeshBuilder, at: Vec3, deg: f32, mat: u32) {
     let first = b.positions.len();
-    b.cuboid_faces(Vec3::new(-0.22, 0.43, -0.22), Vec3::new(0.22, 0.47, 0.22), [6, 1, 6], [mat; 6], false);
-    b.cuboid_faces(Vec3::new(-0.22, 0.45, 0.18), Vec3::new(0.22, 0.92, 0.22), [6, 6, 1], [mat; 6], false);
+    let seat = chair_seat(Vec3::ZERO);
+    b.cuboid_faces(
+        Vec3::new(seat.min_xz.x, seat.bottom, seat.min_xz.y),
+        Vec3::new(seat.max_xz.x, seat.top, seat.max_xz.y),
+        [6, 1, 6],
+        [mat; 6],
+        false,
+    );
+    b.cuboid_open(Vec3::new(-0.21, seat.top, 0.17), Vec3::new(0.21, 0.92, 0.21), [6, 6, 1], standing(mat), false);
     for (x, z) in [(-0.19f32, -0.19f32), (0.19, -0.19), (-0.19, 0.19), (0.19, 0.19)] {
-        b.cuboid_faces(
+        b.cuboid_open(
             Vec3::new(x - 0.015, 0.0, z - 0.015),
-            Vec3::new(x + 0.015, 0.45, z + 0.015),
+            Vec3::new(x + 0.015, seat.bottom, z + 0.015),
             [1, 6, 1],
-            [mat; 6],
+            post(mat),
             false,
         );
     }
     b.transform_from(first, turn_y(deg, at));
 }
 
-/// A 1.8 x 0.6 m table, top at 0.75 m, standing on `at`.
+/// Top of a conference table standing on `at`: 1.8 x 0.6 m, 3 cm thick,
+/// top at 0.75 m.
+fn table_top(at: Vec3) -> Slab {
+    Slab::centred(at, Vec2::new(0.9, 0.3), 0.72, 0.75)
+}
+
+/// A conference table standing on `at`: the top, and four legs from the
+/// floor to its underside (open at both ends), their corners off the top's
+/// 7.5 cm grid.
 fn table(b: &mut MeshBuilder, at: Vec3, mat: u32) {
     let first = b.positions.len();
-    b.cuboid_faces(Vec3::new(-0.9, 0.72, -0.3), Vec3::new(0.9, 0.75, 0.3), [24, 1, 8], [mat; 6], false);
-    for (x, z) in [(-0.85f32, -0.25f32), (0.85, -0.25), (-0.85, 0.25), (0.85, 0.25)] {
-        b.cuboid_faces(
+    let top = table_top(Vec3::ZERO);
+    b.cuboid_faces(
+        Vec3::new(top.min_xz.x, top.bottom, top.min_xz.y),
+        Vec3::new(top.max_xz.x, top.top, top.max_xz.y),
+        [24, 1, 8],
+        [mat; 6],
+        false,
+    );
+    for (x, z) in [(-0.845f32, -0.245f32), (0.845, -0.245), (-0.845, 0.245), (0.845, 0.245)] {
+        b.cuboid_open(
             Vec3::new(x - 0.025, 0.0, z - 0.025),
-            Vec3::new(x + 0.025, 0.73, z + 0.025),
+            Vec3::new(x + 0.025, top.bottom, z + 0.025),
             [1, 9, 1],
-            [mat; 6],
+            post(mat),
             false,
         );
     }
     b.transform_from(first, move |p| p + at);
+}
+
+/// Where the conference hall's tables and chairs stand (on the floor, none
+/// turned): eight rows of eight tables in two blocks, three chairs per table.
+fn conference_layout() -> (Vec<Vec3>, Vec<Vec3>) {
+    let (mut tables, mut chairs) = (Vec::new(), Vec::new());
+    for row in 0..8 {
+        let z = -5.0 + 1.4 * row as f32;
+        for block in [-1.0f32, 1.0] {
+            for k in 0..4 {
+                let x = block * (1.9 + 1.9 * k as f32);
+                tables.push(Vec3::new(x, 0.0, z));
+                for s in [-0.6f32, 0.0, 0.6] {
+                    chairs.push(Vec3::new(x + s, 0.0, z + 0.55));
+                }
+            }
+        }
+    }
+    (tables, chairs)
 }
 
 fn conference() -> SceneDesc {
@@ -507,20 +678,16 @@ fn conference() -> SceneDesc {
     let wood = t.add_material("table", Vec3::new(0.55, 0.42, 0.3));
     let mut c = MeshBuilder::new();
     let seat = c.add_material("chair", Vec3::new(0.2, 0.25, 0.5));
-    for row in 0..8 {
-        let z = -5.0 + 1.4 * row as f32;
-        for block in [-1.0f32, 1.0] {
-            for k in 0..4 {
-                let x = block * (1.9 + 1.9 * k as f32);
-                table(&mut t, Vec3::new(x, 0.0, z), wood);
-                for s in [-0.6f32, 0.0, 0.6] {
-                    chair(&mut c, Vec3::new(x + s, 0.0, z + 0.55), 0.0, seat);
-                }
-            }
-        }
+    let (tables, chairs) = conference_layout();
+    for &at in &tables {
+        table(&mut t, at, wood);
     }
-    // Lectern at the front, facing the rows.
-    t.cuboid_spaced(Vec3::new(-0.35, 0.0, -6.4), Vec3::new(0.35, 1.1, -5.9), 0.05, wood, false);
+    for &at in &chairs {
+        chair(&mut c, at, 0.0, seat);
+    }
+    // Lectern at the front, facing the rows, standing on the floor.
+    let (lo, hi) = (Vec3::new(-0.35, 0.0, -6.4), Vec3::new(0.35, 1.1, -5.9));
+    t.cuboid_open(lo, hi, divisions(hi - lo, 0.05), standing(wood), false);
 
     let mut lights = Vec::new();
     for x in [-6.0f32, 0.0, 6.0] {
@@ -538,6 +705,20 @@ fn conference() -> SceneDesc {
         ],
         lights,
     )
+}
+
+/// The slabs (table tops, seats) that parts of the built-in scene `name`
+/// stand on or end at, for tests.
+#[cfg(test)]
+fn supports(name: &str) -> Vec<Slab> {
+    match name {
+        "tearoom" => vec![tearoom_table()],
+        "conference" => {
+            let (tables, chairs) = conference_layout();
+            tables.into_iter().map(table_top).chain(chairs.into_iter().map(chair_seat)).collect()
+        }
+        _ => Vec::new(),
+    }
 }
 
 #[cfg(test)]
@@ -632,23 +813,49 @@ mod tests {
         }
     }
 
-    /// Every mesh is closed and consistently wound once exact positions are
-    /// welded (each edge used once in each direction), rooms face inward
-    /// (negative signed volume) and everything else outward.
+    /// Welded position ids of a mesh's vertices (exact-position weld).
+    fn weld(m: &MeshDesc) -> Vec<u32> {
+        let mut ids: HashMap<[u32; 3], u32> = HashMap::new();
+        m.positions
+            .iter()
+            .map(|&p| {
+                let n = ids.len() as u32;
+                *ids.entry(key(p)).or_insert(n)
+            })
+            .collect()
+    }
+
+    fn find(parent: &mut HashMap<u32, u32>, x: u32) -> u32 {
+        let mut r = x;
+        while let Some(&p) = parent.get(&r) {
+            if p == r {
+                break;
+            }
+            r = p;
+        }
+        parent.insert(x, r);
+        r
+    }
+
+    fn union(parent: &mut HashMap<u32, u32>, a: u32, b: u32) {
+        parent.entry(a).or_insert(a);
+        parent.entry(b).or_insert(b);
+        let (ra, rb) = (find(parent, a), find(parent, b));
+        parent.insert(ra.max(rb), ra.min(rb));
+    }
+
+    /// Every mesh is consistently wound once exact positions are welded
+    /// (each edge used at most once in each direction); rooms are closed
+    /// (each edge used exactly once in each direction). Faces hidden
+    /// against a support are left out, so other meshes may be open: their
+    /// signed volume, with every border loop closed by a flat fan, is
+    /// negative for rooms (facing inward) and positive for everything else.
     #[test]
-    fn meshes_are_closed_and_oriented() {
+    fn meshes_are_consistently_wound_and_rooms_closed() {
         for &name in NAMES {
             let s = builtin(name).unwrap();
             for (k, m) in s.meshes.iter().enumerate() {
-                let mut ids: HashMap<[u32; 3], u32> = HashMap::new();
-                let remap: Vec<u32> = m
-                    .positions
-                    .iter()
-                    .map(|&p| {
-                        let n = ids.len() as u32;
-                        *ids.entry(key(p)).or_insert(n)
-                    })
-                    .collect();
+                let remap = weld(m);
                 let mut edges: HashMap<(u32, u32), (u32, u32)> = HashMap::new();
                 let mut volume = 0.0f64;
                 for t in &m.triangles {
@@ -664,10 +871,117 @@ mod tests {
                     let [a, b, c] = t.map(|i| m.positions[i as usize].as_dvec3());
                     volume += a.dot(b.cross(c)) / 6.0;
                 }
-                let bad = edges.values().filter(|&&(f, b)| f != 1 || b != 1).count();
-                assert_eq!(bad, 0, "{}: {bad} edges not shared by exactly two opposite triangles", m.name);
-                let inward = k == 0;
-                assert!((volume < 0.0) == inward, "{}: signed volume {volume}", m.name);
+                let bad = edges.values().filter(|&&(f, b)| f > 1 || b > 1).count();
+                assert_eq!(bad, 0, "{}: {bad} edges used twice in one direction", m.name);
+                let room = k == 0;
+                let border: Vec<(u32, u32)> = edges
+                    .iter()
+                    .filter(|(_, &(f, b))| f + b == 1)
+                    .map(|(&(lo, hi), &(f, _))| if f == 1 { (lo, hi) } else { (hi, lo) })
+                    .collect();
+                if room {
+                    assert!(border.is_empty(), "{}: room has {} border edges", m.name, border.len());
+                }
+                // Close each border loop (they are planar) by a fan from one of its vertices.
+                let mut pos = vec![Vec3::ZERO; remap.len()];
+                for (i, &w) in remap.iter().enumerate() {
+                    pos[w as usize] = m.positions[i];
+                }
+                let mut parent = HashMap::new();
+                for &(a, b) in &border {
+                    union(&mut parent, a, b);
+                }
+                for &(a, b) in &border {
+                    let apex = pos[find(&mut parent, a) as usize].as_dvec3();
+                    let (pa, pb) = (pos[a as usize].as_dvec3(), pos[b as usize].as_dvec3());
+                    volume += apex.dot(pb.cross(pa)) / 6.0;
+                }
+                assert!((volume < 0.0) == room, "{}: signed volume {volume}", m.name);
+            }
+        }
+    }
+
+    /// No two parts of a mesh share a vertex: around every welded position
+    /// the incident triangles form one fan (connected through shared edges).
+    #[test]
+    fn parts_share_no_vertex() {
+        for &name in NAMES {
+            let s = builtin(name).unwrap();
+            for m in &s.meshes {
+                let remap = weld(m);
+                // For every welded vertex, join the other two corners of each incident triangle.
+                let mut links: HashMap<u32, Vec<(u32, u32)>> = HashMap::new();
+                for t in &m.triangles {
+                    let w = t.map(|i| remap[i as usize]);
+                    for e in 0..3 {
+                        links.entry(w[e]).or_default().push((w[(e + 1) % 3], w[(e + 2) % 3]));
+                    }
+                }
+                for (v, link) in &links {
+                    let mut parent = HashMap::new();
+                    for &(a, b) in link {
+                        union(&mut parent, a, b);
+                    }
+                    let root = find(&mut parent, link[0].0);
+                    assert!(
+                        link.iter().all(|&(a, _)| find(&mut parent, a) == root),
+                        "{}: vertex {v} joins separate fans",
+                        m.name
+                    );
+                }
+            }
+        }
+    }
+
+    /// Nothing is hidden in contact with, or buried in, what it stands on:
+    /// no vertex of a non-room mesh lies below the floor, and no face lies
+    /// on the floor facing down. Likewise for table tops and seats: no face
+    /// lies on a top facing down or on an underside facing up (a buried leg
+    /// top) inside the footprint, and no vertex lies strictly inside a slab
+    /// unless it belongs to the slab's own box.
+    #[test]
+    fn nothing_hidden_on_supports() {
+        const EPS: f32 = 1e-5;
+        for &name in NAMES {
+            let s = builtin(name).unwrap();
+            let floor = s.meshes[0].positions.iter().map(|p| p.y).fold(f32::INFINITY, f32::min);
+            let slabs = supports(name);
+            if matches!(name, "tearoom" | "conference") {
+                assert!(!slabs.is_empty(), "{name}: no supports");
+            }
+            let on = |y: f32, h: f32| (y - h).abs() <= EPS;
+            let inside = |sl: &Slab, x: f32, z: f32, margin: f32| {
+                x > sl.min_xz.x + margin
+                    && x < sl.max_xz.x - margin
+                    && z > sl.min_xz.y + margin
+                    && z < sl.max_xz.y - margin
+            };
+            for m in &s.meshes[1..] {
+                for p in &m.positions {
+                    assert!(p.y >= floor, "{}: vertex {p} below the floor", m.name);
+                }
+                for t in &m.triangles {
+                    let [a, b, c] = t.map(|i| m.positions[i as usize]);
+                    let n = (b - a).cross(c - a);
+                    let centre = (a + b + c) / 3.0;
+                    let flat_at = |h: f32| on(a.y, h) && on(b.y, h) && on(c.y, h);
+                    assert!(!(flat_at(floor) && n.y < 0.0), "{}: face {a} {b} {c} lies on the floor", m.name);
+                    for sl in &slabs {
+                        if !inside(sl, centre.x, centre.z, 0.0) {
+                            continue;
+                        }
+                        assert!(!(flat_at(sl.top) && n.y < 0.0), "{}: face {a} {b} {c} lies on a top", m.name);
+                        assert!(!(flat_at(sl.bottom) && n.y > 0.0), "{}: face {a} {b} {c} buried under a top", m.name);
+                    }
+                }
+                // Vertices strictly inside a slab: only a slab's own sides
+                // (on its footprint's border) may lie between its faces.
+                for p in &m.positions {
+                    for sl in &slabs {
+                        let between = p.y > sl.bottom + EPS && p.y < sl.top - EPS;
+                        assert!(!(between && inside(sl, p.x, p.z, EPS)), "{}: vertex {p} inside a slab", m.name);
+                    }
+                }
             }
         }
     }

@@ -542,6 +542,41 @@ mod tests {
             .sum()
     }
 
+    /// Directed edge counts after welding exact positions: for each
+    /// undirected edge (lo, hi), how often it is used lo -> hi and hi -> lo.
+    fn edge_uses(b: &MeshBuilder) -> HashMap<(u32, u32), (u32, u32)> {
+        let mut ids: HashMap<[u32; 3], u32> = HashMap::new();
+        let remap: Vec<u32> = b
+            .positions
+            .iter()
+            .map(|&p| {
+                let n = ids.len() as u32;
+                *ids.entry(key(p)).or_insert(n)
+            })
+            .collect();
+        let mut edges: HashMap<(u32, u32), (u32, u32)> = HashMap::new();
+        for t in &b.triangles {
+            for k in 0..3 {
+                let (a, c) = (remap[t[k] as usize], remap[t[(k + 1) % 3] as usize]);
+                let e = edges.entry((a.min(c), a.max(c))).or_insert((0, 0));
+                if a < c {
+                    e.0 += 1;
+                } else {
+                    e.1 += 1;
+                }
+            }
+        }
+        edges
+    }
+
+    /// Checks consistent winding (every edge used at most once in each
+    /// direction) and returns the number of border edges (used once).
+    fn border_edges(b: &MeshBuilder) -> usize {
+        let edges = edge_uses(b);
+        assert!(edges.values().all(|&(f, r)| f <= 1 && r <= 1), "edge used twice in one direction");
+        edges.values().filter(|&&(f, r)| f + r == 1).count()
+    }
+
     /// Number of edges used by other than exactly two triangles (0 when
     /// closed), after welding exact positions.
     fn open_edges(b: &MeshBuilder) -> usize {
@@ -629,6 +664,44 @@ mod tests {
             0,
         );
         check(&b, 4.0 / 3.0 * pi, true);
+
+        // Open primitives: faces left out leave borders, winding stays consistent.
+        let mut b = MeshBuilder::new();
+        let mut mats = [Some(0); 6];
+        mats[2] = None;
+        b.cuboid_open(Vec3::new(-1.0, 0.0, -1.0), Vec3::new(1.0, 2.0, 1.0), [3, 4, 5], mats, false);
+        assert_eq!(b.triangles.len(), 2 * (2 * 3 * 4 + 2 * 4 * 5 + 3 * 5));
+        assert_eq!(border_edges(&b), 2 * (3 + 5));
+        // The missing face lies in y = 0, so it adds nothing to the volume about the origin.
+        check(&b, 8.0, false);
+        assert!(b.positions.iter().all(|p| p.y >= 0.0));
+        let mut b = MeshBuilder::new();
+        mats[3] = None;
+        b.cuboid_open(Vec3::new(-1.0, 0.0, -1.0), Vec3::new(1.0, 2.0, 1.0), [2, 2, 2], mats, true);
+        assert_eq!(b.triangles.len(), 2 * 4 * 4);
+        assert_eq!(border_edges(&b), 2 * 2 * 4);
+
+        let mut b = MeshBuilder::new();
+        b.cylinder_caps(Vec3::ZERO, 0.3, 2.0, 24, 5, 0, false, true);
+        assert_eq!(border_edges(&b), 24);
+        assert!(b.positions.iter().all(|p| p.y >= 0.0));
+        check(&b, pi * 0.09 * 2.0, false);
+        let mut b = MeshBuilder::new();
+        b.cylinder_caps(Vec3::ZERO, 0.3, 2.0, 24, 5, 0, false, false);
+        assert_eq!(border_edges(&b), 48);
+        assert_eq!(b.positions.len(), 6 * 24);
+        let mut b = MeshBuilder::new();
+        b.cylinder_caps(Vec3::ZERO, 0.3, 2.0, 24, 5, 0, true, true);
+        let mut c = MeshBuilder::new();
+        c.cylinder(Vec3::ZERO, 0.3, 2.0, 24, 5, 0, true);
+        assert_eq!((b.positions, b.triangles), (c.positions, c.triangles));
+
+        // revolve_with: one material per band.
+        let mut b = MeshBuilder::new();
+        let profile = [Vec2::new(0.5, 0.0), Vec2::new(0.5, 1.0), Vec2::new(0.0, 1.0)];
+        b.revolve_with(Vec3::ZERO, &profile, 8, |k| k as u32 + 3, false);
+        assert_eq!(b.triangle_material, [[3u32; 16].as_slice(), &[4; 8]].concat());
+        assert_eq!(border_edges(&b), 8);
 
         // Frustum: open, outward normals point away from the axis.
         let mut b = MeshBuilder::new();
