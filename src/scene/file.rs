@@ -265,7 +265,7 @@ pub fn to_toml(scene: &SceneDesc, obj_names: &[String]) -> String {
             })
             .collect(),
     };
-    toml::to_string_pretty(&file).expect("scene description serializes")
+    toml::to_string(&file).expect("scene description serializes")
 }
 
 /// Writes `scene` as `dir/<name>.toml` plus one `.obj`/`.mtl` pair per mesh.

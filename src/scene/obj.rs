@@ -220,15 +220,16 @@ pub fn write_obj(mesh: &MeshDesc, path: &Path) -> Result<()> {
     for p in &mesh.positions {
         let _ = writeln!(obj, "v {} {} {}", p.x, p.y, p.z);
     }
-    for (mi, m) in mesh.materials.iter().enumerate() {
-        let mut first = true;
-        for (t, _) in mesh.triangles.iter().zip(&mesh.triangle_material).filter(|(_, &tm)| tm as usize == mi) {
-            if first {
-                let _ = writeln!(obj, "g {}\nusemtl {}", m.name, m.name);
-                first = false;
-            }
-            let _ = writeln!(obj, "f {} {} {}", t[0] + 1, t[1] + 1, t[2] + 1);
+    // Faces in their original order (a new group wherever the material
+    // changes), so the mesh reads back with the same vertex order.
+    let mut current = u32::MAX;
+    for (t, &m) in mesh.triangles.iter().zip(&mesh.triangle_material) {
+        if m != current {
+            let name = &mesh.materials[m as usize].name;
+            let _ = writeln!(obj, "g {name}\nusemtl {name}");
+            current = m;
         }
+        let _ = writeln!(obj, "f {} {} {}", t[0] + 1, t[1] + 1, t[2] + 1);
     }
     std::fs::write(path, obj).map_err(|source| Error::Io { path: path.to_path_buf(), source })?;
     std::fs::write(&mtl_path, mtl).map_err(|source| Error::Io { path: mtl_path.clone(), source })?;

@@ -1,0 +1,70 @@
+//! Scene files: the copies of the built-in scenes in `scenes/` load to the
+//! same prepared geometry as the built-ins; a written scene reads back
+//! bit-exact; the PLY export carries what the solver computed.
+
+mod common;
+
+use linkgi::scene::{self, builtin, prep, Bounces};
+
+fn same_geometry(a: &prep::PreparedScene, b: &prep::PreparedScene) {
+    assert!(a.positions == b.positions, "positions differ");
+    assert!(a.triangles == b.triangles, "triangles differ");
+    assert!(a.albedo == b.albedo, "albedo differs");
+    assert_eq!(a.lights, b.lights);
+    assert_eq!(a.settings, b.settings);
+}
+
+#[test]
+fn shipped_scene_files_match_builtins() {
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes");
+    for name in builtin::NAMES {
+        let from_file = scene::load(dir.join(format!("{name}.toml")).to_str().unwrap())
+            .unwrap_or_else(|e| panic!("scenes/{name}.toml: {e} (regenerate with `linkgi scenes`)"));
+        assert!(from_file.warnings.is_empty(), "{:?}", from_file.warnings);
+        let built = builtin::builtin(name).unwrap();
+        same_geometry(&prep::prepare(&from_file).unwrap(), &prep::prepare(&built).unwrap());
+        for (f, b) in from_file.meshes.iter().zip(&built.meshes) {
+            assert_eq!(f.dynamic, b.dynamic, "{name}: dynamic flag");
+        }
+    }
+}
+
+#[test]
+fn written_scene_reads_back() {
+    let dir = std::env::temp_dir().join(format!("linkgi-scenes-{}", std::process::id()));
+    let mut desc = builtin::closed_room(3, 0.4);
+    desc.settings.bounces = Bounces::Auto;
+    let path = scene::file::write_scene(&desc, &dir).unwrap();
+    let back = scene::load(path.to_str().unwrap()).unwrap();
+    same_geometry(&prep::prepare(&back).unwrap(), &prep::prepare(&desc).unwrap());
+}
+
+#[test]
+fn ply_export_carries_the_solution() {
+    let desc = common::with_settings(builtin::builtin("cornell").unwrap(), 16, Bounces::Fixed(2), 30.0);
+    let (solver, sol) = common::solve(&desc);
+    let bytes = linkgi::export::ply_bytes(&solver.scene, &sol);
+    let header_end = bytes.windows(11).position(|w| w == b"end_header\n").unwrap() + 11;
+    let header = std::str::from_utf8(&bytes[..header_end]).unwrap();
+    let n = solver.scene.vertex_count();
+    let t = solver.scene.triangles.len();
+    assert!(header.starts_with("ply\nformat binary_little_endian 1.0\n"));
+    assert!(header.contains(&format!("element vertex {n}\n")));
+    assert!(header.contains(&format!("element face {t}\nproperty list uchar uint vertex_indices\n")));
+    for p in linkgi::export::PLY_VERTEX_PROPERTIES {
+        assert!(header.contains(&format!("property float {p}\n")), "{p}");
+    }
+    assert_eq!(bytes.len(), header_end + n * 15 * 4 + t * 13);
+    // Vertex 7's indirect red and the last face read back.
+    let rec = header_end + 7 * 60;
+    let f = |i: usize| f32::from_le_bytes(bytes[rec + 4 * i..rec + 4 * i + 4].try_into().unwrap());
+    assert_eq!(f(0), solver.scene.positions[7].x);
+    assert_eq!(f(12), sol.e_indirect[7].x);
+    let last = &bytes[bytes.len() - 13..];
+    assert_eq!(last[0], 3);
+    assert_eq!(u32::from_le_bytes(last[9..13].try_into().unwrap()), solver.scene.triangles[t - 1][2]);
+    let json = linkgi::export::scene_json(&solver.scene, &solver.stats(&sol, 0.0));
+    assert_eq!(json["lights"][0]["kind"], "point");
+    assert_eq!(json["stats"]["vertices"], n);
+    assert_eq!(json["settings"]["rays_per_vertex"], 16);
+}
