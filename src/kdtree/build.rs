@@ -94,15 +94,10 @@ fn find_split(ctx: &Ctx, node: &Aabb, lists: &[Vec<Event>; 3], n: usize) -> Opti
                 starts += 1;
                 i += 1;
             }
-            // Triangles ending or starting exactly at the plane touch both
-            // children and go to both (so a ray through a shared edge or
-            // vertex on the plane finds every triangle there in whichever
-            // leaf it visits).
-            let (l_at, r_at) = (nl + starts, nr - planars);
             nr -= planars + ends;
             if pos > node.min[axis] && pos < node.max[axis] {
-                let cl = sah_cost(ctx, node, axis, pos, l_at + planars, r_at);
-                let cr = sah_cost(ctx, node, axis, pos, l_at, r_at + planars);
+                let cl = sah_cost(ctx, node, axis, pos, nl + planars, nr);
+                let cr = sah_cost(ctx, node, axis, pos, nl, nr + planars);
                 let (cost, planar_left) = if cl <= cr { (cl, true) } else { (cr, false) };
                 if best.as_ref().is_none_or(|b| cost < b.cost) {
                     best = Some(Split { axis, pos, planar_left, cost });
@@ -132,8 +127,8 @@ fn build_sah(ctx: &Ctx, node: Aabb, lists: [Vec<Event>; 3], depth: u32, side: &m
     }
     for e in &lists[split.axis] {
         match e.kind {
-            END if e.pos < split.pos => side[e.tri as usize] = LEFT,
-            START if e.pos > split.pos => side[e.tri as usize] = RIGHT,
+            END if e.pos <= split.pos => side[e.tri as usize] = LEFT,
+            START if e.pos >= split.pos => side[e.tri as usize] = RIGHT,
             PLANAR => {
                 let left = e.pos < split.pos || (e.pos == split.pos && split.planar_left);
                 side[e.tri as usize] = if left { LEFT } else { RIGHT };
@@ -229,9 +224,9 @@ fn build_top(ctx: &Ctx, node: Aabb, tris: Vec<u32>, depth: u32, levels_left: u32
     let (mut lt, mut rt) = (Vec::new(), Vec::new());
     for &t in &tris {
         let b = ctx.bounds[t as usize];
-        if b.max[axis] < pos {
+        if b.max[axis] < pos || (b.max[axis] == pos && b.min[axis] < pos) {
             lt.push(t);
-        } else if b.min[axis] > pos {
+        } else if b.min[axis] >= pos {
             rt.push(t);
         } else {
             lt.push(t);

@@ -105,6 +105,7 @@ impl KdTree {
             }
             let leaf = &self.leaves[n.a as usize];
             let (mut t_exit, mut exit_face) = (f32::INFINITY, usize::MAX);
+            let mut t_face = [f32::INFINITY; 3];
             for a in 0..3 {
                 let (bound, f) = if ray.dir[a] > 0.0 {
                     (leaf.max[a], 2 * a + 1)
@@ -114,9 +115,27 @@ impl KdTree {
                     continue;
                 };
                 let t = (bound - ray.origin[a]) * inv[a];
+                t_face[a] = t;
                 if t < t_exit {
                     t_exit = t;
                     exit_face = f;
+                }
+            }
+            // Leaving through a leaf edge or corner: also test the leaves
+            // across the other tied faces (see the module doc of kdtree).
+            if t_exit < t_exit_root {
+                for a in 0..3 {
+                    let f = 2 * a + (ray.dir[a] > 0.0) as usize;
+                    if f == exit_face || t_face[a] - t_exit > 1e-6 * t_exit.abs() {
+                        continue;
+                    }
+                    let rope = leaf.ropes[f];
+                    if rope != NO_ROPE {
+                        let side = self.locate(rope, ray.origin + ray.dir * t_exit, ray.dir);
+                        if self.test_leaf::<ANY>(side, ray, &shear, &mut best) {
+                            return best;
+                        }
+                    }
                 }
             }
             if let Some(b) = best {
@@ -135,6 +154,18 @@ impl KdTree {
             t_enter = t_enter.max(t_exit);
         }
         best
+    }
+
+    /// The leaf under `node` containing `p` (ties go the way `dir` points).
+    #[inline]
+    fn locate(&self, mut node: u32, p: Vec3, dir: Vec3) -> u32 {
+        let mut n = self.nodes[node as usize];
+        while n.kind != LEAF {
+            let a = n.kind as usize;
+            node = if p[a] < n.split || (p[a] == n.split && dir[a] <= 0.0) { n.a } else { n.b };
+            n = self.nodes[node as usize];
+        }
+        n.a
     }
 
     /// Nearest hit along the ray by walking leaf ropes (no stack).
