@@ -103,7 +103,6 @@ fn same_seed_same_links() {
     assert_eq!(a.weights, b.weights);
     let (_, c) = build(scene, &LinkParams { seed: 2, ..p });
     assert_ne!(a.targets, c.targets);
-    // Batch size does not change the result.
 }
 
 #[test]
