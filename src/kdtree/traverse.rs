@@ -93,17 +93,11 @@ impl KdTree {
         // Each step moves to a leaf further along the ray; the bound only guards
         // against a malformed tree.
         for _ in 0..=self.leaves.len() {
-            let p = ray.origin + ray.dir * t_enter;
-            let mut n = self.nodes[node as usize];
-            while n.kind != LEAF {
-                let a = n.kind as usize;
-                node = if p[a] < n.split || (p[a] == n.split && ray.dir[a] <= 0.0) { n.a } else { n.b };
-                n = self.nodes[node as usize];
-            }
-            if self.test_leaf::<ANY>(n.a, ray, &shear, &mut best) {
+            let leaf_id = self.locate(node, ray.origin + ray.dir * t_enter, ray.dir);
+            if self.test_leaf::<ANY>(leaf_id, ray, &shear, &mut best) {
                 return best;
             }
-            let leaf = &self.leaves[n.a as usize];
+            let leaf = &self.leaves[leaf_id as usize];
             let (mut t_exit, mut exit_face) = (f32::INFINITY, usize::MAX);
             let mut t_face = [f32::INFINITY; 3];
             for a in 0..3 {

@@ -577,27 +577,10 @@ mod tests {
         edges.values().filter(|&&(f, r)| f + r == 1).count()
     }
 
-    /// Number of edges used by other than exactly two triangles (0 when
-    /// closed), after welding exact positions.
+    /// Number of edges not used equally often in each direction (0 when
+    /// closed and consistently oriented), after welding exact positions.
     fn open_edges(b: &MeshBuilder) -> usize {
-        let mut ids: HashMap<[u32; 3], u32> = HashMap::new();
-        let remap: Vec<u32> = b
-            .positions
-            .iter()
-            .map(|&p| {
-                let n = ids.len() as u32;
-                *ids.entry(key(p)).or_insert(n)
-            })
-            .collect();
-        let mut edges: HashMap<(u32, u32), i32> = HashMap::new();
-        for t in &b.triangles {
-            for k in 0..3 {
-                let (a, c) = (remap[t[k] as usize], remap[t[(k + 1) % 3] as usize]);
-                // Directed: each edge of a closed oriented surface appears once each way.
-                *edges.entry((a.min(c), a.max(c))).or_insert(0) += if a < c { 1 } else { -1 };
-            }
-        }
-        edges.values().filter(|&&v| v != 0).count()
+        edge_uses(b).values().filter(|&&(f, r)| f != r).count()
     }
 
     fn check(b: &MeshBuilder, expect: f32, closed: bool) {
