@@ -1,12 +1,11 @@
 //! `linkgi` command-line tool.
 
-use anyhow::{Context, Result};
+mod cli;
+
+use anyhow::Result;
 use clap::{Parser, Subcommand};
-use indicatif::{ProgressBar, ProgressStyle};
-use linkgi::scene::{self, prep, Bounces};
-use linkgi::solver::{SolveParams, Solver};
+use linkgi::scene;
 use std::path::PathBuf;
-use std::time::Instant;
 
 #[derive(Parser)]
 #[command(
@@ -45,99 +44,11 @@ enum Command {
     },
 }
 
-fn parse_bounces(s: &str) -> Result<Bounces> {
-    if s == "auto" {
-        return Ok(Bounces::Auto);
-    }
-    let n: u32 = s.parse().with_context(|| format!("--bounces {s}: expected a number or \"auto\""))?;
-    Ok(Bounces::Fixed(n))
-}
-
-fn solve(
-    scene_name: &str,
-    rays: Option<u32>,
-    bounces: Option<String>,
-    seed: Option<u64>,
-    export: Option<PathBuf>,
-) -> Result<()> {
-    let t0 = Instant::now();
-    let mut desc = scene::load(scene_name)?;
-    for w in &desc.warnings {
-        eprintln!("warning: {w}");
-    }
-    if let Some(r) = rays {
-        desc.settings.rays_per_vertex = r;
-    }
-    if let Some(b) = bounces {
-        desc.settings.bounces = parse_bounces(&b)?;
-    }
-    if let Some(s) = seed {
-        desc.settings.seed = s;
-    }
-    let prepared = prep::prepare(&desc)?;
-    if prepared.dropped_triangles > 0 {
-        eprintln!("warning: dropped {} zero-area triangles", prepared.dropped_triangles);
-    }
-    if prepared.lights.is_empty() {
-        eprintln!("warning: the scene has no lights: all irradiance is zero");
-    }
-    let prep_ms = t0.elapsed().as_secs_f64() * 1e3;
-    let n = prepared.vertex_count() as u64;
-    let bar = ProgressBar::new(n).with_message("shooting rays");
-    bar.set_style(
-        ProgressStyle::with_template("{msg:16} [{bar:40}] {pos}/{len} vertices ({eta})")
-            .expect("valid template")
-            .progress_chars("=> "),
-    );
-    let params = SolveParams::from_settings(&prepared.settings);
-    let solver = Solver::new(prepared, params, &|done, _| bar.set_position(done as u64));
-    bar.finish_and_clear();
-    let t1 = Instant::now();
-    let solution = solver.solve();
-    let solve_ms = t1.elapsed().as_secs_f64() * 1e3;
-    let stats = solver.stats(&solution, solve_ms - solution.gather.ms);
-    let s = &stats;
-    let mb = |b: u64| b as f64 / 1e6;
-    println!("scene            {}", solver.scene.name);
-    println!("vertices         {}", s.vertices);
-    println!("triangles        {}", s.triangles);
-    println!(
-        "kd nodes         {} ({} leaves, {:.2} tris/leaf, depth {}, SAH cost {:.1})",
-        s.kd.nodes, s.kd.leaves, s.kd.mean_leaf_triangles, s.kd.max_depth, s.kd.sah_cost
-    );
-    println!("links raw        {} ({:.2} MB)", s.links.raw_links, mb(s.links.raw_bytes));
-    println!(
-        "links merged     {} ({:.2} MB, {:.1}x fewer)",
-        s.links.merged_links,
-        mb(s.links.merged_bytes),
-        s.links.raw_links as f64 / s.links.merged_links.max(1) as f64
-    );
-    println!("rays             {} ({} missed, {} back faces)", s.links.rays, s.links.misses, s.links.back_hits);
-    println!("prep ms          {prep_ms:.1}");
-    println!("kd build ms      {:.1}", s.kd.build_ms);
-    println!("links ms         {:.1} ({:.2} M rays/s)", s.links.shoot_ms, s.links.rays_per_second() / 1e6);
-    println!("light links ms   {:.1} ({} shadow rays)", s.light_links_ms, s.shadow_rays);
-    println!(
-        "bounces ms       {:.1} ({} bounces, tail {:.2e}{})",
-        s.gather_ms,
-        s.bounces,
-        s.tail_relative,
-        if solution.gather.tail_added { " added" } else { "" }
-    );
-    println!("smoothing ms     {:.1}", s.smooth_ms);
-    println!("total ms         {:.1}", t0.elapsed().as_secs_f64() * 1e3);
-    if let Some(dir) = export {
-        linkgi::export::export(&dir, &solver.scene, &solution, &stats)?;
-        println!("wrote            {} and {}", dir.join("mesh.ply").display(), dir.join("scene.json").display());
-    }
-    Ok(())
-}
-
 fn main() -> Result<()> {
     let cli = Cli::parse();
     match cli.command {
-        None => solve("cornell", None, None, None, Some(PathBuf::from("out/cornell"))),
-        Some(Command::Solve { scene, rays, bounces, seed, export }) => solve(&scene, rays, bounces, seed, export),
+        None => cli::solve::run("cornell", None, None, None, Some(PathBuf::from("out/cornell"))),
+        Some(Command::Solve { scene, rays, bounces, seed, export }) => cli::solve::run(&scene, rays, bounces, seed, export),
         Some(Command::Scenes { dir }) => {
             for name in scene::builtin::NAMES {
                 let s = scene::builtin::builtin(name).expect("built-in exists");

@@ -1,0 +1,3 @@
+//! Subcommands of the `linkgi` binary, one file each.
+
+pub mod solve;
