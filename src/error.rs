@@ -37,6 +37,9 @@ pub enum Error {
     /// A setting is out of range.
     #[error("invalid setting: {0}")]
     Setting(String),
+    /// The GPU path failed (no adapter, a device error, a lost device).
+    #[error("GPU: {0}")]
+    Gpu(String),
 }
 
 pub type Result<T> = std::result::Result<T, Error>;

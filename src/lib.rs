@@ -6,6 +6,7 @@
 
 pub mod error;
 pub mod exchange;
+pub mod gpu;
 pub mod export;
 pub mod kdtree;
 pub mod links;

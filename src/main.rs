@@ -21,22 +21,7 @@ struct Cli {
 #[derive(Subcommand)]
 enum Command {
     /// Build links and solve a scene (a .toml or .obj file, or a built-in name), print figures.
-    Solve {
-        /// Scene file or built-in name (cornell, furnace, colorlamp, torso, tearoom, sculpture, conference).
-        scene: String,
-        /// Rays per vertex (a square number); overrides the scene's setting.
-        #[arg(long)]
-        rays: Option<u32>,
-        /// Number of bounces or "auto"; overrides the scene's setting.
-        #[arg(long)]
-        bounces: Option<String>,
-        /// Seed of the ray directions; overrides the scene's setting.
-        #[arg(long)]
-        seed: Option<u64>,
-        /// Write DIR/mesh.ply and DIR/scene.json.
-        #[arg(long, value_name = "DIR")]
-        export: Option<PathBuf>,
-    },
+    Solve(cli::solve::SolveArgs),
     /// Write the built-in scenes as .toml + .obj + .mtl files into DIR.
     Scenes {
         #[arg(default_value = "scenes")]
@@ -47,8 +32,13 @@ enum Command {
 fn main() -> Result<()> {
     let cli = Cli::parse();
     match cli.command {
-        None => cli::solve::run("cornell", None, None, None, Some(PathBuf::from("out/cornell"))),
-        Some(Command::Solve { scene, rays, bounces, seed, export }) => cli::solve::run(&scene, rays, bounces, seed, export),
+        None => cli::solve::run(cli::solve::SolveArgs {
+            scene: "cornell".into(),
+            export: Some(PathBuf::from("out/cornell")),
+            devices: 1,
+            ..Default::default()
+        }),
+        Some(Command::Solve(args)) => cli::solve::run(args),
         Some(Command::Scenes { dir }) => {
             for name in scene::builtin::NAMES {
                 let s = scene::builtin::builtin(name).expect("built-in exists");

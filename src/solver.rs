@@ -1,14 +1,76 @@
-//! The whole CPU pipeline for one prepared scene: kd-tree, vertex links,
+//! The whole pipeline for one prepared scene: kd-tree, vertex links,
 //! light links, bounces, smoothing (DESIGN.md pipeline), with the figures
-//! of every stage. Lengths in metres, irradiance in W/m^2, times in ms.
+//! of every stage, on the CPU or the GPU ([`Compute`]). The kd-tree is
+//! always built on the CPU; links, light links and bounces run where
+//! `Compute` says, and a GPU failure after setup falls back to the CPU
+//! with one line on stderr. Lengths in metres, irradiance in W/m^2, times in ms.
 
 use crate::exchange::{self, GatherParams, GatherResult, LightLinkParams, LightLinks};
+use crate::gpu::{self, Backend, DeviceShare, GpuDevice, GpuLinks, GpuTracer, LogicalDevice, ScheduleParams};
 use crate::kdtree::{KdBuildParams, KdStats, KdTree};
 use crate::links::{self, LinkParams, LinkStats, Links};
 use crate::scene::prep::PreparedScene;
 use crate::scene::Settings;
 use glam::Vec3;
-use std::time::Instant;
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+/// Where links, light links and bounces are computed.
+#[derive(Clone, Debug, Default)]
+pub enum Compute {
+    #[default]
+    Cpu,
+    Gpu(GpuCompute),
+}
+
+/// The GPU devices of a solve and how to split them.
+#[derive(Clone, Debug)]
+pub struct GpuCompute {
+    pub devices: Vec<Arc<GpuDevice>>,
+    /// Logical devices per adapter (`--devices N`: the scheduler splits work between them).
+    pub logical_per_device: usize,
+    /// Artificial extra time per vertex for each logical device, in order (scheduler tests).
+    pub delays: Vec<Duration>,
+    pub schedule: ScheduleParams,
+}
+
+impl Compute {
+    /// Resolves a backend setting. `Auto` with no hardware GPU gives the
+    /// CPU path and a one-line note saying so; `Gpu` with no adapter is an error.
+    pub fn from_backend(backend: Backend, logical_per_device: usize) -> crate::Result<(Compute, Option<String>)> {
+        let devices = gpu::devices_for(backend)?;
+        if devices.is_empty() {
+            let note = (backend == Backend::Auto)
+                .then(|| "no hardware GPU adapter found: using the CPU path (--backend gpu uses software adapters too)".to_string());
+            return Ok((Compute::Cpu, note));
+        }
+        let schedule = ScheduleParams::default();
+        Ok((Compute::Gpu(GpuCompute { devices, logical_per_device: logical_per_device.max(1), delays: Vec::new(), schedule }), None))
+    }
+
+    /// "cpu" or the adapters used.
+    pub fn describe(&self) -> String {
+        match self {
+            Compute::Cpu => format!("cpu ({} threads)", rayon::current_num_threads()),
+            Compute::Gpu(g) => {
+                let names: Vec<String> = g.devices.iter().map(|d| d.describe()).collect();
+                let split =
+                    if g.logical_per_device > 1 { format!(" x{} logical", g.logical_per_device) } else { String::new() };
+                format!("gpu: {}{split}", names.join(", "))
+            }
+        }
+    }
+}
+
+/// GPU resources a solver keeps between solves.
+pub struct GpuState {
+    /// Traces shadow rays when lights move.
+    pub tracer: GpuTracer,
+    /// Links and albedo on the device.
+    pub links: GpuLinks,
+    /// How link generation was split between devices.
+    pub shares: Vec<DeviceShare>,
+}
 
 /// All stage parameters, defaults from DESIGN.md.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -48,6 +110,10 @@ pub struct SolveStats {
     pub tail_relative: f32,
     pub gather_ms: f64,
     pub smooth_ms: f64,
+    /// "cpu (N threads)" or the adapters.
+    pub backend: String,
+    /// Link generation per logical device (GPU path only).
+    pub devices: Vec<DeviceShare>,
 }
 
 /// Per-vertex results.
@@ -69,6 +135,9 @@ pub struct Solver {
     pub kd: KdTree,
     pub links: Links,
     pub light_links: LightLinks,
+    /// Present when links, light links and bounces run on a GPU.
+    pub gpu: Option<GpuState>,
+    pub compute: Compute,
 }
 
 impl Solver {
@@ -78,18 +147,66 @@ impl Solver {
         let kd = KdTree::build(&scene.positions, &scene.triangles, &params.kd);
         let links = links::shoot_links(&scene, &kd, &params.links, progress);
         let light_links = LightLinks::compute(&scene, &kd, &params.light);
-        Solver { scene, params, kd, links, light_links }
+        Solver { scene, params, kd, links, light_links, gpu: None, compute: Compute::Cpu }
+    }
+
+    /// Builds everything on `compute`: the kd-tree on the CPU, then links,
+    /// light links (and later the bounces) on the GPU when it is one.
+    pub fn new_on(
+        scene: PreparedScene,
+        params: SolveParams,
+        compute: &Compute,
+        progress: &(dyn Fn(usize, usize) + Sync),
+    ) -> crate::Result<Solver> {
+        let g = match compute {
+            Compute::Cpu => return Ok(Solver::new(scene, params, progress)),
+            Compute::Gpu(g) => g,
+        };
+        let kd = KdTree::build(&scene.positions, &scene.triangles, &params.kd);
+        let mut logical = Vec::new();
+        for dev in &g.devices {
+            for i in 0..g.logical_per_device {
+                let label = if g.logical_per_device > 1 { format!("{} #{i}", dev.info.name) } else { dev.info.name.clone() };
+                let delay = g.delays.get(logical.len()).copied().unwrap_or_default();
+                logical.push(LogicalDevice { label, tracer: GpuTracer::new(dev.clone(), &kd)?, delay_per_vertex: delay });
+            }
+        }
+        let (links, shares) = gpu::shoot_links_gpu(&scene, &kd, &params.links, &g.schedule, &mut logical, progress)?;
+        let tracer = logical.swap_remove(0).tracer;
+        let light_links = LightLinks::compute_with(&scene, &tracer, &params.light)?;
+        let gpu_links = GpuLinks::new(tracer.dev.clone(), &links, &scene.albedo)?;
+        let gpu = GpuState { tracer, links: gpu_links, shares };
+        Ok(Solver { scene, params, kd, links, light_links, gpu: Some(gpu), compute: compute.clone() })
     }
 
     /// Recomputes the light links (after lights moved).
     pub fn update_lights(&mut self) {
+        if let Some(g) = &self.gpu {
+            match LightLinks::compute_with(&self.scene, &g.tracer, &self.params.light) {
+                Ok(l) => {
+                    self.light_links = l;
+                    return;
+                }
+                Err(e) => eprintln!("warning: {e}; computing light links on the CPU"),
+            }
+        }
         self.light_links = LightLinks::compute(&self.scene, &self.kd, &self.params.light);
     }
 
     /// Gathers the bounces and smooths.
     pub fn solve(&self) -> Solution {
         let e_direct = self.light_links.direct(&self.scene.lights, self.scene.vertex_count());
-        let gather = exchange::gather(&self.links, &self.scene.albedo, &e_direct, &self.params.gather);
+        let on_gpu = self.gpu.as_ref().map(|g| {
+            exchange::gather::drive(&mut g.links.kernel(&e_direct, &self.scene.albedo), &self.params.gather)
+        });
+        let gather = match on_gpu {
+            Some(Ok(r)) => r,
+            Some(Err(e)) => {
+                eprintln!("warning: {e}; gathering on the CPU");
+                exchange::gather(&self.links, &self.scene.albedo, &e_direct, &self.params.gather)
+            }
+            None => exchange::gather(&self.links, &self.scene.albedo, &e_direct, &self.params.gather),
+        };
         let e_indirect = exchange::smooth(
             &gather.e_indirect,
             &self.scene.rings,
@@ -114,6 +231,8 @@ impl Solver {
             tail_relative: solution.gather.tail_relative,
             gather_ms: solution.gather.ms,
             smooth_ms,
+            backend: self.compute.describe(),
+            devices: self.gpu.as_ref().map(|g| g.shares.clone()).unwrap_or_default(),
         }
     }
 }

@@ -4,7 +4,7 @@
 use anyhow::{Context, Result};
 use indicatif::{ProgressBar, ProgressStyle};
 use linkgi::scene::{self, prep, Bounces};
-use linkgi::solver::{SolveParams, Solver};
+use linkgi::solver::{Compute, SolveParams, Solver};
 use std::path::PathBuf;
 use std::time::Instant;
 
@@ -16,15 +16,35 @@ pub fn parse_bounces(s: &str) -> Result<Bounces> {
     Ok(Bounces::Fixed(n))
 }
 
-pub fn run(
-    scene_name: &str,
-    rays: Option<u32>,
-    bounces: Option<String>,
-    seed: Option<u64>,
-    export: Option<PathBuf>,
-) -> Result<()> {
+/// Arguments of `linkgi solve`.
+#[derive(clap::Args, Debug, Default)]
+pub struct SolveArgs {
+    /// Scene file or built-in name (cornell, furnace, colorlamp, torso, tearoom, sculpture, conference).
+    pub scene: String,
+    /// Rays per vertex (a square number); overrides the scene's setting.
+    #[arg(long)]
+    pub rays: Option<u32>,
+    /// Number of bounces or "auto"; overrides the scene's setting.
+    #[arg(long)]
+    pub bounces: Option<String>,
+    /// Seed of the ray directions; overrides the scene's setting.
+    #[arg(long)]
+    pub seed: Option<u64>,
+    /// Write DIR/mesh.ply and DIR/scene.json.
+    #[arg(long, value_name = "DIR")]
+    pub export: Option<PathBuf>,
+    /// auto (a hardware GPU, else the CPU), gpu (any adapter, software ones too) or cpu; overrides the scene.
+    #[arg(long)]
+    pub backend: Option<String>,
+    /// Logical devices per adapter (exercises the multi-device scheduler on one GPU).
+    #[arg(long, default_value_t = 1)]
+    pub devices: usize,
+}
+
+pub fn run(args: SolveArgs) -> Result<()> {
+    let SolveArgs { scene: scene_name, rays, bounces, seed, export, backend, devices } = args;
     let t0 = Instant::now();
-    let mut desc = scene::load(scene_name)?;
+    let mut desc = scene::load(&scene_name)?;
     for w in &desc.warnings {
         eprintln!("warning: {w}");
     }
@@ -36,6 +56,13 @@ pub fn run(
     }
     if let Some(s) = seed {
         desc.settings.seed = s;
+    }
+    if let Some(b) = backend {
+        desc.settings.backend = b.parse()?;
+    }
+    let (compute, note) = Compute::from_backend(desc.settings.backend, devices)?;
+    if let Some(note) = note {
+        eprintln!("{note}");
     }
     let prepared = prep::prepare(&desc)?;
     if prepared.dropped_triangles > 0 {
@@ -53,7 +80,7 @@ pub fn run(
             .progress_chars("=> "),
     );
     let params = SolveParams::from_settings(&prepared.settings);
-    let solver = Solver::new(prepared, params, &|done, _| bar.set_position(done as u64));
+    let solver = Solver::new_on(prepared, params, &compute, &|done, _| bar.set_position(done as u64))?;
     bar.finish_and_clear();
     let t1 = Instant::now();
     let solution = solver.solve();
@@ -62,6 +89,7 @@ pub fn run(
     let s = &stats;
     let mb = |b: u64| b as f64 / 1e6;
     println!("scene            {}", solver.scene.name);
+    println!("backend          {}", s.backend);
     println!("vertices         {}", s.vertices);
     println!("triangles        {}", s.triangles);
     println!(
@@ -79,6 +107,15 @@ pub fn run(
     println!("prep ms          {prep_ms:.1}");
     println!("kd build ms      {:.1}", s.kd.build_ms);
     println!("links ms         {:.1} ({:.2} M rays/s)", s.links.shoot_ms, s.links.rays_per_second() / 1e6);
+    for d in &s.devices {
+        println!(
+            "  device         {}: {} batches, {} vertices, {:.2} M rays/s",
+            d.label,
+            d.batches,
+            d.vertices,
+            d.rays_per_second / 1e6
+        );
+    }
     println!("light links ms   {:.1} ({} shadow rays)", s.light_links_ms, s.shadow_rays);
     println!(
         "bounces ms       {:.1} ({} bounces, tail {:.2e}{})",

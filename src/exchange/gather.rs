@@ -81,13 +81,65 @@ fn total(e: &[Vec3]) -> [f64; 3] {
         .reduce(|| [0f64; 3], |a, b| [a[0] + b[0], a[1] + b[1], a[2] + b[2]])
 }
 
-/// Runs the bounces from direct irradiance `e_direct` with per-vertex `albedo`.
+/// One implementation of the bounce loop (the CPU here, the GPU in
+/// `crate::gpu::gather`); [`drive`] holds the stopping rule and the tail
+/// estimate, so both paths stop after the same bounce.
+pub trait BounceKernel {
+    /// Runs `count` bounces; returns each one's total irradiance over all
+    /// vertices per channel (W/m^2 summed, f64).
+    fn run_bounces(&mut self, count: u32) -> crate::Result<Vec<[f64; 3]>>;
+    /// `E_i` so far plus `tail` (per channel) times the newest bounce.
+    fn finish(&mut self, tail: Vec3) -> crate::Result<Vec<Vec3>>;
+}
+
+/// The CPU bounce kernel (rayon).
+pub struct CpuBounces<'a> {
+    links: &'a Links,
+    albedo: &'a [Vec3],
+    e_i: Vec<Vec3>,
+    e_b: Vec<Vec3>,
+    b: Vec<Vec3>,
+}
+
+impl<'a> CpuBounces<'a> {
+    pub fn new(links: &'a Links, albedo: &'a [Vec3], e_direct: &[Vec3]) -> Self {
+        let n = e_direct.len();
+        let b = e_direct.iter().zip(albedo).map(|(e, r)| *e * *r / PI).collect();
+        Self { links, albedo, e_i: vec![Vec3::ZERO; n], e_b: vec![Vec3::ZERO; n], b }
+    }
+}
+
+impl BounceKernel for CpuBounces<'_> {
+    fn run_bounces(&mut self, count: u32) -> crate::Result<Vec<[f64; 3]>> {
+        let mut totals = Vec::with_capacity(count as usize);
+        for _ in 0..count {
+            gather_bounce(self.links, &self.b, &mut self.e_b);
+            self.e_i.par_iter_mut().zip(&self.e_b).for_each(|(i, e)| *i += *e);
+            self.b.par_iter_mut().zip(&self.e_b).zip(self.albedo).for_each(|((b, e), r)| *b = *e * *r / PI);
+            totals.push(total(&self.e_b));
+        }
+        Ok(totals)
+    }
+
+    fn finish(&mut self, tail: Vec3) -> crate::Result<Vec<Vec3>> {
+        let mut e_i = std::mem::take(&mut self.e_i);
+        if tail != Vec3::ZERO {
+            e_i.par_iter_mut().zip(&self.e_b).for_each(|(i, e)| *i += *e * tail);
+        }
+        Ok(e_i)
+    }
+}
+
+/// Runs the bounces from direct irradiance `e_direct` with per-vertex `albedo` on the CPU.
 pub fn gather(links: &Links, albedo: &[Vec3], e_direct: &[Vec3], params: &GatherParams) -> GatherResult {
+    drive(&mut CpuBounces::new(links, albedo, e_direct), params).expect("the CPU kernel cannot fail")
+}
+
+/// The bounce loop over any kernel: a fixed count in one go, or `auto`
+/// bounce by bounce until the newest adds less than the tolerance, then
+/// the geometric tail estimate (see the module doc).
+pub fn drive(kernel: &mut dyn BounceKernel, params: &GatherParams) -> crate::Result<GatherResult> {
     let start = Instant::now();
-    let n = e_direct.len();
-    let mut e_i = vec![Vec3::ZERO; n];
-    let mut e_b = vec![Vec3::ZERO; n];
-    let mut b: Vec<Vec3> = e_direct.iter().zip(albedo).map(|(e, r)| *e * *r / PI).collect();
     let (fixed, limit) = match params.bounces {
         Bounces::Fixed(k) => (true, k),
         Bounces::Auto => (false, params.max_bounces),
@@ -96,11 +148,13 @@ pub fn gather(links: &Links, albedo: &[Vec3], e_direct: &[Vec3], params: &Gather
     let mut running = [0f64; 3];
     let mut prev = [0f64; 3];
     let mut q = [0f64; 3];
+    let mut pending = if fixed { kernel.run_bounces(limit)? } else { Vec::new() };
+    pending.reverse();
     for bounce in 1..=limit {
-        gather_bounce(links, &b, &mut e_b);
-        e_i.par_iter_mut().zip(&e_b).for_each(|(i, e)| *i += *e);
-        b.par_iter_mut().zip(&e_b).zip(albedo).for_each(|((b, e), r)| *b = *e * *r / PI);
-        let t = total(&e_b);
+        let t = match pending.pop() {
+            Some(t) => t,
+            None => kernel.run_bounces(1)?[0],
+        };
         result.bounces = bounce;
         result.bounce_totals.push(Vec3::new(t[0] as f32, t[1] as f32, t[2] as f32));
         let mut newest_rel = 0f64;
@@ -115,7 +169,7 @@ pub fn gather(links: &Links, albedo: &[Vec3], e_direct: &[Vec3], params: &Gather
         if !fixed && bounce >= 2 && newest_rel < params.tolerance as f64 {
             break;
         }
-        if running == [0.0; 3] {
+        if !fixed && running == [0.0; 3] {
             break; // nothing lit: every further bounce is zero
         }
     }
@@ -131,13 +185,10 @@ pub fn gather(links: &Links, albedo: &[Vec3], e_direct: &[Vec3], params: &Gather
             tail_rel = f64::INFINITY;
         }
     }
-    if !fixed && result.bounces >= 2 {
-        let f = Vec3::from(factor);
-        e_i.par_iter_mut().zip(&e_b).for_each(|(i, e)| *i += *e * f);
-        result.tail_added = true;
-    }
+    let add_tail = !fixed && result.bounces >= 2;
+    result.e_indirect = kernel.finish(if add_tail { Vec3::from(factor) } else { Vec3::ZERO })?;
+    result.tail_added = add_tail;
     result.tail_relative = tail_rel as f32;
-    result.e_indirect = e_i;
     result.ms = start.elapsed().as_secs_f64() * 1e3;
-    result
+    Ok(result)
 }

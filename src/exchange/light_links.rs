@@ -82,62 +82,98 @@ pub fn geometry(light: &Light, p: Vec3, n: Vec3, min_distance: f32) -> f32 {
     }
 }
 
+/// Vertices per chunk of shadow rays handed to a [`ShadowTracer`] (bounds memory).
+const CHUNK_VERTICES: usize = 16384;
+
+/// Answers batches of shadow-ray segments: the CPU kd-tree here, the GPU
+/// in `crate::gpu`. `true` where the segment is free.
+pub trait ShadowTracer: Sync {
+    fn visible(&self, rays: &[Ray]) -> crate::Result<Vec<bool>>;
+}
+
+impl ShadowTracer for KdTree {
+    fn visible(&self, rays: &[Ray]) -> crate::Result<Vec<bool>> {
+        Ok(rays.par_iter().map(|r| !self.occluded(r)).collect())
+    }
+}
+
 impl LightLinks {
-    /// Computes the factors of every light.
+    /// Computes the factors of every light on the CPU.
     pub fn compute(scene: &PreparedScene, kd: &KdTree, params: &LightLinkParams) -> LightLinks {
+        Self::compute_with(scene, kd, params).expect("the CPU tracer cannot fail")
+    }
+
+    /// Computes the factors of every light with `tracer`.
+    pub fn compute_with(
+        scene: &PreparedScene,
+        tracer: &dyn ShadowTracer,
+        params: &LightLinkParams,
+    ) -> crate::Result<LightLinks> {
         let start = Instant::now();
         let mut out = LightLinks::default();
         for light in &scene.lights {
-            let (f, rays) = Self::compute_light(scene, kd, light, params);
+            let (f, rays) = Self::compute_light(scene, tracer, light, params)?;
             out.factors.push(f);
             out.shadow_rays += rays;
         }
         out.ms = start.elapsed().as_secs_f64() * 1e3;
-        out
+        Ok(out)
     }
 
     /// One light's column: `(G * V_avg per vertex, shadow rays traced)`.
     pub fn compute_light(
         scene: &PreparedScene,
-        kd: &KdTree,
+        tracer: &dyn ShadowTracer,
         light: &Light,
         params: &LightLinkParams,
-    ) -> (Vec<f32>, u64) {
+    ) -> crate::Result<(Vec<f32>, u64)> {
         let n = scene.vertex_count();
-        let res: Vec<(f32, u64)> = (0..n)
-            .into_par_iter()
-            .map_init(Vec::new, |pts, v| {
-                let g = geometry(light, scene.positions[v], scene.normals[v], params.min_distance);
-                if g <= 0.0 {
-                    return (0.0, 0);
-                }
-                sample_points(scene, v, params, pts);
-                let eps = params.eps * scene.mean_edge_length(v).max(f32::MIN_POSITIVE);
-                let mut visible = 0u32;
-                for &s in pts.iter() {
-                    let (dir, dist) = match *light {
-                        Light::Point { position, .. } => {
-                            let d = position - s;
-                            let len = d.length();
-                            (d / len.max(f32::MIN_POSITIVE), len)
+        let mut factors = Vec::with_capacity(n);
+        let mut traced = 0u64;
+        for c0 in (0..n).step_by(CHUNK_VERTICES) {
+            // Per vertex: geometry term, sample count, points visible without a
+            // ray, and its shadow rays (appended to one flat list).
+            let per_vertex: Vec<(f32, u32, u32, Vec<Ray>)> = (c0..(c0 + CHUNK_VERTICES).min(n))
+                .into_par_iter()
+                .map_init(Vec::new, |pts, v| {
+                    let g = geometry(light, scene.positions[v], scene.normals[v], params.min_distance);
+                    if g <= 0.0 {
+                        return (0.0, 1, 0, Vec::new());
+                    }
+                    sample_points(scene, v, params, pts);
+                    let eps = params.eps * scene.mean_edge_length(v).max(f32::MIN_POSITIVE);
+                    let mut free = 0u32;
+                    let mut rays = Vec::with_capacity(pts.len());
+                    for &s in pts.iter() {
+                        let (dir, dist) = match *light {
+                            Light::Point { position, .. } => {
+                                let d = position - s;
+                                let len = d.length();
+                                (d / len.max(f32::MIN_POSITIVE), len)
+                            }
+                            Light::Directional { direction, .. } => (-direction.normalize(), f32::INFINITY),
+                        };
+                        if dist <= 2.0 * eps || !dir.is_finite() {
+                            // The light sits on the surface at this point: nothing can be in between.
+                            free += 1;
+                            continue;
                         }
-                        Light::Directional { direction, .. } => (-direction.normalize(), f32::INFINITY),
-                    };
-                    if dist <= 2.0 * eps || !dir.is_finite() {
-                        // The light sits on the surface at this point: nothing can be in between.
-                        visible += 1;
-                        continue;
+                        rays.push(Ray { origin: s, dir, tmin: eps, tmax: dist - eps, skip: v as u32 });
                     }
-                    let ray = Ray { origin: s, dir, tmin: eps, tmax: dist - eps, skip: v as u32 };
-                    if !kd.occluded(&ray) {
-                        visible += 1;
-                    }
-                }
-                (g * visible as f32 / pts.len() as f32, pts.len() as u64)
-            })
-            .collect();
-        let rays = res.iter().map(|r| r.1).sum();
-        (res.into_iter().map(|r| r.0).collect(), rays)
+                    (g, pts.len() as u32, free, rays)
+                })
+                .collect();
+            let rays: Vec<Ray> = per_vertex.iter().flat_map(|p| p.3.iter().copied()).collect();
+            let visible = tracer.visible(&rays)?;
+            traced += rays.len() as u64;
+            let mut at = 0;
+            for (g, count, free, rays) in &per_vertex {
+                let seen = visible[at..at + rays.len()].iter().filter(|&&x| x).count() as u32;
+                at += rays.len();
+                factors.push(if *g > 0.0 { g * (free + seen) as f32 / *count as f32 } else { 0.0 });
+            }
+        }
+        Ok((factors, traced))
     }
 
     /// Direct irradiance per vertex, W/m^2: `sum_l I_l * factor_l(v)`.

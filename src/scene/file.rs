@@ -33,6 +33,9 @@ pub struct SettingsFile {
     pub smoothing_angle_deg: Option<f32>,
     #[serde(skip_serializing_if = "Option::is_none")]
     pub seed: Option<u64>,
+    /// "auto", "gpu" or "cpu".
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub backend: Option<String>,
 }
 
 /// `bounces = 3` or `bounces = "auto"`.
@@ -128,6 +131,12 @@ fn settings_from(path: &Path, s: &SettingsFile) -> Result<Settings> {
         bounces,
         smoothing_angle_deg: s.smoothing_angle_deg.unwrap_or(d.smoothing_angle_deg),
         seed: s.seed.unwrap_or(d.seed),
+        backend: match &s.backend {
+            None => d.backend,
+            Some(b) => b.parse().map_err(|_| {
+                scene_err(path, format!("settings.backend = \"{b}\": expected \"auto\", \"gpu\" or \"cpu\""))
+            })?,
+        },
     };
     settings.validate().map_err(|e| scene_err(path, e.to_string()))?;
     Ok(settings)
@@ -231,6 +240,10 @@ pub fn to_toml(scene: &SceneDesc, obj_names: &[String]) -> String {
             }),
             smoothing_angle_deg: Some(s.smoothing_angle_deg),
             seed: Some(s.seed),
+            backend: match s.backend {
+                crate::gpu::Backend::Auto => None,
+                b => Some(format!("{b:?}").to_lowercase()),
+            },
         },
         camera: Some(CameraFile {
             position: scene.camera.position.into(),

@@ -102,11 +102,13 @@ pub struct Settings {
     pub smoothing_angle_deg: f32,
     /// Seed of the direction set and per-vertex rotations.
     pub seed: u64,
+    /// Where links and bounces are computed.
+    pub backend: crate::gpu::Backend,
 }
 
 impl Default for Settings {
     fn default() -> Self {
-        Self { rays_per_vertex: 256, bounces: Bounces::Fixed(3), smoothing_angle_deg: 30.0, seed: 1 }
+        Self { rays_per_vertex: 256, bounces: Bounces::Fixed(3), smoothing_angle_deg: 30.0, seed: 1, backend: crate::gpu::Backend::Auto }
     }
 }
 

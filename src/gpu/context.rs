@@ -1,0 +1,134 @@
+//! Headless device acquisition: every adapter wgpu finds (no window, no
+//! surface), opened with the largest storage-buffer limits it offers, so
+//! batches can be sized from real limits rather than the 128 MiB default.
+
+use crate::error::{Error, Result};
+use std::sync::Arc;
+
+/// Which path computes links and bounces (`backend` in the scene TOML, `--backend`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Backend {
+    /// A hardware GPU when one exists, else the CPU path (a software
+    /// rasterizer such as lavapipe is slower than the CPU path, so `auto`
+    /// does not pick it).
+    #[default]
+    Auto,
+    /// Any adapter, software ones included; an error if there is none.
+    Gpu,
+    /// The CPU path (rayon).
+    Cpu,
+}
+
+impl std::str::FromStr for Backend {
+    type Err = Error;
+    fn from_str(s: &str) -> Result<Backend> {
+        match s {
+            "auto" => Ok(Backend::Auto),
+            "gpu" => Ok(Backend::Gpu),
+            "cpu" => Ok(Backend::Cpu),
+            _ => Err(Error::Setting(format!("backend \"{s}\": expected auto, gpu or cpu"))),
+        }
+    }
+}
+
+/// One opened adapter: device, queue, what it is and the limits it was opened with.
+#[derive(Clone, Debug)]
+pub struct GpuDevice {
+    pub device: wgpu::Device,
+    pub queue: wgpu::Queue,
+    pub info: wgpu::AdapterInfo,
+    pub limits: wgpu::Limits,
+}
+
+impl GpuDevice {
+    /// One line describing the adapter: name, backend, device type.
+    pub fn describe(&self) -> String {
+        format!("{} ({:?}, {:?})", self.info.name, self.info.backend, self.info.device_type)
+    }
+
+    /// True for software adapters (lavapipe, llvmpipe, WARP).
+    pub fn is_software(&self) -> bool {
+        self.info.device_type == wgpu::DeviceType::Cpu
+    }
+
+    /// Blocks until all submitted work is done.
+    pub fn wait(&self) -> Result<()> {
+        self.device
+            .poll(wgpu::PollType::wait_indefinitely())
+            .map(|_| ())
+            .map_err(|e| Error::Gpu(format!("{}: waiting for the device failed: {e}", self.info.name)))
+    }
+}
+
+/// Opens every adapter found, hardware ones first: Vulkan, Metal and DX12,
+/// and OpenGL only when none of those has one (probing GL without a
+/// display prints noise). `WGPU_BACKEND` overrides the choice.
+/// An empty list means no adapter at all.
+pub fn open_all() -> Vec<Arc<GpuDevice>> {
+    let desc = wgpu::InstanceDescriptor::new_without_display_handle_from_env();
+    let from_env = std::env::var_os("WGPU_BACKEND").is_some();
+    let instance = wgpu::Instance::new(desc);
+    let mut adapters = Vec::new();
+    for backends in [wgpu::Backends::PRIMARY, wgpu::Backends::SECONDARY] {
+        if adapters.is_empty() {
+            let b = if from_env { wgpu::Backends::all() } else { backends };
+            adapters = pollster::block_on(instance.enumerate_adapters(b));
+        }
+    }
+    // Prefer Vulkan/Metal/DX12 over GL for the same device, hardware first.
+    adapters.sort_by_key(|a| {
+        let i = a.get_info();
+        ((i.device_type == wgpu::DeviceType::Cpu) as u8, (i.backend == wgpu::Backend::Gl) as u8)
+    });
+    let mut out: Vec<Arc<GpuDevice>> = Vec::new();
+    for adapter in adapters {
+        let info = adapter.get_info();
+        // The same physical device seen through a second API: keep the first.
+        if out.iter().any(|d| d.info.name == info.name && d.info.device == info.device) {
+            continue;
+        }
+        if !adapter.get_downlevel_capabilities().flags.contains(wgpu::DownlevelFlags::COMPUTE_SHADERS) {
+            continue;
+        }
+        let offered = adapter.limits();
+        let mut limits = wgpu::Limits::default().using_resolution(offered.clone());
+        limits.max_storage_buffer_binding_size = offered.max_storage_buffer_binding_size;
+        limits.max_buffer_size = offered.max_buffer_size;
+        limits.max_storage_buffers_per_shader_stage = offered.max_storage_buffers_per_shader_stage.min(16);
+        limits.max_compute_workgroups_per_dimension = offered.max_compute_workgroups_per_dimension;
+        if limits.max_storage_buffers_per_shader_stage < 8 {
+            continue;
+        }
+        let desc = wgpu::DeviceDescriptor {
+            label: Some("linkgi device"),
+            required_features: wgpu::Features::empty(),
+            required_limits: limits.clone(),
+            ..Default::default()
+        };
+        if let Ok((device, queue)) = pollster::block_on(adapter.request_device(&desc)) {
+            out.push(Arc::new(GpuDevice { device, queue, info, limits }));
+        }
+    }
+    out
+}
+
+/// The devices `backend` asks for: empty for the CPU path. `Auto` drops
+/// software adapters; `Gpu` with no adapter is an error naming the problem.
+pub fn devices_for(backend: Backend) -> Result<Vec<Arc<GpuDevice>>> {
+    match backend {
+        Backend::Cpu => Ok(Vec::new()),
+        Backend::Auto => Ok(open_all().into_iter().filter(|d| !d.is_software()).collect()),
+        Backend::Gpu => {
+            let all = open_all();
+            if all.is_empty() {
+                return Err(Error::Gpu(
+                    "no graphics adapter found (install a Vulkan driver, e.g. mesa-vulkan-drivers for lavapipe, \
+                     or use --backend cpu)"
+                        .into(),
+                ));
+            }
+            Ok(all)
+        }
+    }
+}

@@ -1,0 +1,174 @@
+//! The bounce loop on the GPU (`shaders/gather.wgsl`): links, albedo and
+//! the running sums stay on the device; a fixed bounce count is one
+//! submission with no read-back between bounces. `auto` reads back only
+//! the per-workgroup sums of each bounce (16 bytes per 256 vertices) to
+//! decide whether to stop. Irradiance in W/m^2.
+
+use super::buffers::{dispatch_size, read_back, storage_init, uniform_init};
+use super::context::GpuDevice;
+use super::layout::{GatherUniforms, GATHER_WGSL};
+use crate::error::Result;
+use crate::exchange::gather::BounceKernel;
+use crate::links::Links;
+use glam::Vec3;
+use std::f32::consts::PI;
+use std::sync::Arc;
+
+const WORKGROUP: u32 = 256;
+
+/// Links and albedo resident on one device.
+pub struct GpuLinks {
+    pub dev: Arc<GpuDevice>,
+    gather: wgpu::ComputePipeline,
+    update: wgpu::ComputePipeline,
+    uniforms: wgpu::Buffer,
+    offsets: wgpu::Buffer,
+    targets: wgpu::Buffer,
+    weights: wgpu::Buffer,
+    albedo: wgpu::Buffer,
+    n: u32,
+    groups: (u32, u32),
+}
+
+impl GpuLinks {
+    /// Uploads the link matrix and the albedo.
+    pub fn new(dev: Arc<GpuDevice>, links: &Links, albedo: &[Vec3]) -> Result<GpuLinks> {
+        let d = &dev.device;
+        let module = d.create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some("gather.wgsl"),
+            source: wgpu::ShaderSource::Wgsl(GATHER_WGSL.into()),
+        });
+        let pipeline = |entry: &str| {
+            d.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                label: Some(entry),
+                layout: None,
+                module: &module,
+                entry_point: Some(entry),
+                compilation_options: Default::default(),
+                cache: None,
+            })
+        };
+        let n = links.vertex_count() as u32;
+        let groups = dispatch_size(n, WORKGROUP, dev.limits.max_compute_workgroups_per_dimension);
+        let mut packed: Vec<u16> = links.weights.iter().map(|w| w.to_bits()).collect();
+        if packed.len() % 2 == 1 {
+            packed.push(0);
+        }
+        let uniforms = GatherUniforms { vertex_count: n, groups_x: groups.0, ..Default::default() };
+        Ok(GpuLinks {
+            gather: pipeline("gather_bounce"),
+            update: pipeline("update_bounce"),
+            uniforms: uniform_init(d, "gather uniforms", &uniforms),
+            offsets: storage_init(d, "link offsets", &links.offsets),
+            targets: storage_init(d, "link targets", &links.targets),
+            weights: storage_init(d, "link weights (f16 pairs)", &packed),
+            albedo: storage_init(d, "albedo", &vec4s(albedo)),
+            n,
+            groups,
+            dev,
+        })
+    }
+
+    /// A bounce kernel starting from direct irradiance `e_direct`.
+    pub fn kernel(&self, e_direct: &[Vec3], albedo: &[Vec3]) -> GpuBounces<'_> {
+        let d = &self.dev.device;
+        let b0: Vec<Vec3> = e_direct.iter().zip(albedo).map(|(e, r)| *e * *r / PI).collect();
+        let zeros = vec![[0f32; 4]; self.n as usize];
+        let radiosity = storage_init(d, "radiosity", &vec4s(&b0));
+        let bounce = storage_init(d, "bounce irradiance", &zeros);
+        let total = storage_init(d, "indirect irradiance", &zeros);
+        let group_count = (self.groups.0 * self.groups.1) as usize;
+        let partials = storage_init(d, "bounce partial sums", &vec![[0f32; 4]; group_count]);
+        let bind = |p: &wgpu::ComputePipeline, label: &str, slots: &[(u32, &wgpu::Buffer)]| {
+            d.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some(label),
+                layout: &p.get_bind_group_layout(0),
+                entries: &slots
+                    .iter()
+                    .map(|(i, b)| wgpu::BindGroupEntry { binding: *i, resource: b.as_entire_binding() })
+                    .collect::<Vec<_>>(),
+            })
+        };
+        let gather_group = bind(
+            &self.gather,
+            "gather_bounce bind group",
+            &[(0, &self.uniforms), (1, &self.offsets), (2, &self.targets), (3, &self.weights), (4, &radiosity), (5, &bounce)],
+        );
+        let update_group = bind(
+            &self.update,
+            "update_bounce bind group",
+            &[(0, &self.uniforms), (4, &radiosity), (5, &bounce), (6, &self.albedo), (7, &total), (8, &partials)],
+        );
+        GpuBounces { links: self, bounce, total, partials, gather_group, update_group, group_count }
+    }
+}
+
+fn vec4s(v: &[Vec3]) -> Vec<[f32; 4]> {
+    v.iter().map(|e| [e.x, e.y, e.z, 0.0]).collect()
+}
+
+/// The per-solve state of the GPU bounce loop.
+pub struct GpuBounces<'a> {
+    links: &'a GpuLinks,
+    bounce: wgpu::Buffer,
+    total: wgpu::Buffer,
+    partials: wgpu::Buffer,
+    gather_group: wgpu::BindGroup,
+    update_group: wgpu::BindGroup,
+    group_count: usize,
+}
+
+impl BounceKernel for GpuBounces<'_> {
+    fn run_bounces(&mut self, count: u32) -> Result<Vec<[f64; 3]>> {
+        let l = self.links;
+        let d = &l.dev.device;
+        let slot = (self.group_count * 16) as u64;
+        let all_partials = d.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("bounce totals"),
+            size: slot * count.max(1) as u64,
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::COPY_SRC,
+            mapped_at_creation: false,
+        });
+        let mut enc = d.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("bounces") });
+        for b in 0..count {
+            {
+                let mut pass =
+                    enc.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some("bounce"), timestamp_writes: None });
+                pass.set_pipeline(&l.gather);
+                pass.set_bind_group(0, &self.gather_group, &[]);
+                pass.dispatch_workgroups(l.groups.0, l.groups.1, 1);
+                pass.set_pipeline(&l.update);
+                pass.set_bind_group(0, &self.update_group, &[]);
+                pass.dispatch_workgroups(l.groups.0, l.groups.1, 1);
+            }
+            enc.copy_buffer_to_buffer(&self.partials, 0, &all_partials, b as u64 * slot, slot);
+        }
+        let sums: Vec<[f32; 4]> = read_back(&l.dev, enc, &all_partials, "bounce totals")?;
+        Ok(sums
+            .chunks(self.group_count)
+            .take(count as usize)
+            .map(|c| {
+                c.iter().fold([0f64; 3], |mut s, p| {
+                    s[0] += p[0] as f64;
+                    s[1] += p[1] as f64;
+                    s[2] += p[2] as f64;
+                    s
+                })
+            })
+            .collect())
+    }
+
+    fn finish(&mut self, tail: Vec3) -> Result<Vec<Vec3>> {
+        let l = self.links;
+        let enc = |label| l.dev.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some(label) });
+        let total: Vec<[f32; 4]> = read_back(&l.dev, enc("read E_i"), &self.total, "indirect irradiance")?;
+        let mut e_i: Vec<Vec3> = total.iter().take(l.n as usize).map(|t| Vec3::new(t[0], t[1], t[2])).collect();
+        if tail != Vec3::ZERO {
+            let last: Vec<[f32; 4]> = read_back(&l.dev, enc("read E^(b)"), &self.bounce, "bounce irradiance")?;
+            for (e, b) in e_i.iter_mut().zip(&last) {
+                *e += Vec3::new(b[0], b[1], b[2]) * tail;
+            }
+        }
+        Ok(e_i)
+    }
+}

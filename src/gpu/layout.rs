@@ -1,0 +1,100 @@
+//! Data shared with the WGSL shaders: `#[repr(C)]` + `bytemuck::Pod`, each
+//! mirrored by a WGSL struct of the same name. [`SHARED_STRUCTS`] lists
+//! every one with its size and field offsets, and `tests/gpu_layout.rs`
+//! parses the shaders with naga and checks them against it.
+//!
+//! Lengths in metres; `vec3<f32>` fields are followed by a `u32`/`f32` so
+//! they fill 16 bytes as WGSL lays them out.
+
+use crate::kdtree::{KdLeaf, KdNode, KdTriangle};
+use crate::links::HitRecord;
+use bytemuck::{Pod, Zeroable};
+use std::mem::{offset_of, size_of};
+
+/// One shooting vertex of a batch: ray origin, the vertex its rays skip,
+/// and its frame rotated about the normal (64 bytes).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct RayVertex {
+    pub origin: [f32; 3],
+    pub skip: u32,
+    pub tangent: [f32; 3],
+    pub _pad0: u32,
+    pub bitangent: [f32; 3],
+    pub _pad1: u32,
+    pub normal: [f32; 3],
+    pub _pad2: u32,
+}
+
+/// A shadow-ray segment `origin + t dir`, `t` in `[tmin, tmax]` (48 bytes).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct ShadowRay {
+    pub origin: [f32; 3],
+    pub skip: u32,
+    pub dir: [f32; 3],
+    pub tmin: f32,
+    pub tmax: f32,
+    pub _pad0: u32,
+    pub _pad1: u32,
+    pub _pad2: u32,
+}
+
+/// Uniforms of one tracing dispatch (48 bytes).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct TraceParams {
+    /// Rays (or shadow rays) in the dispatch.
+    pub count: u32,
+    pub rays_per_vertex: u32,
+    /// Workgroups along x of the 2D dispatch.
+    pub groups_x: u32,
+    pub leaf_count: u32,
+    pub root_min: [f32; 3],
+    pub _pad0: u32,
+    pub root_max: [f32; 3],
+    pub _pad1: u32,
+}
+
+/// Uniforms of the gather shader (16 bytes).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GatherUniforms {
+    pub vertex_count: u32,
+    /// Workgroups along x of the 2D dispatch.
+    pub groups_x: u32,
+    /// Tail factor per channel is applied by `add_tail`; this selects nothing else.
+    pub _pad0: u32,
+    pub _pad1: u32,
+}
+
+/// A struct shared with WGSL: name, size and `(field, offset)` pairs.
+pub struct SharedStruct {
+    pub name: &'static str,
+    pub size: usize,
+    pub fields: Vec<(&'static str, usize)>,
+}
+
+macro_rules! shared {
+    ($t:ty, $name:literal, [$($f:ident),*]) => {
+        SharedStruct { name: $name, size: size_of::<$t>(), fields: vec![$((stringify!($f), offset_of!($t, $f))),*] }
+    };
+}
+
+/// Every struct the shaders also declare.
+pub fn shared_structs() -> Vec<SharedStruct> {
+    vec![
+        shared!(KdNode, "KdNode", [split, kind, a, b]),
+        shared!(KdLeaf, "KdLeaf", [min, first, max, count, ropes, _pad]),
+        shared!(KdTriangle, "KdTriangle", [v0, ia, v1, ib, v2, ic]),
+        shared!(HitRecord, "HitRecord", [tri, u, v, t]),
+        shared!(RayVertex, "RayVertex", [origin, skip, tangent, _pad0, bitangent, _pad1, normal, _pad2]),
+        shared!(ShadowRay, "ShadowRay", [origin, skip, dir, tmin, tmax, _pad0, _pad1, _pad2]),
+        shared!(TraceParams, "TraceParams", [count, rays_per_vertex, groups_x, leaf_count, root_min, _pad0, root_max, _pad1]),
+        shared!(GatherUniforms, "GatherUniforms", [vertex_count, groups_x, _pad0, _pad1]),
+    ]
+}
+
+/// The WGSL sources, for pipelines and the layout test.
+pub const SHOOT_WGSL: &str = include_str!("../../shaders/shoot.wgsl");
+pub const GATHER_WGSL: &str = include_str!("../../shaders/gather.wgsl");

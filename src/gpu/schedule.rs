@@ -1,0 +1,271 @@
+//! Link generation on one or more devices (DESIGN.md §5): vertices are cut
+//! into batches handed to whichever device is free; a device's next batch
+//! is sized from its throughput on its last one (the paper's load
+//! balancing), capped by its memory limits. Hits stream back over a
+//! crossbeam channel and are merged into links on the CPU (rayon) while the
+//! devices trace the next batches. The merge is the CPU path's own
+//! ([`crate::links::merge_vertex`]), so both paths give the same links for
+//! the same hits.
+//!
+//! A logical device is one tracer on an adapter; `--devices N` puts N on
+//! one adapter so the scheduler can be exercised on one machine, and
+//! [`LogicalDevice::delay_per_vertex`] slows one down artificially for tests.
+
+use super::layout::RayVertex;
+use super::tracer::GpuTracer;
+use crate::error::{Error, Result};
+use crate::kdtree::KdTree;
+use crate::links::shoot::RaySetup;
+use crate::links::{merge_vertex, HitRecord, LinkParams, LinkStats, Links};
+use crate::sampling::vertex_frame;
+use crate::scene::prep::PreparedScene;
+use half::f16;
+use rayon::prelude::*;
+use std::sync::Mutex;
+use std::time::{Duration, Instant};
+
+/// Scheduler parameters.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ScheduleParams {
+    /// Wall time a batch should take on its device, seconds.
+    pub target_batch_seconds: f64,
+    /// Vertices of every device's first batch (before any speed is known),
+    /// and the smallest batch.
+    pub first_batch_vertices: usize,
+}
+
+impl Default for ScheduleParams {
+    fn default() -> Self {
+        Self { target_batch_seconds: 0.2, first_batch_vertices: 1024 }
+    }
+}
+
+/// One scheduling target: a tracer plus an optional artificial delay.
+pub struct LogicalDevice {
+    pub label: String,
+    pub tracer: GpuTracer,
+    /// Extra time per traced vertex (tests of the scheduler), zero normally.
+    pub delay_per_vertex: Duration,
+}
+
+/// What one logical device did.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct DeviceShare {
+    pub label: String,
+    pub batches: usize,
+    pub vertices: usize,
+    /// Vertex ranges it traced, in the order it took them.
+    pub ranges: Vec<(usize, usize)>,
+    /// Rays per second over its batches.
+    pub rays_per_second: f64,
+}
+
+/// The merged links of one batch.
+struct BatchLinks {
+    first: usize,
+    counts: Vec<u32>,
+    targets: Vec<u32>,
+    weights: Vec<f16>,
+    stats: LinkStats,
+}
+
+/// Per-vertex shooting data of the whole scene, in the shader's layout.
+pub fn ray_vertices(setup: &RaySetup) -> Vec<RayVertex> {
+    (0..setup.origins.len())
+        .map(|v| {
+            let (t, b, n) = vertex_frame(setup.normals[v], setup.rotations[v]);
+            RayVertex {
+                origin: setup.origins[v].into(),
+                skip: v as u32,
+                tangent: t.into(),
+                bitangent: b.into(),
+                normal: n.into(),
+                ..Default::default()
+            }
+        })
+        .collect()
+}
+
+/// Replaces the records of rays that dive under an incident triangle by
+/// self hits, exactly as the CPU tracer does before tracing (the shader
+/// traces them; the CPU decides, so both paths agree).
+fn fix_wedges(setup: &RaySetup, v: usize, hits: &mut [HitRecord]) {
+    let wedges = setup.wedges(v);
+    for (k, h) in hits.iter_mut().enumerate() {
+        let d = setup.direction(v, k);
+        if let Some(w) = wedges.iter().find(|w| w.dives_under(d)) {
+            *h = w.self_hit();
+        }
+    }
+}
+
+fn merge_batch(setup: &RaySetup, kd: &KdTree, first: usize, hits: &mut [HitRecord]) -> BatchLinks {
+    let rays = setup.directions.len();
+    let weight_per_ray = std::f64::consts::PI / rays as f64;
+    const CHUNK: usize = 64;
+    let parts: Vec<BatchLinks> = hits
+        .par_chunks_mut(rays * CHUNK)
+        .enumerate()
+        .map(|(ci, chunk)| {
+            let mut out = BatchLinks {
+                first: first + ci * CHUNK,
+                counts: Vec::new(),
+                targets: Vec::new(),
+                weights: Vec::new(),
+                stats: LinkStats::default(),
+            };
+            let mut scratch = Vec::new();
+            for (i, vh) in chunk.chunks_mut(rays).enumerate() {
+                fix_wedges(setup, out.first + i, vh);
+                let before = out.targets.len();
+                let c = merge_vertex(vh, &kd.triangles, weight_per_ray, &mut scratch, &mut out.targets, &mut out.weights);
+                out.counts.push((out.targets.len() - before) as u32);
+                out.stats.rays += vh.len() as u64;
+                out.stats.front_hits += c.front as u64;
+                out.stats.back_hits += c.back as u64;
+                out.stats.misses += c.miss as u64;
+                out.stats.raw_links += 3 * c.front as u64;
+            }
+            out
+        })
+        .collect();
+    let mut out =
+        BatchLinks { first, counts: Vec::new(), targets: Vec::new(), weights: Vec::new(), stats: LinkStats::default() };
+    for p in parts {
+        out.counts.extend(p.counts);
+        out.targets.extend(p.targets);
+        out.weights.extend(p.weights);
+        out.stats.add(&p.stats);
+    }
+    out
+}
+
+/// Shoots every vertex's rays on `devices` and builds the merged links.
+/// `progress(done, total)` is called as batches are merged.
+pub fn shoot_links_gpu(
+    scene: &PreparedScene,
+    kd: &KdTree,
+    params: &LinkParams,
+    sched: &ScheduleParams,
+    devices: &mut [LogicalDevice],
+    progress: &(dyn Fn(usize, usize) + Sync),
+) -> Result<(Links, Vec<DeviceShare>)> {
+    if devices.is_empty() {
+        return Err(Error::Gpu("no device to shoot rays on".into()));
+    }
+    let start = Instant::now();
+    let setup = RaySetup::new(scene, params);
+    for d in devices.iter_mut() {
+        d.tracer.set_directions(&setup.directions.dirs);
+    }
+    let verts = ray_vertices(&setup);
+    let n = verts.len();
+    let rays = setup.directions.len();
+    let cursor = Mutex::new(0usize);
+    // Vertices per second of every device on its last batch (0: unknown).
+    let speeds = Mutex::new(vec![0f64; devices.len()]);
+    let (tx, rx) = crossbeam_channel::bounded::<Result<(usize, usize, Vec<HitRecord>)>>(devices.len());
+    let mut shares: Vec<DeviceShare> = devices.iter().map(|d| DeviceShare { label: d.label.clone(), ..Default::default() }).collect();
+    let mut batches: Vec<BatchLinks> = Vec::new();
+    let mut merged_vertices = 0usize;
+    let mut first_error = None;
+    std::thread::scope(|s| {
+        for (i, (dev, share)) in devices.iter().zip(shares.iter_mut()).enumerate() {
+            let (tx, cursor, speeds, verts) = (tx.clone(), &cursor, &speeds, &verts);
+            s.spawn(move || {
+                let max_vertices = (dev.tracer.max_batch_rays() / rays).max(1);
+                let mut traced_rays = 0u64;
+                let mut busy = 0f64;
+                loop {
+                    let want = {
+                        let sp = speeds.lock().expect("speeds lock");
+                        let remaining = n - *cursor.lock().expect("cursor lock");
+                        let sum: f64 = sp.iter().sum();
+                        let size = if sp[i] > 0.0 {
+                            // Its speed times the target time, and never more than its
+                            // fair part of what is left, so the slow device does not end last.
+                            let by_time = (sp[i] * sched.target_batch_seconds) as usize;
+                            let fair = (remaining as f64 * sp[i] / sum.max(1e-9) / 2.0).ceil() as usize;
+                            by_time.min(fair)
+                        } else {
+                            sched.first_batch_vertices
+                        };
+                        size.max(sched.first_batch_vertices.clamp(1, 64)).min(max_vertices)
+                    };
+                    let (a, b) = {
+                        let mut c = cursor.lock().expect("cursor lock");
+                        let a = *c;
+                        *c = (a + want).min(n);
+                        (a, *c)
+                    };
+                    if a >= b {
+                        break;
+                    }
+                    let t = Instant::now();
+                    let result = dev.tracer.shoot(&verts[a..b]);
+                    if !dev.delay_per_vertex.is_zero() {
+                        std::thread::sleep(dev.delay_per_vertex * (b - a) as u32);
+                    }
+                    let secs = t.elapsed().as_secs_f64();
+                    busy += secs;
+                    traced_rays += ((b - a) * rays) as u64;
+                    speeds.lock().expect("speeds lock")[i] = (b - a) as f64 / secs.max(1e-6);
+                    share.batches += 1;
+                    share.vertices += b - a;
+                    share.ranges.push((a, b));
+                    let failed = result.is_err();
+                    if tx.send(result.map(|h| (a, b, h))).is_err() || failed {
+                        break;
+                    }
+                }
+                share.rays_per_second = traced_rays as f64 / busy.max(1e-9);
+            });
+        }
+        drop(tx);
+        for msg in rx.iter() {
+            match msg {
+                Ok((a, b, mut hits)) => {
+                    if hits.len() != (b - a) * rays {
+                        first_error.get_or_insert(Error::Gpu(format!(
+                            "batch {a}..{b} returned {} hits, expected {}",
+                            hits.len(),
+                            (b - a) * rays
+                        )));
+                        continue;
+                    }
+                    batches.push(merge_batch(&setup, kd, a, &mut hits));
+                    merged_vertices += b - a;
+                    progress(merged_vertices, n);
+                }
+                Err(e) => {
+                    first_error.get_or_insert(e);
+                }
+            }
+        }
+    });
+    if let Some(e) = first_error {
+        return Err(e);
+    }
+    if merged_vertices != n {
+        return Err(Error::Gpu(format!("only {merged_vertices} of {n} vertices came back from the devices")));
+    }
+    batches.sort_by_key(|b| b.first);
+    let mut links = Links { offsets: Vec::with_capacity(n + 1), ..Default::default() };
+    links.offsets.push(0);
+    let mut stats = LinkStats::default();
+    for b in batches {
+        for c in b.counts {
+            let last = *links.offsets.last().expect("non-empty");
+            links.offsets.push(last + c);
+        }
+        links.targets.extend(b.targets);
+        links.weights.extend(b.weights);
+        stats.add(&b.stats);
+    }
+    stats.merged_links = links.targets.len() as u64;
+    stats.raw_bytes = stats.raw_links * 8;
+    stats.merged_bytes = stats.merged_links * 6 + 4 * (n as u64 + 1);
+    stats.shoot_ms = start.elapsed().as_secs_f64() * 1e3;
+    links.stats = stats;
+    Ok((links, shares))
+}
