@@ -66,14 +66,16 @@ impl GpuDevice {
 /// display prints noise). `WGPU_BACKEND` overrides the choice.
 /// An empty list means no adapter at all.
 pub fn open_all() -> Vec<Arc<GpuDevice>> {
-    let desc = wgpu::InstanceDescriptor::new_without_display_handle_from_env();
     let from_env = std::env::var_os("WGPU_BACKEND").is_some();
-    let instance = wgpu::Instance::new(desc);
     let mut adapters = Vec::new();
     for backends in [wgpu::Backends::PRIMARY, wgpu::Backends::SECONDARY] {
         if adapters.is_empty() {
-            let b = if from_env { wgpu::Backends::all() } else { backends };
-            adapters = pollster::block_on(instance.enumerate_adapters(b));
+            let mut desc = wgpu::InstanceDescriptor::new_without_display_handle_from_env();
+            if !from_env {
+                desc.backends = backends;
+            }
+            let instance = wgpu::Instance::new(desc);
+            adapters = pollster::block_on(instance.enumerate_adapters(wgpu::Backends::all()));
         }
     }
     // Prefer Vulkan/Metal/DX12 over GL for the same device, hardware first.

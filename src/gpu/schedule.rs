@@ -89,7 +89,7 @@ pub fn ray_vertices(setup: &RaySetup) -> Vec<RayVertex> {
 /// Replaces the records of rays that dive under an incident triangle by
 /// self hits, exactly as the CPU tracer does before tracing (the shader
 /// traces them; the CPU decides, so both paths agree).
-fn fix_wedges(setup: &RaySetup, v: usize, hits: &mut [HitRecord]) {
+pub fn fix_wedges(setup: &RaySetup, v: usize, hits: &mut [HitRecord]) {
     let wedges = setup.wedges(v);
     for (k, h) in hits.iter_mut().enumerate() {
         let d = setup.direction(v, k);

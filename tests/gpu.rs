@@ -1,0 +1,245 @@
+//! The GPU path against its CPU oracle, on every built-in scene up to
+//! `tearoom`: the same rays hit the same triangles, the merged links agree,
+//! the bounces agree, and the multi-device scheduler splits work by speed
+//! and loses nothing. Runs on any adapter (lavapipe in CI). With no adapter
+//! these tests fail when `CI` is set and skip with a message otherwise.
+
+mod common;
+
+use glam::Vec3;
+use linkgi::exchange::{self, gather::drive, GatherParams, LightLinks};
+use linkgi::gpu::{self, schedule, GpuDevice, GpuLinks, GpuTracer};
+use linkgi::links::{HitRecord, LinkParams, RaySetup};
+use linkgi::scene::{self, prep, Bounces};
+use linkgi::solver::{Compute, GpuCompute, SolveParams, Solver};
+use std::sync::{Arc, OnceLock};
+use std::time::Duration;
+
+fn device() -> Option<Arc<GpuDevice>> {
+    static DEV: OnceLock<Option<Arc<GpuDevice>>> = OnceLock::new();
+    DEV.get_or_init(|| {
+        let d = gpu::open_all().into_iter().next();
+        match &d {
+            Some(d) => eprintln!("GPU tests on {}", d.describe()),
+            None if std::env::var_os("CI").is_some() => {
+                panic!("no graphics adapter in CI: install mesa-vulkan-drivers (lavapipe)")
+            }
+            None => eprintln!("SKIPPED: no graphics adapter (install mesa-vulkan-drivers for lavapipe)"),
+        }
+        d
+    })
+    .clone()
+}
+
+fn gpu_compute(dev: &Arc<GpuDevice>, logical: usize) -> Compute {
+    Compute::Gpu(GpuCompute {
+        devices: vec![dev.clone()],
+        logical_per_device: logical,
+        delays: Vec::new(),
+        schedule: Default::default(),
+    })
+}
+
+/// Same triangle (and face flag) for at least 99.9% of rays; where they
+/// agree, the same distance and barycentrics to float precision.
+fn compare_rays(name: &str, dev: &Arc<GpuDevice>, scene: &prep::PreparedScene, kd: &linkgi::kdtree::KdTree) -> Vec<bool> {
+    let params = LinkParams::default();
+    let setup = RaySetup::new(scene, &params);
+    let mut tracer = GpuTracer::new(dev.clone(), kd).expect("tracer");
+    tracer.set_directions(&setup.directions.dirs);
+    let verts = schedule::ray_vertices(&setup);
+    let mut gpu_hits = tracer.shoot(&verts).expect("shoot");
+    let rays = setup.directions.len();
+    assert_eq!(gpu_hits.len(), verts.len() * rays);
+    let mut cpu = Vec::new();
+    let (mut same, mut total) = (0usize, 0usize);
+    let mut vertex_same = vec![true; verts.len()];
+    for v in 0..verts.len() {
+        let g = &mut gpu_hits[v * rays..(v + 1) * rays];
+        schedule::fix_wedges(&setup, v, g);
+        setup.trace_vertex(kd, v, &mut cpu);
+        for (c, g) in cpu.iter().zip(g.iter()) {
+            total += 1;
+            if c.tri == g.tri {
+                same += 1;
+                if c.tri != linkgi::links::HIT_MISS {
+                    let scale = c.t.abs().max(1.0);
+                    assert!((c.t - g.t).abs() <= 1e-4 * scale, "{name}: vertex {v}: t {} vs {}", c.t, g.t);
+                    assert!((c.u - g.u).abs() <= 1e-3 && (c.v - g.v).abs() <= 1e-3, "{name}: barycentrics differ");
+                }
+            } else {
+                vertex_same[v] = false;
+            }
+        }
+    }
+    let frac = same as f64 / total as f64;
+    eprintln!("{name}: {same}/{total} rays hit the same triangle ({:.4}%)", frac * 100.0);
+    assert!(frac >= 0.999, "{name}: only {:.4}% of rays agree", frac * 100.0);
+    vertex_same
+}
+
+fn rel(a: Vec3, b: Vec3, floor: f32) -> f32 {
+    ((a - b).abs() / a.abs().max(b.abs()).max(Vec3::splat(floor))).max_element()
+}
+
+fn agree_on(name: &str) {
+    let Some(dev) = device() else { return };
+    let desc = scene::load(name).expect("built-in");
+    let scene = prep::prepare(&desc).expect("prepares");
+    let params = SolveParams::from_settings(&scene.settings);
+    let cpu = Solver::new(scene.clone(), params, &|_, _| {});
+    let gpu = Solver::new_on(scene.clone(), params, &gpu_compute(&dev, 1), &|_, _| {}).expect("GPU solver");
+    gpu.kd.validate().expect("kd valid");
+    gpu.links.validate().expect("GPU links valid");
+    assert_eq!(cpu.kd.nodes, gpu.kd.nodes, "the tree is built on the CPU either way");
+
+    let vertex_same = compare_rays(name, &dev, &scene, &cpu.kd);
+
+    // Merged links: where every ray of a vertex met the same triangle, the
+    // link group has the same targets and weights within two f16 ulps.
+    let (mut equal, mut candidates) = (0, 0);
+    for v in 0..scene.vertex_count() {
+        if !vertex_same[v] {
+            continue;
+        }
+        candidates += 1;
+        let (ct, cw) = cpu.links.group(v);
+        let (gt, gw) = gpu.links.group(v);
+        if ct == gt && cw.iter().zip(gw).all(|(a, b)| (a.to_f32() - b.to_f32()).abs() <= 2e-3 * a.to_f32().abs() + 1e-7) {
+            equal += 1;
+        }
+    }
+    eprintln!("{name}: {equal}/{candidates} link groups equal");
+    assert!(equal as f64 >= 0.999 * candidates as f64, "{name}: {equal}/{candidates} link groups equal");
+    let (cs, gs) = (cpu.links.stats, gpu.links.stats);
+    assert_eq!((cs.rays, cs.misses), (gs.rays, gs.misses), "{name}: ray counts");
+    assert!((cs.merged_links as f64 - gs.merged_links as f64).abs() <= 1e-3 * cs.merged_links as f64);
+
+    // Light links: the GPU's visibility rays give the same factors.
+    for (l, (c, g)) in cpu.light_links.factors.iter().zip(&gpu.light_links.factors).enumerate() {
+        let bad = c.iter().zip(g).filter(|(a, b)| (*a - *b).abs() > 1e-5 * a.abs().max(1e-6)).count();
+        assert!(bad as f64 <= 1e-3 * c.len() as f64, "{name}: light {l}: {bad} vertices differ");
+    }
+
+    // Final E_i (GPU links, GPU visibility, GPU bounces vs all-CPU).
+    let (cs, gs) = (cpu.solve(), gpu.solve());
+    let mean = common::mean(&cs.e_indirect).max_element().max(1e-30);
+    let errs: Vec<f32> = cs.e_indirect.iter().zip(&gs.e_indirect).map(|(a, b)| rel(*a, *b, 1e-2 * mean)).collect();
+    let worst = errs.iter().cloned().fold(0.0, f32::max);
+    let within = errs.iter().filter(|&&e| e <= 1e-4).count();
+    eprintln!("{name}: E_i within 1e-4 at {within}/{} vertices, worst {worst:.2e}", errs.len());
+    assert!(within as f64 >= 0.999 * errs.len() as f64, "{name}: E_i within 1e-4 at only {within}/{}", errs.len());
+    let (mc, mg) = (common::mean(&cs.e_indirect), common::mean(&gs.e_indirect));
+    assert!(rel(mc, mg, 1e-30) <= 1e-4, "{name}: mean E_i {mc} vs {mg}");
+}
+
+#[test]
+fn gpu_agrees_cornell() {
+    agree_on("cornell");
+}
+#[test]
+fn gpu_agrees_furnace() {
+    agree_on("furnace");
+}
+#[test]
+fn gpu_agrees_colorlamp() {
+    agree_on("colorlamp");
+}
+#[test]
+fn gpu_agrees_torso() {
+    agree_on("torso");
+}
+#[test]
+fn gpu_agrees_tearoom() {
+    agree_on("tearoom");
+}
+
+/// The gather alone: the same links on both sides, fixed and auto bounces
+/// (stiff furnace, rho = 0.99) agree within 1e-5, and auto stops at the same bounce.
+#[test]
+fn gpu_gather_matches_cpu_gather() {
+    let Some(dev) = device() else { return };
+    for (albedo, bounces) in [(0.8, Bounces::Fixed(6)), (0.99, Bounces::Auto)] {
+        let desc = scene::builtin::furnace(albedo, 2, Vec3::new(0.2, -0.1, 0.3), 5.0);
+        let (solver, _) = common::solve(&common::with_settings(desc, 64, bounces, 0.0));
+        let e_d = solver.light_links.direct(&solver.scene.lights, solver.scene.vertex_count());
+        let params = GatherParams { bounces, ..Default::default() };
+        let cpu = exchange::gather(&solver.links, &solver.scene.albedo, &e_d, &params);
+        let gl = GpuLinks::new(dev.clone(), &solver.links, &solver.scene.albedo).expect("upload");
+        let gpu = drive(&mut gl.kernel(&e_d, &solver.scene.albedo), &params).expect("gather");
+        assert!(cpu.bounces.abs_diff(gpu.bounces) <= 1, "bounces {} vs {}", cpu.bounces, gpu.bounces);
+        if cpu.bounces == gpu.bounces {
+            for (a, b) in cpu.e_indirect.iter().zip(&gpu.e_indirect) {
+                assert!(rel(*a, *b, 1e-30) <= 1e-5, "rho {albedo}: {a} vs {b}");
+            }
+        }
+        for t in gpu.e_indirect.iter() {
+            assert!(t.is_finite());
+        }
+        eprintln!("rho {albedo}: {} bounces on both", gpu.bounces);
+    }
+}
+
+/// Three logical devices, the third slowed down: it gets the smallest
+/// share, every vertex is traced exactly once, and the links equal a
+/// single device's.
+#[test]
+fn scheduler_splits_by_speed_and_loses_nothing() {
+    let Some(dev) = device() else { return };
+    let desc = common::with_settings(scene::load("cornell").expect("built-in"), 16, Bounces::Fixed(3), 30.0);
+    let scene = prep::prepare(&desc).expect("prepares");
+    let params = SolveParams::from_settings(&scene.settings);
+    let one = Solver::new_on(scene.clone(), params, &gpu_compute(&dev, 1), &|_, _| {}).expect("one device");
+    let slow = Duration::from_micros(2000);
+    let three = Compute::Gpu(GpuCompute {
+        devices: vec![dev.clone()],
+        logical_per_device: 3,
+        delays: vec![Duration::ZERO, Duration::ZERO, slow],
+        schedule: gpu::ScheduleParams { target_batch_seconds: 0.02, first_batch_vertices: 32 },
+    });
+    let split = Solver::new_on(scene.clone(), params, &three, &|_, _| {}).expect("three devices");
+    let shares = &split.gpu.as_ref().expect("gpu state").shares;
+    for s in shares {
+        eprintln!("{}: {} batches, {} vertices", s.label, s.batches, s.vertices);
+    }
+    assert_eq!(shares.len(), 3);
+    let mut covered = vec![0u32; scene.vertex_count()];
+    for s in shares {
+        for &(a, b) in &s.ranges {
+            covered[a..b].iter_mut().for_each(|c| *c += 1);
+        }
+    }
+    assert!(covered.iter().all(|&c| c == 1), "every vertex traced exactly once");
+    assert!(shares[2].vertices < shares[0].vertices && shares[2].vertices < shares[1].vertices, "slow device got less");
+    assert!(shares[2].vertices * 2 < shares[0].vertices.min(shares[1].vertices), "share roughly follows speed");
+    assert_eq!(one.links.offsets, split.links.offsets);
+    assert_eq!(one.links.targets, split.links.targets);
+    assert_eq!(one.links.weights, split.links.weights);
+}
+
+/// Light links computed with the GPU's `light_visibility` equal the CPU's
+/// when a light moves (the engine's only work for a light move).
+#[test]
+fn gpu_light_links_follow_a_moved_light() {
+    let Some(dev) = device() else { return };
+    let desc = common::with_settings(scene::load("cornell").expect("built-in"), 16, Bounces::Fixed(2), 30.0);
+    let scene = prep::prepare(&desc).expect("prepares");
+    let mut solver = Solver::new_on(scene, SolveParams::from_settings(&desc.settings), &gpu_compute(&dev, 1), &|_, _| {})
+        .expect("GPU solver");
+    let before = solver.solve();
+    if let linkgi::scene::Light::Point { position, .. } = &mut solver.scene.lights[0] {
+        *position += Vec3::new(0.3, -0.4, 0.2);
+    }
+    solver.update_lights();
+    let cpu = LightLinks::compute(&solver.scene, &solver.kd, &solver.params.light);
+    for (c, g) in cpu.factors[0].iter().zip(&solver.light_links.factors[0]) {
+        assert!((c - g).abs() <= 1e-5 * c.abs().max(1e-6), "{c} vs {g}");
+    }
+    let after = solver.solve();
+    assert!(rel(common::mean(&before.e_direct), common::mean(&after.e_direct), 1e-30) > 1e-3, "direct light changed");
+}
+
+#[allow(dead_code)]
+fn _hit_is_pod(h: HitRecord) -> [u8; 16] {
+    bytemuck::cast(h)
+}

@@ -1,0 +1,46 @@
+//! Every struct shared with WGSL has the same size and field offsets in
+//! Rust and in the shaders (parsed with naga). No GPU needed.
+
+use linkgi::gpu::layout::{shared_structs, GATHER_WGSL, SHOOT_WGSL};
+use std::collections::HashMap;
+
+/// `name -> (size, [(field, offset)])` of every struct in a WGSL source.
+fn wgsl_structs(src: &str, file: &str) -> HashMap<String, (usize, Vec<(String, usize)>)> {
+    let module = naga::front::wgsl::parse_str(src).unwrap_or_else(|e| panic!("{file}: {}", e.emit_to_string(src)));
+    let mut out = HashMap::new();
+    for (_, ty) in module.types.iter() {
+        if let (Some(name), naga::TypeInner::Struct { members, span }) = (&ty.name, &ty.inner) {
+            let fields = members.iter().map(|m| (m.name.clone().unwrap_or_default(), m.offset as usize)).collect();
+            out.insert(name.clone(), (*span as usize, fields));
+        }
+    }
+    out
+}
+
+#[test]
+fn shared_structs_match_wgsl() {
+    let shaders = [("shoot.wgsl", wgsl_structs(SHOOT_WGSL, "shoot.wgsl")), ("gather.wgsl", wgsl_structs(GATHER_WGSL, "gather.wgsl"))];
+    for s in shared_structs() {
+        let mut seen = 0;
+        for (file, structs) in &shaders {
+            let Some((size, fields)) = structs.get(s.name) else { continue };
+            seen += 1;
+            assert_eq!(*size, s.size, "{file}: {} is {size} bytes in WGSL, {} in Rust", s.name, s.size);
+            let rust: Vec<(String, usize)> = s.fields.iter().map(|(n, o)| (n.to_string(), *o)).collect();
+            assert_eq!(fields, &rust, "{file}: {} fields/offsets differ", s.name);
+        }
+        assert!(seen > 0, "{} is declared in no shader", s.name);
+    }
+}
+
+#[test]
+fn every_wgsl_struct_outside_the_shader_is_listed() {
+    // Structs only the shaders use internally.
+    let internal = ["Shear", "Best"];
+    let listed: Vec<&str> = shared_structs().iter().map(|s| s.name).collect();
+    for src in [SHOOT_WGSL, GATHER_WGSL] {
+        for name in wgsl_structs(src, "shader").keys() {
+            assert!(listed.contains(&name.as_str()) || internal.contains(&name.as_str()), "{name} has no Rust twin");
+        }
+    }
+}
