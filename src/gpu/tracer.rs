@@ -69,10 +69,10 @@ impl GpuTracer {
 
     /// The most rays one batch may trace: the hit buffer (16 bytes a ray)
     /// must fit the device's storage-binding and buffer limits, and stays
-    /// under 256 MiB so several logical devices fit together.
+    /// under 128 MiB so several logical devices fit together.
     pub fn max_batch_rays(&self) -> usize {
         let limit = self.dev.limits.max_storage_buffer_binding_size.min(self.dev.limits.max_buffer_size);
-        (limit.min(256 << 20) / std::mem::size_of::<HitRecord>() as u64) as usize
+        (limit.min(128 << 20) / std::mem::size_of::<HitRecord>() as u64) as usize
     }
 
     fn params(&self, count: u32, rays_per_vertex: u32, groups_x: u32) -> TraceParams {
