@@ -9,6 +9,7 @@ pub mod exchange;
 pub mod export;
 pub mod kdtree;
 pub mod links;
+pub mod reference;
 pub mod sampling;
 pub mod scene;
 pub mod solver;

@@ -48,7 +48,9 @@ fn main() -> Result<()> {
     let cli = Cli::parse();
     match cli.command {
         None => cli::solve::run("cornell", None, None, None, Some(PathBuf::from("out/cornell"))),
-        Some(Command::Solve { scene, rays, bounces, seed, export }) => cli::solve::run(&scene, rays, bounces, seed, export),
+        Some(Command::Solve { scene, rays, bounces, seed, export }) => {
+            cli::solve::run(&scene, rays, bounces, seed, export)
+        }
         Some(Command::Scenes { dir }) => {
             for name in scene::builtin::NAMES {
                 let s = scene::builtin::builtin(name).expect("built-in exists");
