@@ -13,8 +13,12 @@
 //! ray (l: mean edge length at the vertex) and stop the same distance short
 //! of a point light.
 //!
-//! A point light closer than `min_distance` to a vertex is treated as that
-//! far away (documented clamp: keeps `1/r^2` finite for a light on a vertex).
+//! A point light closer than `min_distance * l` to a vertex is treated as
+//! that far away (documented clamp: keeps `1/r^2` finite for a light on a
+//! vertex; relative to the mesh so the answer does not depend on the
+//! scene's scale); inside that distance its direction is taken to be the
+//! vertex normal, so a light exactly on a vertex lights it like one just
+//! above it.
 
 use crate::kdtree::{traverse::Ray, KdTree};
 use crate::links::shoot::ray_origin;
@@ -30,7 +34,7 @@ pub struct LightLinkParams {
     pub eps: f32,
     /// Oversample visibility on the one-ring (false: the vertex alone).
     pub oversample: bool,
-    /// Smallest light distance used in `1/r^2`, metres.
+    /// Smallest light distance used in `1/r^2`, as a fraction of the mean edge length at the vertex.
     pub min_distance: f32,
     /// Origin nudge of crease and border vertices (as in [`crate::links::LinkParams`]).
     pub nudge: f32,
@@ -38,7 +42,7 @@ pub struct LightLinkParams {
 
 impl Default for LightLinkParams {
     fn default() -> Self {
-        Self { eps: 1e-4, oversample: true, min_distance: 1e-4, nudge: 1e-3 }
+        Self { eps: 1e-4, oversample: true, min_distance: 1e-3, nudge: 1e-3 }
     }
 }
 
@@ -69,12 +73,17 @@ pub fn sample_points(scene: &PreparedScene, v: usize, params: &LightLinkParams, 
     }
 }
 
-/// Geometry term of `light` at a point with normal `n`.
+/// Geometry term of `light` at a point with normal `n`; a point light
+/// closer than `min_distance` (metres) counts as that far along `n`.
 pub fn geometry(light: &Light, p: Vec3, n: Vec3, min_distance: f32) -> f32 {
     match *light {
         Light::Point { position, .. } => {
             let d = position - p;
-            let r2 = d.length_squared().max(min_distance * min_distance);
+            let r2 = d.length_squared();
+            let m2 = min_distance * min_distance;
+            if !(r2 >= m2) {
+                return 1.0 / m2;
+            }
             let cos = n.dot(d) / r2.sqrt();
             cos.max(0.0) / r2
         }
@@ -107,7 +116,8 @@ impl LightLinks {
         let res: Vec<(f32, u64)> = (0..n)
             .into_par_iter()
             .map_init(Vec::new, |pts, v| {
-                let g = geometry(light, scene.positions[v], scene.normals[v], params.min_distance);
+                let min_d = params.min_distance * scene.mean_edge_length(v);
+                let g = geometry(light, scene.positions[v], scene.normals[v], min_d.max(f32::MIN_POSITIVE.sqrt()));
                 if g <= 0.0 {
                     return (0.0, 0);
                 }
