@@ -139,8 +139,9 @@ fn with_light(mut desc: SceneDesc, light: Light) -> SceneDesc {
 }
 
 /// A light 1e-6 m above the floor and one exactly on a floor vertex: finite
-/// everywhere, the vertex under it clamped at `I / min_distance^2`
-/// (documented in exchange::light_links), energy bounded.
+/// everywhere, energy bounded; the vertex under the first is clamped at
+/// `I / (min_distance l)^2` (documented in exchange::light_links), the one
+/// under the second has the light in its tangent plane and gets nothing.
 #[test]
 fn light_touching_a_surface() {
     let room = common::with_settings(builtin::closed_room(4, 0.5), 64, Bounces::Fixed(3), 0.0);
@@ -160,7 +161,16 @@ fn light_touching_a_surface() {
         let (solver, sol) = common::solve(&desc);
         let ed = sol.e_direct[v].x;
         eprintln!("light {what}: E_d at the vertex {ed:.3e}, mean E_i {:.3e}", common::mean(&sol.e_indirect).x);
-        assert!(ed > 0.0, "{what}: the vertex under the light gets nothing");
+        if pos == p {
+            assert_eq!(ed, 0.0, "a light in the tangent plane lights nothing");
+            let floor_lit = (0..sol.e_direct.len())
+                .filter(|&u| solver.scene.normals[u].y > 0.99 && sol.e_direct[u].x > 0.0)
+                .count();
+            assert_eq!(floor_lit, 0, "the light lies in the floor's plane");
+            assert!(sol.e_direct.iter().any(|e| e.x > 0.0), "the walls are lit");
+        } else {
+            assert!(ed > 0.0, "{what}: the vertex under the light gets nothing");
+        }
         let d = solver.params.light.min_distance * solver.scene.mean_edge_length(v);
         assert!(ed <= 1.0 / (d * d) * 1.0001, "{what}: E_d {ed} above the clamp {}", 1.0 / (d * d));
         assert_open_energy(&solver, &sol, what);

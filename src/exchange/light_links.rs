@@ -16,9 +16,9 @@
 //! A point light closer than `min_distance * l` to a vertex is treated as
 //! that far away (documented clamp: keeps `1/r^2` finite for a light on a
 //! vertex; relative to the mesh so the answer does not depend on the
-//! scene's scale); inside that distance its direction is taken to be the
-//! vertex normal, so a light exactly on a vertex lights it like one just
-//! above it.
+//! scene's scale). A light exactly on a vertex lies in its tangent plane
+//! (`cos = 0`) and lights that vertex not at all; one just above it gives
+//! at most `I / (min_distance * l)^2`.
 
 use crate::kdtree::{traverse::Ray, KdTree};
 use crate::links::shoot::ray_origin;
@@ -74,16 +74,12 @@ pub fn sample_points(scene: &PreparedScene, v: usize, params: &LightLinkParams, 
 }
 
 /// Geometry term of `light` at a point with normal `n`; a point light
-/// closer than `min_distance` (metres) counts as that far along `n`.
+/// closer than `min_distance` (metres) counts as that far away.
 pub fn geometry(light: &Light, p: Vec3, n: Vec3, min_distance: f32) -> f32 {
     match *light {
         Light::Point { position, .. } => {
             let d = position - p;
-            let r2 = d.length_squared();
-            let m2 = min_distance * min_distance;
-            if !(r2 >= m2) {
-                return 1.0 / m2;
-            }
+            let r2 = d.length_squared().max(min_distance * min_distance);
             let cos = n.dot(d) / r2.sqrt();
             cos.max(0.0) / r2
         }
