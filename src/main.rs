@@ -37,6 +37,26 @@ enum Command {
         #[arg(long, value_name = "DIR")]
         export: Option<PathBuf>,
     },
+    /// Benchmark scenes (default: all built-ins) as the paper's two tables.
+    Bench {
+        /// Scene files or built-in names.
+        scenes: Vec<String>,
+        /// Ray-shooting backend: cpu, gpu or both.
+        #[arg(long, default_value = "cpu")]
+        backend: String,
+        /// Rays per vertex (a square number).
+        #[arg(long, default_value_t = 256)]
+        rays: u32,
+        /// Measured runs per scene (after one warm-up run); the median is reported.
+        #[arg(long, default_value_t = 5)]
+        runs: u32,
+        /// Write the figures as JSON.
+        #[arg(long, value_name = "FILE")]
+        json: Option<PathBuf>,
+        /// Write the tables as markdown.
+        #[arg(long, value_name = "FILE")]
+        markdown: Option<PathBuf>,
+    },
     /// Write the built-in scenes as .toml + .obj + .mtl files into DIR.
     Scenes {
         #[arg(default_value = "scenes")]
@@ -50,6 +70,9 @@ fn main() -> Result<()> {
         None => cli::solve::run("cornell", None, None, None, Some(PathBuf::from("out/cornell"))),
         Some(Command::Solve { scene, rays, bounces, seed, export }) => {
             cli::solve::run(&scene, rays, bounces, seed, export)
+        }
+        Some(Command::Bench { scenes, backend, rays, runs, json, markdown }) => {
+            cli::bench::run(cli::bench::Args { scenes, backend, rays, runs, json, markdown })
         }
         Some(Command::Scenes { dir }) => {
             for name in scene::builtin::NAMES {

@@ -1,3 +1,4 @@
 //! Subcommands of the `linkgi` binary, one file each.
 
+pub mod bench;
 pub mod solve;
