@@ -4,6 +4,7 @@
 //! ropes) → [`sampling`] (cosine ray directions) → [`links`] (vertex links)
 //! → [`exchange`] (light links, bounces, smoothing), driven by [`solver`].
 
+pub mod accuracy;
 pub mod bench;
 pub mod error;
 pub mod exchange;

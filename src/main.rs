@@ -57,6 +57,20 @@ enum Command {
         #[arg(long, value_name = "FILE")]
         markdown: Option<PathBuf>,
     },
+    /// Error against the Monte Carlo reference over rays (16..1024), bounces (1..6, auto) and smoothing.
+    Error {
+        /// Scene file or built-in name.
+        scene: String,
+        /// Output folder for errors.csv and errors.png.
+        #[arg(long, default_value = "out/error")]
+        out: PathBuf,
+        /// Reference paths per vertex.
+        #[arg(long, default_value_t = 4096)]
+        ref_samples: u32,
+        /// Reference cache folder (default target/reference-cache).
+        #[arg(long)]
+        cache: Option<PathBuf>,
+    },
     /// Write the built-in scenes as .toml + .obj + .mtl files into DIR.
     Scenes {
         #[arg(default_value = "scenes")]
@@ -73,6 +87,9 @@ fn main() -> Result<()> {
         }
         Some(Command::Bench { scenes, backend, rays, runs, json, markdown }) => {
             cli::bench::run(cli::bench::Args { scenes, backend, rays, runs, json, markdown })
+        }
+        Some(Command::Error { scene, out, ref_samples, cache }) => {
+            cli::error::run(cli::error::Args { scene, out, ref_samples, cache })
         }
         Some(Command::Scenes { dir }) => {
             for name in scene::builtin::NAMES {
