@@ -72,6 +72,10 @@ pub fn plot(scene: &str, rows: &[SweepRow], path: &Path) -> crate::Result<()> {
         .map_err(plot_err)?;
     chart
         .configure_mesh()
+        .x_labels(6)
+        .y_labels(6)
+        .x_label_formatter(&|x| format!("{x:.0}"))
+        .y_label_formatter(&|y| format!("{y}"))
         .x_desc("run time: kd + links + light links + gather + smoothing (ms)")
         .y_desc("relative RMSE of E_i vs reference")
         .label_style(("sans-serif", 16))
