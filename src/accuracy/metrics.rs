@@ -78,7 +78,7 @@ mod tests {
         assert_eq!(e.rel_rmse, e.rel_rmse_corrected);
         // Reference noise as large as the error removes it.
         let noise = vec![Vec3::splat(0.1), Vec3::splat(0.3)];
-        assert!(error_stats(&x, &r, &noise).rel_rmse_corrected < 1e-6);
+        assert!(error_stats(&x, &r, &noise).rel_rmse_corrected < 1e-3); // f32 rounding of x
         assert_eq!(error_stats(&r, &r, &[]), ErrorStats::default());
     }
 }
