@@ -34,6 +34,9 @@ pub enum Error {
     /// The scene has nothing to solve.
     #[error("{0}: the scene has no triangles")]
     EmptyScene(String),
+    /// A plot could not be drawn or written.
+    #[error("plot: {0}")]
+    Plot(String),
     /// A setting is out of range.
     #[error("invalid setting: {0}")]
     Setting(String),

@@ -4,12 +4,15 @@
 //! ropes) → [`sampling`] (cosine ray directions) → [`links`] (vertex links)
 //! → [`exchange`] (light links, bounces, smoothing), driven by [`solver`].
 
+pub mod accuracy;
+pub mod bench;
 pub mod error;
 pub mod exchange;
 pub mod gpu;
 pub mod export;
 pub mod kdtree;
 pub mod links;
+pub mod reference;
 pub mod sampling;
 pub mod scene;
 pub mod solver;

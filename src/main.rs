@@ -22,6 +22,40 @@ struct Cli {
 enum Command {
     /// Build links and solve a scene (a .toml or .obj file, or a built-in name), print figures.
     Solve(cli::solve::SolveArgs),
+    /// Benchmark scenes (default: all built-ins) as the paper's two tables.
+    Bench {
+        /// Scene files or built-in names.
+        scenes: Vec<String>,
+        /// Ray-shooting backend: cpu, gpu or both.
+        #[arg(long, default_value = "cpu")]
+        backend: String,
+        /// Rays per vertex (a square number).
+        #[arg(long, default_value_t = 256)]
+        rays: u32,
+        /// Measured runs per scene (after one warm-up run); the median is reported.
+        #[arg(long, default_value_t = 5)]
+        runs: u32,
+        /// Write the figures as JSON.
+        #[arg(long, value_name = "FILE")]
+        json: Option<PathBuf>,
+        /// Write the tables as markdown.
+        #[arg(long, value_name = "FILE")]
+        markdown: Option<PathBuf>,
+    },
+    /// Error against the Monte Carlo reference over rays (16..1024), bounces (1..6, auto) and smoothing.
+    Error {
+        /// Scene file or built-in name.
+        scene: String,
+        /// Output folder for errors.csv and errors.png.
+        #[arg(long, default_value = "out/error")]
+        out: PathBuf,
+        /// Reference paths per vertex.
+        #[arg(long, default_value_t = 4096)]
+        ref_samples: u32,
+        /// Reference cache folder (default target/reference-cache).
+        #[arg(long)]
+        cache: Option<PathBuf>,
+    },
     /// Write the built-in scenes as .toml + .obj + .mtl files into DIR.
     Scenes {
         #[arg(default_value = "scenes")]
@@ -39,6 +73,12 @@ fn main() -> Result<()> {
             ..Default::default()
         }),
         Some(Command::Solve(args)) => cli::solve::run(args),
+        Some(Command::Bench { scenes, backend, rays, runs, json, markdown }) => {
+            cli::bench::run(cli::bench::Args { scenes, backend, rays, runs, json, markdown })
+        }
+        Some(Command::Error { scene, out, ref_samples, cache }) => {
+            cli::error::run(cli::error::Args { scene, out, ref_samples, cache })
+        }
         Some(Command::Scenes { dir }) => {
             for name in scene::builtin::NAMES {
                 let s = scene::builtin::builtin(name).expect("built-in exists");

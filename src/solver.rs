@@ -126,6 +126,8 @@ pub struct Solution {
     /// Indirect irradiance before smoothing, W/m^2.
     pub e_indirect_raw: Vec<Vec3>,
     pub gather: GatherResult,
+    /// False when smoothing was skipped (feature angle 0): `e_indirect` is then `e_indirect_raw`.
+    pub smoothed: bool,
 }
 
 /// A scene with its kd-tree, vertex links and light links built.
@@ -207,13 +209,14 @@ impl Solver {
             }
             None => exchange::gather(&self.links, &self.scene.albedo, &e_direct, &self.params.gather),
         };
+        let smoothed = self.params.smoothing_angle_deg > 0.0;
         let e_indirect = exchange::smooth(
             &gather.e_indirect,
             &self.scene.rings,
             &self.scene.normals,
             self.params.smoothing_angle_deg,
         );
-        Solution { e_direct, e_indirect_raw: gather.e_indirect.clone(), e_indirect, gather }
+        Solution { e_direct, e_indirect_raw: gather.e_indirect.clone(), e_indirect, gather, smoothed }
     }
 
     /// Figures of the built structures and of `solution`.

@@ -1,3 +1,5 @@
 //! Subcommands of the `linkgi` binary, one file each.
 
+pub mod bench;
+pub mod error;
 pub mod solve;

@@ -13,8 +13,12 @@
 //! ray (l: mean edge length at the vertex) and stop the same distance short
 //! of a point light.
 //!
-//! A point light closer than `min_distance` to a vertex is treated as that
-//! far away (documented clamp: keeps `1/r^2` finite for a light on a vertex).
+//! A point light closer than `min_distance * l` to a vertex is treated as
+//! that far away (documented clamp: keeps `1/r^2` finite for a light on a
+//! vertex; relative to the mesh so the answer does not depend on the
+//! scene's scale). A light exactly on a vertex lies in its tangent plane
+//! (`cos = 0`) and lights that vertex not at all; one just above it gives
+//! at most `I / (min_distance * l)^2`.
 
 use crate::kdtree::{traverse::Ray, KdTree};
 use crate::links::shoot::ray_origin;
@@ -30,7 +34,7 @@ pub struct LightLinkParams {
     pub eps: f32,
     /// Oversample visibility on the one-ring (false: the vertex alone).
     pub oversample: bool,
-    /// Smallest light distance used in `1/r^2`, metres.
+    /// Smallest light distance used in `1/r^2`, as a fraction of the mean edge length at the vertex.
     pub min_distance: f32,
     /// Origin nudge of crease and border vertices (as in [`crate::links::LinkParams`]).
     pub nudge: f32,
@@ -38,7 +42,7 @@ pub struct LightLinkParams {
 
 impl Default for LightLinkParams {
     fn default() -> Self {
-        Self { eps: 1e-4, oversample: true, min_distance: 1e-4, nudge: 1e-3 }
+        Self { eps: 1e-4, oversample: true, min_distance: 1e-3, nudge: 1e-3 }
     }
 }
 
@@ -69,7 +73,8 @@ pub fn sample_points(scene: &PreparedScene, v: usize, params: &LightLinkParams, 
     }
 }
 
-/// Geometry term of `light` at a point with normal `n`.
+/// Geometry term of `light` at a point with normal `n`; a point light
+/// closer than `min_distance` (metres) counts as that far away.
 pub fn geometry(light: &Light, p: Vec3, n: Vec3, min_distance: f32) -> f32 {
     match *light {
         Light::Point { position, .. } => {
@@ -136,7 +141,8 @@ impl LightLinks {
             let per_vertex: Vec<(f32, u32, u32, Vec<Ray>)> = (c0..(c0 + CHUNK_VERTICES).min(n))
                 .into_par_iter()
                 .map_init(Vec::new, |pts, v| {
-                    let g = geometry(light, scene.positions[v], scene.normals[v], params.min_distance);
+                    let min_d = params.min_distance * scene.mean_edge_length(v);
+                    let g = geometry(light, scene.positions[v], scene.normals[v], min_d.max(f32::MIN_POSITIVE.sqrt()));
                     if g <= 0.0 {
                         return (0.0, 1, 0, Vec::new());
                     }

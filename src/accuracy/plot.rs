@@ -1,0 +1,146 @@
+//! `errors.png`: error of `E_i` (relative RMSE, reference noise removed)
+//! against run time (ms), both on log axes; every setting is a dot, one
+//! colour per smoothing setting, with a line along that setting's Pareto
+//! front (the lowest error reached by any faster-or-equal setting); the
+//! paper's default (256 rays, 3 bounces, smoothing on) is ringed. Text uses
+//! the bundled DejaVu Sans (assets/fonts), so no system font library is needed.
+
+use super::SweepRow;
+use crate::Error;
+use plotters::prelude::*;
+use std::path::Path;
+use std::sync::Once;
+
+static FONT: Once = Once::new();
+
+fn register_font() {
+    FONT.call_once(|| {
+        let bytes: &'static [u8] = include_bytes!("../../assets/fonts/DejaVuSans.ttf");
+        // The font is bundled and valid; a failure would only lose the text.
+        let _ = plotters::style::register_font("sans-serif", FontStyle::Normal, bytes);
+    });
+}
+
+/// Smallest error drawn (log axis).
+const FLOOR: f64 = 1e-4;
+
+fn err(r: &SweepRow) -> f64 {
+    r.e_indirect.rel_rmse_corrected.max(FLOOR)
+}
+
+/// Lower envelope of `(time, error)` points: sorted by time, each kept if it beats every faster one.
+pub fn pareto(points: &[(f64, f64)]) -> Vec<(f64, f64)> {
+    let mut p = points.to_vec();
+    p.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.total_cmp(&b.1)));
+    let mut out: Vec<(f64, f64)> = Vec::new();
+    for q in p {
+        if out.last().is_none_or(|l| q.1 < l.1) {
+            out.push(q);
+        }
+    }
+    out
+}
+
+fn plot_err<E: std::fmt::Debug>(e: E) -> Error {
+    Error::Plot(format!("{e:?}"))
+}
+
+/// Draws the plot of `rows` (scene `scene`) into the PNG file `path`.
+pub fn plot(scene: &str, rows: &[SweepRow], path: &Path) -> crate::Result<()> {
+    register_font();
+    let finite: Vec<&SweepRow> = rows.iter().filter(|r| r.total_ms.is_finite() && err(r).is_finite()).collect();
+    if finite.is_empty() {
+        return Err(Error::Plot("no finite errors to plot".into()));
+    }
+    let (mut x0, mut x1, mut y0, mut y1) = (f64::MAX, f64::MIN, f64::MAX, f64::MIN);
+    for r in &finite {
+        let t = r.total_ms.max(1e-3);
+        x0 = x0.min(t);
+        x1 = x1.max(t);
+        y0 = y0.min(err(r));
+        y1 = y1.max(err(r));
+    }
+    let (x0, x1, y0, y1) = (x0 / 1.5, x1 * 1.5, y0 / 1.5, y1 * 1.5);
+    let root = BitMapBackend::new(path, (1000, 700)).into_drawing_area();
+    root.fill(&WHITE).map_err(plot_err)?;
+    let mut chart = ChartBuilder::on(&root)
+        .caption(format!("{scene}: error of E_i vs time to solution"), ("sans-serif", 26))
+        .margin(20)
+        .x_label_area_size(55)
+        .y_label_area_size(80)
+        .build_cartesian_2d((x0..x1).log_scale(), (y0..y1).log_scale())
+        .map_err(plot_err)?;
+    chart
+        .configure_mesh()
+        .x_labels(6)
+        .y_labels(6)
+        .x_label_formatter(&|x| format!("{x:.0}"))
+        .y_label_formatter(&|y| format!("{y}"))
+        .x_desc("run time: kd + links + light links + gather + smoothing (ms)")
+        .y_desc("relative RMSE of E_i vs reference")
+        .label_style(("sans-serif", 16))
+        .axis_desc_style(("sans-serif", 18))
+        .draw()
+        .map_err(plot_err)?;
+    let smoothings: Vec<f32> = {
+        let mut s: Vec<f32> = finite.iter().map(|r| r.smoothing_deg).collect();
+        s.sort_by(|a, b| b.total_cmp(a));
+        s.dedup();
+        s
+    };
+    let colours = [RGBColor(31, 119, 180), RGBColor(214, 39, 40), RGBColor(44, 160, 44)];
+    for (i, &s) in smoothings.iter().enumerate() {
+        let c = colours[i % colours.len()];
+        let pts: Vec<(f64, f64)> =
+            finite.iter().filter(|r| r.smoothing_deg == s).map(|r| (r.total_ms.max(1e-3), err(r))).collect();
+        let name = if s > 0.0 { format!("smoothing on ({s:.0} deg)") } else { "smoothing off".to_string() };
+        chart
+            .draw_series(LineSeries::new(pareto(&pts), c.stroke_width(2)))
+            .map_err(plot_err)?
+            .label(name)
+            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 24, y)], c.stroke_width(2)));
+        chart.draw_series(pts.iter().map(|p| Circle::new(*p, 4, c.filled()))).map_err(plot_err)?;
+        // Ray counts along the front.
+        for r in finite.iter().filter(|r| r.smoothing_deg == s && r.bounces == "auto") {
+            chart
+                .draw_series(std::iter::once(Text::new(
+                    format!("{}", r.rays),
+                    (r.total_ms.max(1e-3) * 1.05, err(r) * 1.08),
+                    ("sans-serif", 14).into_font().color(&c),
+                )))
+                .map_err(plot_err)?;
+        }
+    }
+    if let Some(p) = finite.iter().find(|r| r.is_paper_default()) {
+        let at = (p.total_ms.max(1e-3), err(p));
+        chart.draw_series(std::iter::once(Circle::new(at, 11, BLACK.stroke_width(2)))).map_err(plot_err)?;
+        chart
+            .draw_series(std::iter::once(Text::new(
+                "paper default: 256 rays, 3 bounces, smoothing",
+                (at.0 * 1.12, at.1 * 1.25),
+                ("sans-serif", 15),
+            )))
+            .map_err(plot_err)?;
+    }
+    chart
+        .configure_series_labels()
+        .position(SeriesLabelPosition::UpperRight)
+        .label_font(("sans-serif", 16))
+        .border_style(BLACK)
+        .background_style(WHITE.mix(0.9))
+        .draw()
+        .map_err(plot_err)?;
+    root.present().map_err(plot_err)?;
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn pareto_keeps_the_lower_envelope() {
+        let p = pareto(&[(3.0, 0.5), (1.0, 1.0), (2.0, 2.0), (4.0, 0.1), (5.0, 0.2)]);
+        assert_eq!(p, vec![(1.0, 1.0), (3.0, 0.5), (4.0, 0.1)]);
+    }
+}

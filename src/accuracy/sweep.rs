@@ -1,0 +1,123 @@
+//! The sweep over rays per vertex, bounces and smoothing (see
+//! [`crate::accuracy`]): links built once per ray count, gather and
+//! smoothing redone per setting, each setting timed (ms) and compared with
+//! the reference.
+
+use super::metrics::{error_stats, ErrorStats};
+use crate::exchange;
+use crate::reference::Reference;
+use crate::scene::{prep::PreparedScene, Bounces};
+use crate::solver::{SolveParams, Solver};
+use glam::Vec3;
+use serde::Serialize;
+use std::time::Instant;
+
+/// What to sweep.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SweepParams {
+    /// Rays per vertex (square numbers; default 16, 64, 256, 1024).
+    pub rays: Vec<u32>,
+    /// Bounce settings (default 1..=6 and auto).
+    pub bounces: Vec<Bounces>,
+    /// Feature angle of smoothing when on, degrees (default: the scene's, or 30 if it has none).
+    pub smoothing_angle_deg: Option<f32>,
+}
+
+impl Default for SweepParams {
+    fn default() -> Self {
+        Self {
+            rays: vec![16, 64, 256, 1024],
+            bounces: (1..=6).map(Bounces::Fixed).chain([Bounces::Auto]).collect(),
+            smoothing_angle_deg: None,
+        }
+    }
+}
+
+/// One setting's run times (ms) and errors.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct SweepRow {
+    pub rays: u32,
+    /// "1".."6" or "auto".
+    pub bounces: String,
+    pub bounces_used: u32,
+    /// Feature angle, degrees; 0: smoothing off.
+    pub smoothing_deg: f32,
+    pub kd_ms: f64,
+    pub links_ms: f64,
+    pub light_links_ms: f64,
+    pub gather_ms: f64,
+    pub smooth_ms: f64,
+    /// kd + links + light links + gather + smoothing.
+    pub total_ms: f64,
+    pub e_indirect: ErrorStats,
+    pub e_direct: ErrorStats,
+    pub e_total: ErrorStats,
+}
+
+impl SweepRow {
+    /// True for the paper's default: 256 rays, 3 bounces, smoothing on.
+    pub fn is_paper_default(&self) -> bool {
+        self.rays == 256 && self.bounces == "3" && self.smoothing_deg > 0.0
+    }
+}
+
+fn label(b: Bounces) -> String {
+    match b {
+        Bounces::Fixed(n) => n.to_string(),
+        Bounces::Auto => "auto".into(),
+    }
+}
+
+/// Runs the sweep on `scene` against `reference`; `progress(done, total)`
+/// after each ray count.
+pub fn sweep(
+    scene: &PreparedScene,
+    reference: &Reference,
+    params: &SweepParams,
+    progress: &dyn Fn(usize, usize),
+) -> Vec<SweepRow> {
+    let angle = params.smoothing_angle_deg.unwrap_or(if scene.settings.smoothing_angle_deg > 0.0 {
+        scene.settings.smoothing_angle_deg
+    } else {
+        30.0
+    });
+    let total_ref: Vec<Vec3> = reference.e_direct.iter().zip(&reference.e_indirect).map(|(d, i)| *d + *i).collect();
+    let mut rows = Vec::new();
+    for (k, &rays) in params.rays.iter().enumerate() {
+        let mut settings = scene.settings;
+        settings.rays_per_vertex = rays;
+        let solve_params = SolveParams::from_settings(&settings);
+        let solver = Solver::new(scene.clone(), solve_params, &|_, _| {});
+        let (kd_ms, links_ms, light_ms) =
+            (solver.kd.stats.build_ms, solver.links.stats.shoot_ms, solver.light_links.ms);
+        let e_direct = solver.light_links.direct(&solver.scene.lights, solver.scene.vertex_count());
+        let ed_err = error_stats(&e_direct, &reference.e_direct, &[]);
+        for &b in &params.bounces {
+            let gp = exchange::GatherParams { bounces: b, ..solve_params.gather };
+            let g = exchange::gather(&solver.links, &solver.scene.albedo, &e_direct, &gp);
+            for smoothing in [angle, 0.0] {
+                let t = Instant::now();
+                let e_i = exchange::smooth(&g.e_indirect, &solver.scene.rings, &solver.scene.normals, smoothing);
+                let smooth_ms = t.elapsed().as_secs_f64() * 1e3;
+                let total: Vec<Vec3> = e_direct.iter().zip(&e_i).map(|(d, i)| *d + *i).collect();
+                rows.push(SweepRow {
+                    rays,
+                    bounces: label(b),
+                    bounces_used: g.bounces,
+                    smoothing_deg: smoothing,
+                    kd_ms,
+                    links_ms,
+                    light_links_ms: light_ms,
+                    gather_ms: g.ms,
+                    smooth_ms,
+                    total_ms: kd_ms + links_ms + light_ms + g.ms + smooth_ms,
+                    e_indirect: error_stats(&e_i, &reference.e_indirect, &reference.e_indirect_stderr),
+                    e_direct: ed_err,
+                    e_total: error_stats(&total, &total_ref, &reference.e_indirect_stderr),
+                });
+            }
+        }
+        progress(k + 1, params.rays.len());
+    }
+    rows
+}

@@ -1,0 +1,220 @@
+//! Benchmark of the CPU pipeline, laid out like the paper's two tables
+//! (DESIGN.md, "The paper's figures"): sizes (vertices, kd nodes, links raw
+//! and merged in millions, their storage in MB) and times (kd build, link
+//! shooting with its ray rate, light links with their shadow-ray rate, three
+//! bounces, and the time to the first complete solution from the prepared
+//! scene). Times are in ms (first solution also in s), rates in k rays/s;
+//! each is the median of several runs after a warm-up, with min and max.
+//!
+//! [`run_scene`] measures, [`markdown`] formats (with the paper's rows next
+//! to ours), [`Stat`] does the statistics; all are free of I/O so they can
+//! be tested on synthetic data.
+
+pub mod paper;
+pub mod report;
+
+pub use paper::{paper_rows, PaperRow};
+pub use report::markdown;
+
+use crate::scene::{prep, Bounces, SceneDesc};
+use crate::solver::{SolveParams, Solver};
+use serde::Serialize;
+use std::time::Instant;
+
+/// Which ray-shooting backend to benchmark.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+pub enum Backend {
+    Cpu,
+    Gpu,
+    Both,
+}
+
+impl std::str::FromStr for Backend {
+    type Err = crate::Error;
+    fn from_str(s: &str) -> crate::Result<Backend> {
+        match s.to_ascii_lowercase().as_str() {
+            "cpu" => Ok(Backend::Cpu),
+            "gpu" => Ok(Backend::Gpu),
+            "both" => Ok(Backend::Both),
+            _ => Err(crate::Error::Setting(format!("backend '{s}': expected cpu, gpu or both"))),
+        }
+    }
+}
+
+impl Backend {
+    /// Checks that this build can run the backend.
+    pub fn check_available(self) -> crate::Result<()> {
+        match self {
+            Backend::Cpu => Ok(()),
+            Backend::Gpu | Backend::Both => {
+                Err(crate::Error::Setting("GPU backend not built in this version (use --backend cpu)".into()))
+            }
+        }
+    }
+}
+
+/// Parameters of a benchmark.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct BenchParams {
+    /// Rays per vertex (default 256, as the paper).
+    pub rays_per_vertex: u32,
+    /// Measured runs per scene (default 5); the median is reported.
+    pub runs: u32,
+    /// Unmeasured runs before them (default 1).
+    pub warmup: u32,
+    /// Bounces timed (default 3, as the paper).
+    pub bounces: u32,
+}
+
+impl Default for BenchParams {
+    fn default() -> Self {
+        Self { rays_per_vertex: 256, runs: 5, warmup: 1, bounces: 3 }
+    }
+}
+
+/// Median, min and max of a set of measurements.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
+pub struct Stat {
+    pub median: f64,
+    pub min: f64,
+    pub max: f64,
+}
+
+impl Stat {
+    /// Statistics of `xs` (the median of an even count is the mean of the
+    /// middle two; non-finite values are ignored; empty gives NaN).
+    pub fn of(xs: &[f64]) -> Stat {
+        let mut v: Vec<f64> = xs.iter().copied().filter(|x| x.is_finite()).collect();
+        if v.is_empty() {
+            return Stat { median: f64::NAN, min: f64::NAN, max: f64::NAN };
+        }
+        v.sort_by(f64::total_cmp);
+        let n = v.len();
+        let median = if n % 2 == 1 { v[n / 2] } else { 0.5 * (v[n / 2 - 1] + v[n / 2]) };
+        Stat { median, min: v[0], max: v[n - 1] }
+    }
+}
+
+/// Times of one run, ms (rates in rays/s).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
+pub struct RunTimes {
+    pub kd_ms: f64,
+    pub links_ms: f64,
+    pub rays_per_s: f64,
+    pub light_links_ms: f64,
+    pub shadow_rays_per_s: f64,
+    pub bounces_ms: f64,
+    /// From the prepared scene to smoothed `E_i`: kd + links + light links + bounces + smoothing.
+    pub first_solution_ms: f64,
+}
+
+/// One scene's figures (sizes from the last run; times over all measured runs).
+#[derive(Clone, Debug, Default, PartialEq, Serialize)]
+pub struct BenchRow {
+    pub scene: String,
+    pub vertices: usize,
+    pub triangles: usize,
+    pub kd_nodes: usize,
+    pub links_raw: u64,
+    pub links_merged: u64,
+    pub mb_raw: f64,
+    pub mb_merged: f64,
+    pub rays_per_vertex: u32,
+    pub runs: u32,
+    pub kd_ms: Stat,
+    pub links_ms: Stat,
+    pub k_rays_per_s: Stat,
+    pub light_links_ms: Stat,
+    pub k_shadow_rays_per_s: Stat,
+    pub bounces_ms: Stat,
+    pub first_solution_ms: Stat,
+}
+
+impl BenchRow {
+    /// The row of `runs` (times) with the sizes of the scene.
+    pub fn from_runs(scene: &str, sizes: &Sizes, rays_per_vertex: u32, runs: &[RunTimes]) -> BenchRow {
+        let st = |f: fn(&RunTimes) -> f64| Stat::of(&runs.iter().map(f).collect::<Vec<_>>());
+        BenchRow {
+            scene: scene.to_string(),
+            vertices: sizes.vertices,
+            triangles: sizes.triangles,
+            kd_nodes: sizes.kd_nodes,
+            links_raw: sizes.links_raw,
+            links_merged: sizes.links_merged,
+            mb_raw: sizes.bytes_raw as f64 / 1e6,
+            mb_merged: sizes.bytes_merged as f64 / 1e6,
+            rays_per_vertex,
+            runs: runs.len() as u32,
+            kd_ms: st(|r| r.kd_ms),
+            links_ms: st(|r| r.links_ms),
+            k_rays_per_s: st(|r| r.rays_per_s / 1e3),
+            light_links_ms: st(|r| r.light_links_ms),
+            k_shadow_rays_per_s: st(|r| r.shadow_rays_per_s / 1e3),
+            bounces_ms: st(|r| r.bounces_ms),
+            first_solution_ms: st(|r| r.first_solution_ms),
+        }
+    }
+}
+
+/// Sizes of the built structures.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Sizes {
+    pub vertices: usize,
+    pub triangles: usize,
+    pub kd_nodes: usize,
+    pub links_raw: u64,
+    pub links_merged: u64,
+    pub bytes_raw: u64,
+    pub bytes_merged: u64,
+}
+
+/// One complete build and solve of `scene`, timed.
+pub fn run_once(scene: &prep::PreparedScene, params: &SolveParams) -> (RunTimes, Sizes) {
+    let t0 = Instant::now();
+    let solver = Solver::new(scene.clone(), *params, &|_, _| {});
+    let solution = solver.solve();
+    let first_solution_ms = t0.elapsed().as_secs_f64() * 1e3;
+    let l = &solver.links.stats;
+    let times = RunTimes {
+        kd_ms: solver.kd.stats.build_ms,
+        links_ms: l.shoot_ms,
+        rays_per_s: l.rays_per_second(),
+        light_links_ms: solver.light_links.ms,
+        shadow_rays_per_s: solver.light_links.shadow_rays as f64 / (solver.light_links.ms.max(1e-9) * 1e-3),
+        bounces_ms: solution.gather.ms,
+        first_solution_ms,
+    };
+    let sizes = Sizes {
+        vertices: solver.scene.vertex_count(),
+        triangles: solver.scene.triangles.len(),
+        kd_nodes: solver.kd.stats.nodes,
+        links_raw: l.raw_links,
+        links_merged: l.merged_links,
+        bytes_raw: l.raw_bytes,
+        bytes_merged: l.merged_bytes,
+    };
+    (times, sizes)
+}
+
+/// Benchmarks one scene: `warmup` unmeasured runs, then `runs` measured
+/// ones, calling `progress()` after each run.
+pub fn run_scene(desc: &SceneDesc, params: &BenchParams, progress: &dyn Fn()) -> crate::Result<BenchRow> {
+    let mut desc = desc.clone();
+    desc.settings.rays_per_vertex = params.rays_per_vertex;
+    desc.settings.bounces = Bounces::Fixed(params.bounces);
+    let scene = prep::prepare(&desc)?;
+    let solve_params = SolveParams::from_settings(&scene.settings);
+    for _ in 0..params.warmup {
+        run_once(&scene, &solve_params);
+        progress();
+    }
+    let mut runs = Vec::new();
+    let mut sizes = Sizes::default();
+    for _ in 0..params.runs.max(1) {
+        let (t, s) = run_once(&scene, &solve_params);
+        runs.push(t);
+        sizes = s;
+        progress();
+    }
+    Ok(BenchRow::from_runs(&desc.name, &sizes, params.rays_per_vertex, &runs))
+}

@@ -1,0 +1,174 @@
+//! Markdown tables of benchmark rows, each of our rows followed by the
+//! paper's rows for the same scene (sizes table, then times table).
+//! Times: median with [min, max] in ms; rates in k rays/s.
+
+use super::{paper_rows, BenchRow, Stat};
+use std::fmt::Write;
+
+fn stat(s: &Stat, digits: usize) -> String {
+    format!("{:.d$} [{:.d$}, {:.d$}]", s.median, s.min, s.max, d = digits)
+}
+
+/// Both tables for `rows` as GitHub markdown.
+pub fn markdown(rows: &[BenchRow]) -> String {
+    let mut out = String::new();
+    let rays = rows.first().map(|r| r.rays_per_vertex).unwrap_or(256);
+    let runs = rows.first().map(|r| r.runs).unwrap_or(0);
+    let _ = writeln!(out, "### Sizes ({rays} rays per vertex)\n");
+    let _ = writeln!(
+        out,
+        "| scene | source | vertices | kd nodes | links raw (M) | links merged (M) | MB raw | MB merged |"
+    );
+    let _ = writeln!(out, "|---|---|---|---|---|---|---|---|");
+    for r in rows {
+        let _ = writeln!(
+            out,
+            "| {} | linkgi | {} | {} | {:.2} | {:.2} | {:.1} | {:.1} |",
+            r.scene,
+            r.vertices,
+            r.kd_nodes,
+            r.links_raw as f64 / 1e6,
+            r.links_merged as f64 / 1e6,
+            r.mb_raw,
+            r.mb_merged
+        );
+        // The size figures repeat across the paper's GPU rows: show them once.
+        if let Some(p) = paper_rows(&r.scene).first() {
+            let kd = p.kd_nodes.map(|k| format!("{k:.0}")).unwrap_or_else(|| "?".into());
+            let _ = writeln!(
+                out,
+                "| {} | paper | {:.0} | {kd} | {:.1} | | {:.1} | {:.1} |",
+                p.name, p.vertices, p.links_m, p.mb_raw, p.mb_merged
+            );
+        }
+    }
+    let _ =
+        writeln!(out, "\nThe paper gives one link count without saying raw or merged; it is shown in the raw column.");
+    let _ = writeln!(out, "\n### Times (median [min, max] of {runs} runs, 3 bounces)\n");
+    let _ = writeln!(
+        out,
+        "| scene | source | kd ms | links ms | k rays/s | light links ms | k shadow rays/s | bounces ms | first solution s |"
+    );
+    let _ = writeln!(out, "|---|---|---|---|---|---|---|---|---|");
+    for r in rows {
+        let _ = writeln!(
+            out,
+            "| {} | linkgi CPU | {} | {} | {} | {} | {} | {} | {} |",
+            r.scene,
+            stat(&r.kd_ms, 1),
+            stat(&r.links_ms, 0),
+            stat(&r.k_rays_per_s, 0),
+            stat(&r.light_links_ms, 1),
+            stat(&r.k_shadow_rays_per_s, 0),
+            stat(&r.bounces_ms, 1),
+            stat(
+                &Stat {
+                    median: r.first_solution_ms.median / 1e3,
+                    min: r.first_solution_ms.min / 1e3,
+                    max: r.first_solution_ms.max / 1e3
+                },
+                2
+            ),
+        );
+        for p in paper_rows(&r.scene) {
+            let _ = writeln!(
+                out,
+                "| {} | paper, {} GPU{} | {:.0} | {:.0} | {:.0} | {:.0} | | {:.0} | {:.1} |",
+                p.name,
+                p.gpus,
+                if p.gpus > 1 { "s" } else { "" },
+                p.kd_ms,
+                p.links_ms,
+                p.k_rays_per_s,
+                p.light_links_ms,
+                p.bounces_ms,
+                p.first_frame_s
+            );
+        }
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::{BenchRow, RunTimes, Sizes, Stat};
+    use super::*;
+
+    #[test]
+    fn median_min_max() {
+        let s = Stat::of(&[5.0, 1.0, 3.0]);
+        assert_eq!((s.median, s.min, s.max), (3.0, 1.0, 5.0));
+        let s = Stat::of(&[4.0, 1.0, 3.0, 10.0]);
+        assert_eq!((s.median, s.min, s.max), (3.5, 1.0, 10.0));
+        let s = Stat::of(&[f64::NAN, 2.0]);
+        assert_eq!((s.median, s.min, s.max), (2.0, 2.0, 2.0));
+        assert!(Stat::of(&[]).median.is_nan());
+    }
+
+    fn synthetic(scene: &str) -> BenchRow {
+        let runs: Vec<RunTimes> = [30.0, 10.0, 20.0]
+            .iter()
+            .map(|&k| RunTimes {
+                kd_ms: k,
+                links_ms: 10.0 * k,
+                rays_per_s: 1e6 * k,
+                light_links_ms: k / 10.0,
+                shadow_rays_per_s: 2e5 * k,
+                bounces_ms: k / 5.0,
+                first_solution_ms: 100.0 * k,
+            })
+            .collect();
+        let sizes = Sizes {
+            vertices: 11_900,
+            triangles: 20_000,
+            kd_nodes: 14_000,
+            links_raw: 3_000_000,
+            links_merged: 1_000_000,
+            bytes_raw: 24_000_000,
+            bytes_merged: 6_000_000,
+        };
+        BenchRow::from_runs(scene, &sizes, 256, &runs)
+    }
+
+    #[test]
+    fn row_takes_medians_and_units() {
+        let r = synthetic("tearoom");
+        assert_eq!(r.kd_ms, Stat { median: 20.0, min: 10.0, max: 30.0 });
+        assert_eq!(r.k_rays_per_s.median, 20_000.0);
+        assert_eq!(r.mb_raw, 24.0);
+        assert_eq!(r.runs, 3);
+    }
+
+    #[test]
+    fn markdown_puts_the_paper_beside_ours() {
+        let md = markdown(&[synthetic("tearoom"), synthetic("cornell"), synthetic("sculpture")]);
+        let lines: Vec<&str> = md.lines().collect();
+        let ours = lines
+            .iter()
+            .position(|l| l.starts_with("| tearoom | linkgi CPU | 20.0 [10.0, 30.0] | 200 [100, 300]"))
+            .expect("our tearoom time row");
+        assert!(
+            lines[ours + 1].starts_with("| TEAROOM | paper, 1 GPU | 71 | 680 | 4472 | 13 |"),
+            "{}",
+            lines[ours + 1]
+        );
+        assert!(lines[ours + 2].starts_with("| TEAROOM | paper, 2 GPUs | 53 | 400 | 7595 |"));
+        // cornell has no paper row: the next line is our next scene.
+        let c = lines.iter().position(|l| l.starts_with("| cornell | linkgi CPU")).unwrap();
+        assert!(lines[c + 1].starts_with("| sculpture | linkgi CPU"));
+        assert!(lines[c + 2].starts_with("| IPHI | paper, 2 GPUs | 47 |"));
+        assert!(md.contains("| tearoom | linkgi | 11900 | 14000 | 3.00 | 1.00 | 24.0 | 6.0 |"));
+        assert!(md.contains("first solution s") && md.contains("2.00 [1.00, 3.00]"));
+    }
+
+    #[test]
+    fn backend_parses_and_gpu_is_refused() {
+        use super::super::Backend;
+        assert_eq!("cpu".parse::<Backend>().unwrap(), Backend::Cpu);
+        assert_eq!("Both".parse::<Backend>().unwrap(), Backend::Both);
+        assert!("tpu".parse::<Backend>().is_err());
+        assert!(Backend::Cpu.check_available().is_ok());
+        let e = Backend::Gpu.check_available().unwrap_err().to_string();
+        assert!(e.contains("GPU backend not built in this version"), "{e}");
+    }
+}

@@ -1,0 +1,58 @@
+//! `linkgi bench`: the paper's two tables for each scene (src/bench),
+//! printed as markdown, optionally written as JSON and markdown files.
+
+use anyhow::{Context, Result};
+use indicatif::{ProgressBar, ProgressStyle};
+use linkgi::bench::{self, Backend, BenchParams};
+use linkgi::scene;
+use std::path::PathBuf;
+
+pub struct Args {
+    pub scenes: Vec<String>,
+    pub backend: String,
+    pub rays: u32,
+    pub runs: u32,
+    pub json: Option<PathBuf>,
+    pub markdown: Option<PathBuf>,
+}
+
+pub fn run(args: Args) -> Result<()> {
+    let backend: Backend = args.backend.parse()?;
+    backend.check_available()?;
+    let names: Vec<String> = if args.scenes.is_empty() {
+        scene::builtin::NAMES.iter().map(|s| s.to_string()).collect()
+    } else {
+        args.scenes.clone()
+    };
+    let params = BenchParams { rays_per_vertex: args.rays, runs: args.runs.max(1), ..Default::default() };
+    let mut descs = Vec::new();
+    for n in &names {
+        descs.push(scene::load(n).with_context(|| format!("loading scene {n}"))?);
+    }
+    let per_scene = (params.warmup + params.runs) as u64;
+    let bar = ProgressBar::new(per_scene * descs.len() as u64);
+    bar.set_style(
+        ProgressStyle::with_template("{msg:12} [{bar:40}] {pos}/{len} runs ({elapsed}, eta {eta})")
+            .expect("valid template")
+            .progress_chars("=> "),
+    );
+    let mut rows = Vec::new();
+    for d in &descs {
+        bar.set_message(d.name.clone());
+        rows.push(bench::run_scene(d, &params, &|| bar.inc(1))?);
+    }
+    bar.finish_and_clear();
+    let md = bench::markdown(&rows);
+    println!("{md}");
+    if let Some(p) = &args.json {
+        let text =
+            serde_json::to_string_pretty(&serde_json::json!({ "backend": backend, "params": params, "rows": rows }))?;
+        std::fs::write(p, text).with_context(|| format!("writing {}", p.display()))?;
+        println!("wrote {}", p.display());
+    }
+    if let Some(p) = &args.markdown {
+        std::fs::write(p, &md).with_context(|| format!("writing {}", p.display()))?;
+        println!("wrote {}", p.display());
+    }
+    Ok(())
+}

@@ -1,0 +1,116 @@
+//! Disk cache of reference results: one file `<key>.ref` per scene and
+//! parameter set, where the key is a 64-bit FNV-1a hash of the geometry
+//! (positions, normals, triangles), albedo, lights and reference parameters
+//! and a format version. The file holds a magic tag, the vertex count and
+//! `E_d`, `E_i` and the standard error of `E_i` per vertex as little-endian
+//! `f32` (W/m^2). A file that does not match (size, magic, count) is ignored.
+
+use super::{Reference, ReferenceParams};
+use crate::scene::prep::PreparedScene;
+use crate::scene::Light;
+use glam::Vec3;
+use std::path::{Path, PathBuf};
+
+const MAGIC: &[u8; 8] = b"LGIREF01";
+/// Bump when the estimator changes, so old cached results are not reused.
+const VERSION: u64 = 1;
+
+/// 64-bit FNV-1a.
+struct Fnv(u64);
+
+impl Fnv {
+    fn bytes(&mut self, b: &[u8]) {
+        for &x in b {
+            self.0 ^= x as u64;
+            self.0 = self.0.wrapping_mul(0x0000_0100_0000_01b3);
+        }
+    }
+    fn u64(&mut self, x: u64) {
+        self.bytes(&x.to_le_bytes());
+    }
+    fn f32s(&mut self, xs: &[f32]) {
+        self.u64(xs.len() as u64);
+        self.bytes(bytemuck::cast_slice(xs));
+    }
+}
+
+/// The default cache folder: `$CARGO_TARGET_DIR/reference-cache`, or `target/reference-cache`.
+pub fn default_dir() -> PathBuf {
+    std::env::var_os("CARGO_TARGET_DIR")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| PathBuf::from("target"))
+        .join("reference-cache")
+}
+
+/// Hash of everything the reference result depends on.
+pub fn key(scene: &PreparedScene, params: &ReferenceParams) -> u64 {
+    let mut h = Fnv(0xcbf2_9ce4_8422_2325);
+    h.u64(VERSION);
+    let v3 = |v: &[Vec3]| -> Vec<f32> { v.iter().flat_map(|p| p.to_array()).collect() };
+    h.f32s(&v3(&scene.positions));
+    h.f32s(&v3(&scene.normals));
+    h.f32s(&v3(&scene.albedo));
+    h.u64(scene.triangles.len() as u64);
+    h.bytes(bytemuck::cast_slice(&scene.triangles));
+    for l in &scene.lights {
+        match *l {
+            Light::Point { position, intensity } => {
+                h.u64(1);
+                h.f32s(&[position.to_array(), intensity.to_array()].concat());
+            }
+            Light::Directional { direction, irradiance } => {
+                h.u64(2);
+                h.f32s(&[direction.to_array(), irradiance.to_array()].concat());
+            }
+        }
+    }
+    let p = params;
+    h.u64(p.samples_per_vertex as u64);
+    h.u64(p.max_depth as u64);
+    h.u64(p.rr_start as u64);
+    h.f32s(&[p.rr_min_survival, p.offset, p.min_distance]);
+    h.u64(p.seed);
+    h.0
+}
+
+fn file(dir: &Path, key: u64) -> PathBuf {
+    dir.join(format!("{key:016x}.ref"))
+}
+
+/// The cached result for `key`, if a valid one for `n` vertices is there.
+pub fn load(dir: &Path, key: u64, n: usize, params: &ReferenceParams) -> Option<Reference> {
+    let bytes = std::fs::read(file(dir, key)).ok()?;
+    if bytes.len() != 16 + 36 * n || &bytes[..8] != MAGIC || bytes[8..16] != (n as u64).to_le_bytes() {
+        return None;
+    }
+    let floats: Vec<f32> = bytes[16..].chunks_exact(4).map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]])).collect();
+    let part =
+        |k: usize| -> Vec<Vec3> { floats[k * 3 * n..(k + 1) * 3 * n].chunks_exact(3).map(Vec3::from_slice).collect() };
+    Some(Reference {
+        e_direct: part(0),
+        e_indirect: part(1),
+        e_indirect_stderr: part(2),
+        params: *params,
+        ms: 0.0,
+        from_cache: true,
+    })
+}
+
+/// Writes `r` under `key` (creating `dir`), via a temporary file and a rename.
+pub fn store(dir: &Path, key: u64, r: &Reference) -> std::io::Result<()> {
+    std::fs::create_dir_all(dir)?;
+    let n = r.e_direct.len();
+    let mut bytes = Vec::with_capacity(16 + 36 * n);
+    bytes.extend_from_slice(MAGIC);
+    bytes.extend_from_slice(&(n as u64).to_le_bytes());
+    for part in [&r.e_direct, &r.e_indirect, &r.e_indirect_stderr] {
+        for v in part.iter() {
+            for x in v.to_array() {
+                bytes.extend_from_slice(&x.to_le_bytes());
+            }
+        }
+    }
+    let tmp = dir.join(format!("{key:016x}.ref.tmp{}", std::process::id()));
+    std::fs::write(&tmp, bytes)?;
+    std::fs::rename(tmp, file(dir, key))
+}

@@ -1,0 +1,215 @@
+//! The path tracer of the reference solver (see the module doc of
+//! [`crate::reference`] for the estimator): per-vertex origins and
+//! per-triangle normals, next-event estimation to every light, cosine
+//! sampling, Russian roulette. Irradiance in W/m^2, lengths in metres.
+
+use super::ReferenceParams;
+use crate::kdtree::traverse::{Ray, NO_SKIP};
+use crate::kdtree::KdTree;
+use crate::scene::prep::PreparedScene;
+use crate::scene::Light;
+use glam::{DVec3, Vec3};
+use rand::{Rng, SeedableRng};
+use rand_pcg::Pcg64Mcg;
+use std::f32::consts::PI;
+
+/// Where a path currently is: at the vertex it started from, or at a point on a triangle.
+#[derive(Clone, Copy, Debug)]
+enum At {
+    Vertex,
+    Triangle { origin: Vec3, normal: Vec3 },
+}
+
+/// Precomputed per-vertex and per-triangle data plus the tree.
+pub struct Tracer<'a> {
+    scene: &'a PreparedScene,
+    kd: &'a KdTree,
+    params: ReferenceParams,
+    /// Unit geometric normal of every triangle (zero for degenerate ones).
+    tri_normals: Vec<Vec3>,
+    /// Origin offset of every triangle, metres.
+    tri_offsets: Vec<f32>,
+}
+
+/// An orthonormal frame `(t, b)` around unit `n` (Duff et al. 2017).
+fn frame(n: Vec3) -> (Vec3, Vec3) {
+    let s = if n.z >= 0.0 { 1.0 } else { -1.0 };
+    let a = -1.0 / (s + n.z);
+    let b = n.x * n.y * a;
+    (Vec3::new(1.0 + s * n.x * n.x * a, s * b, -s * n.x), Vec3::new(b, s + n.y * n.y * a, -n.y))
+}
+
+/// Cosine-distributed direction around `n` from `(u1, u2)` in `[0, 1)^2` (pdf `cos / pi`).
+fn cosine_direction(n: Vec3, u1: f32, u2: f32) -> Vec3 {
+    let r = u1.sqrt();
+    let phi = 2.0 * PI * u2;
+    let z = (1.0 - u1).max(0.0).sqrt();
+    let (t, b) = frame(n);
+    (t * (r * phi.cos()) + b * (r * phi.sin()) + n * z).normalize()
+}
+
+/// A few ulps of the coordinates of `p`, so an offset survives rounding.
+fn ulp_floor(p: Vec3) -> f32 {
+    p.abs().max_element() * 8.0 * f32::EPSILON
+}
+
+impl<'a> Tracer<'a> {
+    pub fn new(scene: &'a PreparedScene, kd: &'a KdTree, params: &ReferenceParams) -> Tracer<'a> {
+        let mut tri_normals = Vec::with_capacity(scene.triangles.len());
+        let mut tri_offsets = Vec::with_capacity(scene.triangles.len());
+        for t in &scene.triangles {
+            let [a, b, c] = t.map(|i| scene.positions[i as usize]);
+            tri_normals.push((b - a).cross(c - a).normalize_or_zero());
+            let l = ((b - a).length() + (c - b).length() + (a - c).length()) / 3.0;
+            let floor = ulp_floor(a).max(ulp_floor(b)).max(ulp_floor(c));
+            tri_offsets.push((params.offset * l).max(floor));
+        }
+        Tracer { scene, kd, params: *params, tri_normals, tri_offsets }
+    }
+
+    /// Origin of vertex `v`'s rays and its offset length (see the module doc).
+    fn vertex_origin(&self, v: usize) -> (Vec3, f32) {
+        let s = self.scene;
+        let p = s.positions[v];
+        let n = s.normals[v];
+        let toward: Vec3 = s.rings.row(v).iter().map(|&u| (s.positions[u as usize] - p).normalize_or_zero()).sum();
+        let inward = (toward - n * toward.dot(n)).normalize_or_zero();
+        let d = (self.params.offset * s.mean_edge_length(v)).max(ulp_floor(p));
+        (p + (n + inward) * d, d)
+    }
+
+    /// Direct irradiance at surface point `p` with normal `n`, shadow rays from `origin`.
+    fn direct(&self, p: Vec3, n: Vec3, origin: Vec3, offset: f32) -> Vec3 {
+        let mut e = Vec3::ZERO;
+        for light in &self.scene.lights {
+            match *light {
+                Light::Point { position, intensity } => {
+                    let d = position - p;
+                    let r = d.length();
+                    if !(r > 0.0) {
+                        // The light sits on the point: the cosine is undefined; count it as facing.
+                        let rm = self.params.min_distance;
+                        e += intensity / (rm * rm);
+                        continue;
+                    }
+                    let cos = n.dot(d) / r;
+                    if cos <= 0.0 {
+                        continue;
+                    }
+                    let rc = r.max(self.params.min_distance);
+                    let to = position - origin;
+                    let len = to.length();
+                    let visible = len <= 2.0 * offset || {
+                        let ray = Ray { origin, dir: to / len, tmin: 0.0, tmax: len - offset, skip: NO_SKIP };
+                        !self.kd.occluded(&ray)
+                    };
+                    if visible {
+                        e += intensity * (cos / (rc * rc));
+                    }
+                }
+                Light::Directional { direction, irradiance } => {
+                    let w = -direction.normalize();
+                    let cos = n.dot(w);
+                    if cos <= 0.0 {
+                        continue;
+                    }
+                    let ray = Ray { origin, dir: w, tmin: 0.0, tmax: f32::INFINITY, skip: NO_SKIP };
+                    if !self.kd.occluded(&ray) {
+                        e += irradiance * cos;
+                    }
+                }
+            }
+        }
+        e
+    }
+
+    /// `(E_d, E_i, standard error of E_i)` of vertex `v`.
+    pub fn vertex(&self, v: usize) -> (Vec3, Vec3, Vec3) {
+        let s = self.scene;
+        let (origin, offset) = self.vertex_origin(v);
+        let n = s.normals[v];
+        let e_d = self.direct(s.positions[v], n, origin, offset);
+        let samples = self.params.samples_per_vertex.max(1);
+        let mut rng = Pcg64Mcg::seed_from_u64(self.params.seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) ^ v as u64);
+        // Warm the stream so nearby seeds decorrelate.
+        let _: u64 = rng.random();
+        let k = (samples as f64).sqrt() as u32;
+        let stratified = k * k == samples;
+        let (mut sum, mut sum2) = (DVec3::ZERO, DVec3::ZERO);
+        for i in 0..samples {
+            let (j1, j2): (f32, f32) = (rng.random(), rng.random());
+            let (u1, u2) = if stratified {
+                (((i % k) as f32 + j1) / k as f32, ((i / k) as f32 + j2) / k as f32)
+            } else {
+                (j1, j2)
+            };
+            let dir = cosine_direction(n, u1.min(1.0 - f32::EPSILON), u2);
+            let est = self.path(v, origin, n, e_d, dir, &mut rng).as_dvec3();
+            sum += est;
+            sum2 += est * est;
+        }
+        let m = samples as f64;
+        let mean = sum / m;
+        let var = ((sum2 / m - mean * mean) * (m / (m - 1.0).max(1.0))).max(DVec3::ZERO);
+        (e_d, mean.as_vec3(), (var / m).map(f64::sqrt).as_vec3())
+    }
+
+    /// One path's estimate of `E_i` at vertex `v`, starting along `dir`.
+    fn path(
+        &self,
+        v: usize,
+        v_origin: Vec3,
+        v_normal: Vec3,
+        v_direct: Vec3,
+        mut dir: Vec3,
+        rng: &mut Pcg64Mcg,
+    ) -> Vec3 {
+        let s = self.scene;
+        let mut at = At::Vertex;
+        let mut beta = Vec3::ONE;
+        let mut est = Vec3::ZERO;
+        for depth in 0..self.params.max_depth {
+            let origin = match at {
+                At::Vertex => v_origin,
+                At::Triangle { origin, .. } => origin,
+            };
+            let ray = Ray { origin, dir, tmin: 0.0, tmax: f32::INFINITY, skip: NO_SKIP };
+            let Some(hit) = self.kd.intersect(&ray) else { break };
+            let tri = s.triangles[hit.tri as usize];
+            let (rho, e_d, next) = if hit.front {
+                let w = hit.barycentrics();
+                let p = (0..3).map(|k| s.positions[tri[k] as usize] * w[k]).sum::<Vec3>();
+                let rho = (0..3).map(|k| s.albedo[tri[k] as usize] * w[k]).sum::<Vec3>();
+                let normal = self.tri_normals[hit.tri as usize];
+                let o = p + normal * self.tri_offsets[hit.tri as usize];
+                let e_d = self.direct(p, normal, o, self.tri_offsets[hit.tri as usize]);
+                (rho, e_d, At::Triangle { origin: o, normal })
+            } else if matches!(at, At::Vertex) && tri.contains(&(v as u32)) {
+                // Dived under one of the vertex's own triangles: a hit at the vertex itself.
+                (s.albedo[v], v_direct, At::Vertex)
+            } else {
+                break; // a back face brings no light
+            };
+            beta *= rho;
+            est += beta * e_d;
+            if depth + 1 >= self.params.rr_start {
+                let survive = beta.max_element().min(1.0).max(self.params.rr_min_survival);
+                if rng.random::<f32>() >= survive {
+                    break;
+                }
+                beta /= survive;
+            }
+            if beta == Vec3::ZERO {
+                break;
+            }
+            let n = match next {
+                At::Vertex => v_normal,
+                At::Triangle { normal, .. } => normal,
+            };
+            let (u1, u2): (f32, f32) = (rng.random(), rng.random());
+            dir = cosine_direction(n, u1, u2);
+            at = next;
+        }
+        est
+    }
+}
