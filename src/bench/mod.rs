@@ -1,4 +1,4 @@
-//! Benchmark of the CPU pipeline, laid out like the paper's two tables
+//! Benchmark of the pipeline (CPU, GPU or both), laid out like the paper's two tables
 //! (DESIGN.md, "The paper's figures"): sizes (vertices, kd nodes, links raw
 //! and merged in millions, their storage in MB) and times (kd build, link
 //! shooting with its ray rate, light links with their shadow-ray rate, three
@@ -17,7 +17,7 @@ pub use paper::{paper_rows, PaperRow};
 pub use report::markdown;
 
 use crate::scene::{prep, Bounces, SceneDesc};
-use crate::solver::{SolveParams, Solver};
+use crate::solver::{Compute, SolveParams, Solver};
 use serde::Serialize;
 use std::time::Instant;
 
@@ -42,14 +42,19 @@ impl std::str::FromStr for Backend {
 }
 
 impl Backend {
-    /// Checks that this build can run the backend.
-    pub fn check_available(self) -> crate::Result<()> {
-        match self {
-            Backend::Cpu => Ok(()),
-            Backend::Gpu | Backend::Both => {
-                Err(crate::Error::Setting("GPU backend not built in this version (use --backend cpu)".into()))
-            }
+    /// The compute paths to benchmark, each with its label ("CPU", "GPU");
+    /// an error naming the problem when a GPU is asked for and none exists
+    /// (any adapter counts, software ones too).
+    pub fn computes(self) -> crate::Result<Vec<(String, Compute)>> {
+        let mut out = Vec::new();
+        if matches!(self, Backend::Cpu | Backend::Both) {
+            out.push(("CPU".to_string(), Compute::Cpu));
         }
+        if matches!(self, Backend::Gpu | Backend::Both) {
+            let (c, _) = Compute::from_backend(crate::gpu::Backend::Gpu, 1)?;
+            out.push(("GPU".to_string(), c));
+        }
+        Ok(out)
     }
 }
 
@@ -112,6 +117,10 @@ pub struct RunTimes {
 #[derive(Clone, Debug, Default, PartialEq, Serialize)]
 pub struct BenchRow {
     pub scene: String,
+    /// "CPU" or "GPU".
+    pub backend: String,
+    /// The adapter(s) or CPU threads used.
+    pub device: String,
     pub vertices: usize,
     pub triangles: usize,
     pub kd_nodes: usize,
@@ -136,6 +145,8 @@ impl BenchRow {
         let st = |f: fn(&RunTimes) -> f64| Stat::of(&runs.iter().map(f).collect::<Vec<_>>());
         BenchRow {
             scene: scene.to_string(),
+            backend: "CPU".to_string(),
+            device: String::new(),
             vertices: sizes.vertices,
             triangles: sizes.triangles,
             kd_nodes: sizes.kd_nodes,
@@ -169,9 +180,9 @@ pub struct Sizes {
 }
 
 /// One complete build and solve of `scene`, timed.
-pub fn run_once(scene: &prep::PreparedScene, params: &SolveParams) -> (RunTimes, Sizes) {
+pub fn run_once(scene: &prep::PreparedScene, params: &SolveParams, compute: &Compute) -> crate::Result<(RunTimes, Sizes)> {
     let t0 = Instant::now();
-    let solver = Solver::new(scene.clone(), *params, &|_, _| {});
+    let solver = Solver::new_on(scene.clone(), *params, compute, &|_, _| {})?;
     let solution = solver.solve();
     let first_solution_ms = t0.elapsed().as_secs_f64() * 1e3;
     let l = &solver.links.stats;
@@ -193,28 +204,36 @@ pub fn run_once(scene: &prep::PreparedScene, params: &SolveParams) -> (RunTimes,
         bytes_raw: l.raw_bytes,
         bytes_merged: l.merged_bytes,
     };
-    (times, sizes)
+    Ok((times, sizes))
 }
 
 /// Benchmarks one scene: `warmup` unmeasured runs, then `runs` measured
 /// ones, calling `progress()` after each run.
-pub fn run_scene(desc: &SceneDesc, params: &BenchParams, progress: &dyn Fn()) -> crate::Result<BenchRow> {
+pub fn run_scene(
+    desc: &SceneDesc,
+    params: &BenchParams,
+    (label, compute): &(String, Compute),
+    progress: &dyn Fn(),
+) -> crate::Result<BenchRow> {
     let mut desc = desc.clone();
     desc.settings.rays_per_vertex = params.rays_per_vertex;
     desc.settings.bounces = Bounces::Fixed(params.bounces);
     let scene = prep::prepare(&desc)?;
     let solve_params = SolveParams::from_settings(&scene.settings);
     for _ in 0..params.warmup {
-        run_once(&scene, &solve_params);
+        run_once(&scene, &solve_params, compute)?;
         progress();
     }
     let mut runs = Vec::new();
     let mut sizes = Sizes::default();
     for _ in 0..params.runs.max(1) {
-        let (t, s) = run_once(&scene, &solve_params);
+        let (t, s) = run_once(&scene, &solve_params, compute)?;
         runs.push(t);
         sizes = s;
         progress();
     }
-    Ok(BenchRow::from_runs(&desc.name, &sizes, params.rays_per_vertex, &runs))
+    let mut row = BenchRow::from_runs(&desc.name, &sizes, params.rays_per_vertex, &runs);
+    row.backend = label.clone();
+    row.device = compute.describe();
+    Ok(row)
 }

@@ -18,7 +18,7 @@ pub struct Args {
 
 pub fn run(args: Args) -> Result<()> {
     let backend: Backend = args.backend.parse()?;
-    backend.check_available()?;
+    let computes = backend.computes()?;
     let names: Vec<String> = if args.scenes.is_empty() {
         scene::builtin::NAMES.iter().map(|s| s.to_string()).collect()
     } else {
@@ -30,7 +30,7 @@ pub fn run(args: Args) -> Result<()> {
         descs.push(scene::load(n).with_context(|| format!("loading scene {n}"))?);
     }
     let per_scene = (params.warmup + params.runs) as u64;
-    let bar = ProgressBar::new(per_scene * descs.len() as u64);
+    let bar = ProgressBar::new(per_scene * (descs.len() * computes.len()) as u64);
     bar.set_style(
         ProgressStyle::with_template("{msg:12} [{bar:40}] {pos}/{len} runs ({elapsed}, eta {eta})")
             .expect("valid template")
@@ -38,12 +38,17 @@ pub fn run(args: Args) -> Result<()> {
     );
     let mut rows = Vec::new();
     for d in &descs {
-        bar.set_message(d.name.clone());
-        rows.push(bench::run_scene(d, &params, &|| bar.inc(1))?);
+        for c in &computes {
+            bar.set_message(format!("{} {}", d.name, c.0));
+            rows.push(bench::run_scene(d, &params, c, &|| bar.inc(1))?);
+        }
     }
     bar.finish_and_clear();
     let md = bench::markdown(&rows);
     println!("{md}");
+    for (label, c) in &computes {
+        println!("{label}: {}", c.describe());
+    }
     if let Some(p) = &args.json {
         let text =
             serde_json::to_string_pretty(&serde_json::json!({ "backend": backend, "params": params, "rows": rows }))?;
