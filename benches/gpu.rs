@@ -36,7 +36,7 @@ fn stages(c: &mut Criterion) {
         let links = shoot_links(&scene, &kd, &params, &|_, _| {});
         let gl = GpuLinks::new(dev.clone(), &links, &scene.albedo).unwrap();
         let e_d = vec![glam::Vec3::splat(1.0); scene.vertex_count()];
-        let mut kernel = gl.kernel(&e_d, &scene.albedo);
+        let mut kernel = gl.kernel(&e_d, &scene.albedo).unwrap();
         g.throughput(Throughput::Elements(links.targets.len() as u64));
         g.bench_function("gather_bounce", |b| b.iter(|| kernel.run_bounces(1).unwrap()));
         g.finish();

@@ -9,11 +9,15 @@
 const WORKGROUP: u32 = 256u;
 const PI: f32 = 3.14159265358979323846264338327950288;
 
+// One dispatch covers vertices first_vertex .. first_vertex + vertex_count.
+// `gather_bounce` runs once per link segment (a row range whose links fit
+// one storage binding); its offsets, targets and weights are that
+// segment's, offsets rebased to the segment's first link.
 struct GatherUniforms {
     vertex_count: u32,
     groups_x: u32,
+    first_vertex: u32,
     _pad0: u32,
-    _pad1: u32,
 }
 
 @group(0) @binding(0) var<uniform> params: GatherUniforms;
@@ -39,15 +43,15 @@ fn weight(j: u32) -> f32 {
 
 @compute @workgroup_size(256)
 fn gather_bounce(@builtin(global_invocation_id) gid: vec3<u32>) {
-    let v = gid.x + gid.y * params.groups_x * WORKGROUP;
-    if v >= params.vertex_count {
+    let local = gid.x + gid.y * params.groups_x * WORKGROUP;
+    if local >= params.vertex_count {
         return;
     }
     var acc = vec3<f32>(0.0);
-    for (var j = offsets[v]; j < offsets[v + 1u]; j++) {
+    for (var j = offsets[local]; j < offsets[local + 1u]; j++) {
         acc += radiosity[targets[j]].xyz * weight(j);
     }
-    bounce[v] = vec4<f32>(acc, 0.0);
+    bounce[params.first_vertex + local] = vec4<f32>(acc, 0.0);
 }
 
 @compute @workgroup_size(256)

@@ -42,7 +42,12 @@ fn gpu_compute(dev: &Arc<GpuDevice>, logical: usize) -> Compute {
 
 /// Same triangle (and face flag) for at least 99.9% of rays; where they
 /// agree, the same distance and barycentrics to float precision.
-fn compare_rays(name: &str, dev: &Arc<GpuDevice>, scene: &prep::PreparedScene, kd: &linkgi::kdtree::KdTree) -> Vec<bool> {
+fn compare_rays(
+    name: &str,
+    dev: &Arc<GpuDevice>,
+    scene: &prep::PreparedScene,
+    kd: &linkgi::kdtree::KdTree,
+) -> Vec<bool> {
     let params = LinkParams::default();
     let setup = RaySetup::new(scene, &params);
     let mut tracer = GpuTracer::new(dev.clone(), kd).expect("tracer");
@@ -105,7 +110,8 @@ fn agree_on(name: &str) {
         candidates += 1;
         let (ct, cw) = cpu.links.group(v);
         let (gt, gw) = gpu.links.group(v);
-        if ct == gt && cw.iter().zip(gw).all(|(a, b)| (a.to_f32() - b.to_f32()).abs() <= 2e-3 * a.to_f32().abs() + 1e-7) {
+        if ct == gt && cw.iter().zip(gw).all(|(a, b)| (a.to_f32() - b.to_f32()).abs() <= 2e-3 * a.to_f32().abs() + 1e-7)
+        {
             equal += 1;
         }
     }
@@ -166,7 +172,7 @@ fn gpu_gather_matches_cpu_gather() {
         let params = GatherParams { bounces, ..Default::default() };
         let cpu = exchange::gather(&solver.links, &solver.scene.albedo, &e_d, &params);
         let gl = GpuLinks::new(dev.clone(), &solver.links, &solver.scene.albedo).expect("upload");
-        let gpu = drive(&mut gl.kernel(&e_d, &solver.scene.albedo), &params).expect("gather");
+        let gpu = drive(&mut gl.kernel(&e_d, &solver.scene.albedo).expect("kernel"), &params).expect("gather");
         assert!(cpu.bounces.abs_diff(gpu.bounces) <= 1, "bounces {} vs {}", cpu.bounces, gpu.bounces);
         if cpu.bounces == gpu.bounces {
             for (a, b) in cpu.e_indirect.iter().zip(&gpu.e_indirect) {
@@ -177,6 +183,43 @@ fn gpu_gather_matches_cpu_gather() {
             assert!(t.is_finite());
         }
         eprintln!("rho {albedo}: {} bounces on both", gpu.bounces);
+    }
+}
+
+/// Links cut into many segments (as when they exceed one storage binding)
+/// gather exactly as one segment.
+#[test]
+fn segmented_links_gather_the_same() {
+    let Some(dev) = device() else { return };
+    let desc = common::with_settings(scene::load("cornell").expect("built-in"), 16, Bounces::Fixed(3), 0.0);
+    let (solver, _) = common::solve(&desc);
+    let e_d = solver.light_links.direct(&solver.scene.lights, solver.scene.vertex_count());
+    let params = GatherParams { bounces: Bounces::Fixed(3), ..Default::default() };
+    let run = |max_links: usize| {
+        let gl =
+            GpuLinks::with_segment_links(dev.clone(), &solver.links, &solver.scene.albedo, max_links).expect("upload");
+        let r = drive(&mut gl.kernel(&e_d, &solver.scene.albedo).expect("kernel"), &params).expect("gather");
+        (gl.segment_count(), r.e_indirect)
+    };
+    let (one, a) = run(usize::MAX / 8);
+    let (many, b) = run(solver.links.targets.len() / 7);
+    assert_eq!(one, 1);
+    assert!(many >= 7, "{many} segments");
+    assert_eq!(a, b);
+}
+
+#[test]
+fn segments_cover_rows_within_the_limit() {
+    let offsets = [0u32, 3, 3, 10, 12, 30, 31];
+    let segs = linkgi::gpu::gather::segments(&offsets, 8);
+    assert_eq!(segs.first().unwrap().0, 0);
+    assert_eq!(segs.last().unwrap().1, 6);
+    for w in segs.windows(2) {
+        assert_eq!(w[0].1, w[1].0, "contiguous");
+    }
+    for &(a, b) in &segs {
+        let links = (offsets[b] - offsets[a]) as usize;
+        assert!(links <= 8 || b - a == 1, "segment {a}..{b} has {links} links");
     }
 }
 
@@ -224,8 +267,9 @@ fn gpu_light_links_follow_a_moved_light() {
     let Some(dev) = device() else { return };
     let desc = common::with_settings(scene::load("cornell").expect("built-in"), 16, Bounces::Fixed(2), 30.0);
     let scene = prep::prepare(&desc).expect("prepares");
-    let mut solver = Solver::new_on(scene, SolveParams::from_settings(&desc.settings), &gpu_compute(&dev, 1), &|_, _| {})
-        .expect("GPU solver");
+    let mut solver =
+        Solver::new_on(scene, SolveParams::from_settings(&desc.settings), &gpu_compute(&dev, 1), &|_, _| {})
+            .expect("GPU solver");
     let before = solver.solve();
     if let linkgi::scene::Light::Point { position, .. } = &mut solver.scene.lights[0] {
         *position += Vec3::new(0.3, -0.4, 0.2);

@@ -228,7 +228,6 @@ fn skip_vertex_ignores_incident_triangles() {
     assert_eq!(kd.intersect(&ray).map(|h| h.tri), brute_force(&kd, &ray).map(|h| h.tri));
     ray.skip = 0;
     assert!(kd.intersect(&ray).is_none() && brute_force(&kd, &ray).is_none());
-    ray.skip = NO_SKIP;
 }
 
 #[test]

@@ -180,7 +180,11 @@ pub struct Sizes {
 }
 
 /// One complete build and solve of `scene`, timed.
-pub fn run_once(scene: &prep::PreparedScene, params: &SolveParams, compute: &Compute) -> crate::Result<(RunTimes, Sizes)> {
+pub fn run_once(
+    scene: &prep::PreparedScene,
+    params: &SolveParams,
+    compute: &Compute,
+) -> crate::Result<(RunTimes, Sizes)> {
     let t0 = Instant::now();
     let solver = Solver::new_on(scene.clone(), *params, compute, &|_, _| {})?;
     let solution = solver.solve();

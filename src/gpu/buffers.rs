@@ -36,7 +36,12 @@ pub fn dispatch_size(count: u32, workgroup: u32, max_per_dim: u32) -> (u32, u32)
 
 /// Submits `enc` plus a copy of `src` into a mapped buffer, waits, and
 /// returns the contents as `T`s.
-pub fn read_back<T: Pod>(dev: &GpuDevice, mut enc: wgpu::CommandEncoder, src: &wgpu::Buffer, label: &str) -> Result<Vec<T>> {
+pub fn read_back<T: Pod>(
+    dev: &GpuDevice,
+    mut enc: wgpu::CommandEncoder,
+    src: &wgpu::Buffer,
+    label: &str,
+) -> Result<Vec<T>> {
     let size = src.size();
     let staging = dev.device.create_buffer(&wgpu::BufferDescriptor {
         label: Some(&format!("{label} read-back")),
@@ -59,4 +64,19 @@ pub fn read_back<T: Pod>(dev: &GpuDevice, mut enc: wgpu::CommandEncoder, src: &w
     drop(view);
     staging.unmap();
     Ok(out)
+}
+
+/// Runs `f` inside validation and out-of-memory error scopes of `dev`, so
+/// a failed buffer allocation or binding becomes an [`Error::Gpu`] naming
+/// `what` instead of a panic.
+pub fn checked<T>(dev: &GpuDevice, what: &str, f: impl FnOnce() -> T) -> Result<T> {
+    let oom = dev.device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
+    let validation = dev.device.push_error_scope(wgpu::ErrorFilter::Validation);
+    let out = f();
+    let v = pollster::block_on(validation.pop());
+    let o = pollster::block_on(oom.pop());
+    match v.or(o) {
+        Some(e) => Err(Error::Gpu(format!("{what} on {}: {e}", dev.info.name))),
+        None => Ok(out),
+    }
 }

@@ -109,6 +109,9 @@ pub fn open_all() -> Vec<Arc<GpuDevice>> {
             ..Default::default()
         };
         if let Ok((device, queue)) = pollster::block_on(adapter.request_device(&desc)) {
+            // Errors outside our error scopes are reported, not turned into panics.
+            let name = info.name.clone();
+            device.on_uncaptured_error(Arc::new(move |e| eprintln!("GPU error on {name}: {e}")));
             out.push(Arc::new(GpuDevice { device, queue, info, limits }));
         }
     }

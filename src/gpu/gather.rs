@@ -3,8 +3,12 @@
 //! submission with no read-back between bounces. `auto` reads back only
 //! the per-workgroup sums of each bounce (16 bytes per 256 vertices) to
 //! decide whether to stop. Irradiance in W/m^2.
+//!
+//! Links larger than one storage binding (lavapipe: 128 MiB, i.e. 33 M
+//! links of `u32` targets) are cut into segments of whole rows, each with
+//! its own buffers, gathered by one dispatch each.
 
-use super::buffers::{dispatch_size, read_back, storage_init, uniform_init};
+use super::buffers::{checked, dispatch_size, read_back, storage_init, uniform_init};
 use super::context::GpuDevice;
 use super::layout::{GatherUniforms, GATHER_WGSL};
 use crate::error::Result;
@@ -16,23 +20,68 @@ use std::sync::Arc;
 
 const WORKGROUP: u32 = 256;
 
+/// Rows `first..first + count` of the link matrix on the device.
+struct Segment {
+    uniforms: wgpu::Buffer,
+    offsets: wgpu::Buffer,
+    targets: wgpu::Buffer,
+    weights: wgpu::Buffer,
+    groups: (u32, u32),
+}
+
 /// Links and albedo resident on one device.
 pub struct GpuLinks {
     pub dev: Arc<GpuDevice>,
     gather: wgpu::ComputePipeline,
     update: wgpu::ComputePipeline,
     uniforms: wgpu::Buffer,
-    offsets: wgpu::Buffer,
-    targets: wgpu::Buffer,
-    weights: wgpu::Buffer,
+    segments: Vec<Segment>,
     albedo: wgpu::Buffer,
     n: u32,
     groups: (u32, u32),
 }
 
+/// Row ranges `(first, end)` whose links number at most `max_links` each
+/// (a row with more links than that gets a segment of its own).
+pub fn segments(offsets: &[u32], max_links: usize) -> Vec<(usize, usize)> {
+    let n = offsets.len().saturating_sub(1);
+    let mut out = Vec::new();
+    let mut first = 0;
+    for v in 0..n {
+        if v > first && (offsets[v + 1] - offsets[first]) as usize > max_links {
+            out.push((first, v));
+            first = v;
+        }
+    }
+    if first < n || n == 0 {
+        out.push((first, n));
+    }
+    out
+}
+
 impl GpuLinks {
     /// Uploads the link matrix and the albedo.
     pub fn new(dev: Arc<GpuDevice>, links: &Links, albedo: &[Vec3]) -> Result<GpuLinks> {
+        let limit = dev.limits.max_storage_buffer_binding_size.min(dev.limits.max_buffer_size) as usize;
+        Self::with_segment_links(dev, links, albedo, limit / 4)
+    }
+
+    /// As [`GpuLinks::new`], with at most `max_links` links per segment.
+    pub fn with_segment_links(
+        dev: Arc<GpuDevice>,
+        links: &Links,
+        albedo: &[Vec3],
+        max_links: usize,
+    ) -> Result<GpuLinks> {
+        checked(&dev.clone(), "uploading links", || Self::upload(dev, links, albedo, max_links.max(2)))
+    }
+
+    /// The number of link segments.
+    pub fn segment_count(&self) -> usize {
+        self.segments.len()
+    }
+
+    fn upload(dev: Arc<GpuDevice>, links: &Links, albedo: &[Vec3], max_links: usize) -> GpuLinks {
         let d = &dev.device;
         let module = d.create_shader_module(wgpu::ShaderModuleDescriptor {
             label: Some("gather.wgsl"),
@@ -50,27 +99,52 @@ impl GpuLinks {
         };
         let n = links.vertex_count() as u32;
         let groups = dispatch_size(n, WORKGROUP, dev.limits.max_compute_workgroups_per_dimension);
-        let mut packed: Vec<u16> = links.weights.iter().map(|w| w.to_bits()).collect();
-        if packed.len() % 2 == 1 {
-            packed.push(0);
-        }
+        let max_dim = dev.limits.max_compute_workgroups_per_dimension;
+        let segments = segments(&links.offsets, max_links)
+            .into_iter()
+            .enumerate()
+            .map(|(i, (a, b))| {
+                let (l0, l1) = (links.offsets[a] as usize, links.offsets[b] as usize);
+                let offsets: Vec<u32> = links.offsets[a..=b].iter().map(|o| o - l0 as u32).collect();
+                let mut packed: Vec<u16> = links.weights[l0..l1].iter().map(|w| w.to_bits()).collect();
+                if packed.len() % 2 == 1 {
+                    packed.push(0);
+                }
+                let groups = dispatch_size((b - a) as u32, WORKGROUP, max_dim);
+                let u = GatherUniforms {
+                    vertex_count: (b - a) as u32,
+                    groups_x: groups.0,
+                    first_vertex: a as u32,
+                    ..Default::default()
+                };
+                Segment {
+                    uniforms: uniform_init(d, &format!("gather uniforms, segment {i}"), &u),
+                    offsets: storage_init(d, &format!("link offsets, segment {i}"), &offsets),
+                    targets: storage_init(d, &format!("link targets, segment {i}"), &links.targets[l0..l1]),
+                    weights: storage_init(d, &format!("link weights (f16 pairs), segment {i}"), &packed),
+                    groups,
+                }
+            })
+            .collect();
         let uniforms = GatherUniforms { vertex_count: n, groups_x: groups.0, ..Default::default() };
-        Ok(GpuLinks {
+        GpuLinks {
             gather: pipeline("gather_bounce"),
             update: pipeline("update_bounce"),
-            uniforms: uniform_init(d, "gather uniforms", &uniforms),
-            offsets: storage_init(d, "link offsets", &links.offsets),
-            targets: storage_init(d, "link targets", &links.targets),
-            weights: storage_init(d, "link weights (f16 pairs)", &packed),
+            uniforms: uniform_init(d, "update uniforms", &uniforms),
+            segments,
             albedo: storage_init(d, "albedo", &vec4s(albedo)),
             n,
             groups,
             dev,
-        })
+        }
     }
 
     /// A bounce kernel starting from direct irradiance `e_direct`.
-    pub fn kernel(&self, e_direct: &[Vec3], albedo: &[Vec3]) -> GpuBounces<'_> {
+    pub fn kernel(&self, e_direct: &[Vec3], albedo: &[Vec3]) -> Result<GpuBounces<'_>> {
+        checked(&self.dev, "gather setup", || self.make_kernel(e_direct, albedo))
+    }
+
+    fn make_kernel(&self, e_direct: &[Vec3], albedo: &[Vec3]) -> GpuBounces<'_> {
         let d = &self.dev.device;
         let b0: Vec<Vec3> = e_direct.iter().zip(albedo).map(|(e, r)| *e * *r / PI).collect();
         let zeros = vec![[0f32; 4]; self.n as usize];
@@ -89,17 +163,30 @@ impl GpuLinks {
                     .collect::<Vec<_>>(),
             })
         };
-        let gather_group = bind(
-            &self.gather,
-            "gather_bounce bind group",
-            &[(0, &self.uniforms), (1, &self.offsets), (2, &self.targets), (3, &self.weights), (4, &radiosity), (5, &bounce)],
-        );
+        let gather_groups = self
+            .segments
+            .iter()
+            .map(|g| {
+                bind(
+                    &self.gather,
+                    "gather_bounce bind group",
+                    &[
+                        (0, &g.uniforms),
+                        (1, &g.offsets),
+                        (2, &g.targets),
+                        (3, &g.weights),
+                        (4, &radiosity),
+                        (5, &bounce),
+                    ],
+                )
+            })
+            .collect();
         let update_group = bind(
             &self.update,
             "update_bounce bind group",
             &[(0, &self.uniforms), (4, &radiosity), (5, &bounce), (6, &self.albedo), (7, &total), (8, &partials)],
         );
-        GpuBounces { links: self, bounce, total, partials, gather_group, update_group, group_count }
+        GpuBounces { links: self, bounce, total, partials, gather_groups, update_group, group_count }
     }
 }
 
@@ -113,13 +200,25 @@ pub struct GpuBounces<'a> {
     bounce: wgpu::Buffer,
     total: wgpu::Buffer,
     partials: wgpu::Buffer,
-    gather_group: wgpu::BindGroup,
+    gather_groups: Vec<wgpu::BindGroup>,
     update_group: wgpu::BindGroup,
     group_count: usize,
 }
 
 impl BounceKernel for GpuBounces<'_> {
     fn run_bounces(&mut self, count: u32) -> Result<Vec<[f64; 3]>> {
+        let dev = self.links.dev.clone();
+        checked(&dev, "bounces", || self.bounces(count))?
+    }
+
+    fn finish(&mut self, tail: Vec3) -> Result<Vec<Vec3>> {
+        let dev = self.links.dev.clone();
+        checked(&dev, "reading E_i", || self.read_total(tail))?
+    }
+}
+
+impl GpuBounces<'_> {
+    fn bounces(&mut self, count: u32) -> Result<Vec<[f64; 3]>> {
         let l = self.links;
         let d = &l.dev.device;
         let slot = (self.group_count * 16) as u64;
@@ -132,11 +231,13 @@ impl BounceKernel for GpuBounces<'_> {
         let mut enc = d.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("bounces") });
         for b in 0..count {
             {
-                let mut pass =
-                    enc.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some("bounce"), timestamp_writes: None });
+                let mut pass = enc
+                    .begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some("bounce"), timestamp_writes: None });
                 pass.set_pipeline(&l.gather);
-                pass.set_bind_group(0, &self.gather_group, &[]);
-                pass.dispatch_workgroups(l.groups.0, l.groups.1, 1);
+                for (seg, group) in l.segments.iter().zip(&self.gather_groups) {
+                    pass.set_bind_group(0, group, &[]);
+                    pass.dispatch_workgroups(seg.groups.0, seg.groups.1, 1);
+                }
                 pass.set_pipeline(&l.update);
                 pass.set_bind_group(0, &self.update_group, &[]);
                 pass.dispatch_workgroups(l.groups.0, l.groups.1, 1);
@@ -158,7 +259,7 @@ impl BounceKernel for GpuBounces<'_> {
             .collect())
     }
 
-    fn finish(&mut self, tail: Vec3) -> Result<Vec<Vec3>> {
+    fn read_total(&mut self, tail: Vec3) -> Result<Vec<Vec3>> {
         let l = self.links;
         let enc = |label| l.dev.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some(label) });
         let total: Vec<[f32; 4]> = read_back(&l.dev, enc("read E_i"), &self.total, "indirect irradiance")?;

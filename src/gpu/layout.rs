@@ -60,12 +60,13 @@ pub struct TraceParams {
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct GatherUniforms {
+    /// Vertices of the dispatch.
     pub vertex_count: u32,
     /// Workgroups along x of the 2D dispatch.
     pub groups_x: u32,
-    /// Tail factor per channel is applied by `add_tail`; this selects nothing else.
+    /// First vertex of the dispatch (a link segment's first row; 0 for `update_bounce`).
+    pub first_vertex: u32,
     pub _pad0: u32,
-    pub _pad1: u32,
 }
 
 /// A struct shared with WGSL: name, size and `(field, offset)` pairs.
@@ -90,8 +91,12 @@ pub fn shared_structs() -> Vec<SharedStruct> {
         shared!(HitRecord, "HitRecord", [tri, u, v, t]),
         shared!(RayVertex, "RayVertex", [origin, skip, tangent, _pad0, bitangent, _pad1, normal, _pad2]),
         shared!(ShadowRay, "ShadowRay", [origin, skip, dir, tmin, tmax, _pad0, _pad1, _pad2]),
-        shared!(TraceParams, "TraceParams", [count, rays_per_vertex, groups_x, leaf_count, root_min, _pad0, root_max, _pad1]),
-        shared!(GatherUniforms, "GatherUniforms", [vertex_count, groups_x, _pad0, _pad1]),
+        shared!(
+            TraceParams,
+            "TraceParams",
+            [count, rays_per_vertex, groups_x, leaf_count, root_min, _pad0, root_max, _pad1]
+        ),
+        shared!(GatherUniforms, "GatherUniforms", [vertex_count, groups_x, first_vertex, _pad0]),
     ]
 }
 

@@ -2,7 +2,7 @@
 //! pipelines of `shaders/shoot.wgsl`. The tree is uploaded once; each call
 //! traces one batch and reads its results back.
 
-use super::buffers::{dispatch_size, read_back, storage_init, uniform_init};
+use super::buffers::{checked, dispatch_size, read_back, storage_init, uniform_init};
 use super::context::GpuDevice;
 use super::layout::{RayVertex, ShadowRay, TraceParams, SHOOT_WGSL};
 use crate::error::Result;
@@ -30,6 +30,20 @@ pub struct GpuTracer {
 impl GpuTracer {
     /// Uploads `kd` and builds the pipelines.
     pub fn new(dev: Arc<GpuDevice>, kd: &KdTree) -> Result<GpuTracer> {
+        let limit = dev.limits.max_storage_buffer_binding_size as usize;
+        let biggest = (kd.triangles.len() * std::mem::size_of::<crate::kdtree::KdTriangle>())
+            .max(kd.leaves.len() * std::mem::size_of::<crate::kdtree::KdLeaf>())
+            .max(kd.leaf_triangles.len() * 4);
+        if biggest > limit {
+            return Err(crate::Error::Gpu(format!(
+                "{}: the kd-tree needs a {biggest}-byte storage binding, the adapter allows {limit}",
+                dev.info.name
+            )));
+        }
+        checked(&dev.clone(), "uploading the kd-tree", || Self::upload(dev, kd))?
+    }
+
+    fn upload(dev: Arc<GpuDevice>, kd: &KdTree) -> Result<GpuTracer> {
         let d = &dev.device;
         let module = d.create_shader_module(wgpu::ShaderModuleDescriptor {
             label: Some("shoot.wgsl"),
@@ -90,6 +104,10 @@ impl GpuTracer {
     /// Traces every direction from every vertex of the batch; one hit
     /// record per ray, vertex-major.
     pub fn shoot(&self, vertices: &[RayVertex]) -> Result<Vec<HitRecord>> {
+        checked(&self.dev, "shooting rays", || self.shoot_unchecked(vertices))?
+    }
+
+    fn shoot_unchecked(&self, vertices: &[RayVertex]) -> Result<Vec<HitRecord>> {
         let (dirs, rays_per_vertex) = self.directions.as_ref().expect("set_directions before shoot");
         let count = vertices.len() as u64 * *rays_per_vertex as u64;
         if count == 0 {
@@ -105,16 +123,7 @@ impl GpuTracer {
             usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
             mapped_at_creation: false,
         });
-        let entries = [
-            &params,
-            &self.nodes,
-            &self.leaves,
-            &self.leaf_triangles,
-            &self.triangles,
-            dirs,
-            &verts,
-            &hits,
-        ];
+        let entries = [&params, &self.nodes, &self.leaves, &self.leaf_triangles, &self.triangles, dirs, &verts, &hits];
         let group = d.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("shoot bind group"),
             layout: &self.shoot.get_bind_group_layout(0),
@@ -126,8 +135,8 @@ impl GpuTracer {
         });
         let mut enc = d.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("shoot") });
         {
-            let mut pass =
-                enc.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some("shoot_rays"), timestamp_writes: None });
+            let mut pass = enc
+                .begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some("shoot_rays"), timestamp_writes: None });
             pass.set_pipeline(&self.shoot);
             pass.set_bind_group(0, &group, &[]);
             pass.dispatch_workgroups(gx, gy, 1);
@@ -137,6 +146,10 @@ impl GpuTracer {
 
     /// Any-hit test of shadow-ray segments: 1 where the segment is free.
     pub fn visibility(&self, rays: &[ShadowRay]) -> Result<Vec<u32>> {
+        checked(&self.dev, "shadow rays", || self.visibility_unchecked(rays))?
+    }
+
+    fn visibility_unchecked(&self, rays: &[ShadowRay]) -> Result<Vec<u32>> {
         if rays.is_empty() {
             return Ok(Vec::new());
         }

@@ -108,7 +108,13 @@ pub struct Settings {
 
 impl Default for Settings {
     fn default() -> Self {
-        Self { rays_per_vertex: 256, bounces: Bounces::Fixed(3), smoothing_angle_deg: 30.0, seed: 1, backend: crate::gpu::Backend::Auto }
+        Self {
+            rays_per_vertex: 256,
+            bounces: Bounces::Fixed(3),
+            smoothing_angle_deg: 30.0,
+            seed: 1,
+            backend: crate::gpu::Backend::Auto,
+        }
     }
 }
 
