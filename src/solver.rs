@@ -40,12 +40,22 @@ impl Compute {
     pub fn from_backend(backend: Backend, logical_per_device: usize) -> crate::Result<(Compute, Option<String>)> {
         let devices = gpu::devices_for(backend)?;
         if devices.is_empty() {
-            let note = (backend == Backend::Auto)
-                .then(|| "no hardware GPU adapter found: using the CPU path (--backend gpu uses software adapters too)".to_string());
+            let note = (backend == Backend::Auto).then(|| {
+                "no hardware GPU adapter found: using the CPU path (--backend gpu uses software adapters too)"
+                    .to_string()
+            });
             return Ok((Compute::Cpu, note));
         }
         let schedule = ScheduleParams::default();
-        Ok((Compute::Gpu(GpuCompute { devices, logical_per_device: logical_per_device.max(1), delays: Vec::new(), schedule }), None))
+        Ok((
+            Compute::Gpu(GpuCompute {
+                devices,
+                logical_per_device: logical_per_device.max(1),
+                delays: Vec::new(),
+                schedule,
+            }),
+            None,
+        ))
     }
 
     /// "cpu" or the adapters used.
@@ -54,8 +64,11 @@ impl Compute {
             Compute::Cpu => format!("cpu ({} threads)", rayon::current_num_threads()),
             Compute::Gpu(g) => {
                 let names: Vec<String> = g.devices.iter().map(|d| d.describe()).collect();
-                let split =
-                    if g.logical_per_device > 1 { format!(" x{} logical", g.logical_per_device) } else { String::new() };
+                let split = if g.logical_per_device > 1 {
+                    format!(" x{} logical", g.logical_per_device)
+                } else {
+                    String::new()
+                };
                 format!("gpu: {}{split}", names.join(", "))
             }
         }
@@ -168,9 +181,14 @@ impl Solver {
         let mut logical = Vec::new();
         for dev in &g.devices {
             for i in 0..g.logical_per_device {
-                let label = if g.logical_per_device > 1 { format!("{} #{i}", dev.info.name) } else { dev.info.name.clone() };
+                let label =
+                    if g.logical_per_device > 1 { format!("{} #{i}", dev.info.name) } else { dev.info.name.clone() };
                 let delay = g.delays.get(logical.len()).copied().unwrap_or_default();
-                logical.push(LogicalDevice { label, tracer: GpuTracer::new(dev.clone(), &kd)?, delay_per_vertex: delay });
+                logical.push(LogicalDevice {
+                    label,
+                    tracer: GpuTracer::new(dev.clone(), &kd)?,
+                    delay_per_vertex: delay,
+                });
             }
         }
         let (links, shares) = gpu::shoot_links_gpu(&scene, &kd, &params.links, &g.schedule, &mut logical, progress)?;
@@ -198,9 +216,10 @@ impl Solver {
     /// Gathers the bounces and smooths.
     pub fn solve(&self) -> Solution {
         let e_direct = self.light_links.direct(&self.scene.lights, self.scene.vertex_count());
-        let on_gpu = self.gpu.as_ref().map(|g| {
-            exchange::gather::drive(&mut g.links.kernel(&e_direct, &self.scene.albedo), &self.params.gather)
-        });
+        let on_gpu = self
+            .gpu
+            .as_ref()
+            .map(|g| exchange::gather::drive(&mut g.links.kernel(&e_direct, &self.scene.albedo), &self.params.gather));
         let gather = match on_gpu {
             Some(Ok(r)) => r,
             Some(Err(e)) => {

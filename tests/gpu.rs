@@ -42,7 +42,12 @@ fn gpu_compute(dev: &Arc<GpuDevice>, logical: usize) -> Compute {
 
 /// Same triangle (and face flag) for at least 99.9% of rays; where they
 /// agree, the same distance and barycentrics to float precision.
-fn compare_rays(name: &str, dev: &Arc<GpuDevice>, scene: &prep::PreparedScene, kd: &linkgi::kdtree::KdTree) -> Vec<bool> {
+fn compare_rays(
+    name: &str,
+    dev: &Arc<GpuDevice>,
+    scene: &prep::PreparedScene,
+    kd: &linkgi::kdtree::KdTree,
+) -> Vec<bool> {
     let params = LinkParams::default();
     let setup = RaySetup::new(scene, &params);
     let mut tracer = GpuTracer::new(dev.clone(), kd).expect("tracer");
@@ -105,7 +110,8 @@ fn agree_on(name: &str) {
         candidates += 1;
         let (ct, cw) = cpu.links.group(v);
         let (gt, gw) = gpu.links.group(v);
-        if ct == gt && cw.iter().zip(gw).all(|(a, b)| (a.to_f32() - b.to_f32()).abs() <= 2e-3 * a.to_f32().abs() + 1e-7) {
+        if ct == gt && cw.iter().zip(gw).all(|(a, b)| (a.to_f32() - b.to_f32()).abs() <= 2e-3 * a.to_f32().abs() + 1e-7)
+        {
             equal += 1;
         }
     }
@@ -224,8 +230,9 @@ fn gpu_light_links_follow_a_moved_light() {
     let Some(dev) = device() else { return };
     let desc = common::with_settings(scene::load("cornell").expect("built-in"), 16, Bounces::Fixed(2), 30.0);
     let scene = prep::prepare(&desc).expect("prepares");
-    let mut solver = Solver::new_on(scene, SolveParams::from_settings(&desc.settings), &gpu_compute(&dev, 1), &|_, _| {})
-        .expect("GPU solver");
+    let mut solver =
+        Solver::new_on(scene, SolveParams::from_settings(&desc.settings), &gpu_compute(&dev, 1), &|_, _| {})
+            .expect("GPU solver");
     let before = solver.solve();
     if let linkgi::scene::Light::Point { position, .. } = &mut solver.scene.lights[0] {
         *position += Vec3::new(0.3, -0.4, 0.2);

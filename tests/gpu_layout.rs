@@ -19,7 +19,10 @@ fn wgsl_structs(src: &str, file: &str) -> HashMap<String, (usize, Vec<(String, u
 
 #[test]
 fn shared_structs_match_wgsl() {
-    let shaders = [("shoot.wgsl", wgsl_structs(SHOOT_WGSL, "shoot.wgsl")), ("gather.wgsl", wgsl_structs(GATHER_WGSL, "gather.wgsl"))];
+    let shaders = [
+        ("shoot.wgsl", wgsl_structs(SHOOT_WGSL, "shoot.wgsl")),
+        ("gather.wgsl", wgsl_structs(GATHER_WGSL, "gather.wgsl")),
+    ];
     for s in shared_structs() {
         let mut seen = 0;
         for (file, structs) in &shaders {

@@ -36,7 +36,12 @@ pub fn dispatch_size(count: u32, workgroup: u32, max_per_dim: u32) -> (u32, u32)
 
 /// Submits `enc` plus a copy of `src` into a mapped buffer, waits, and
 /// returns the contents as `T`s.
-pub fn read_back<T: Pod>(dev: &GpuDevice, mut enc: wgpu::CommandEncoder, src: &wgpu::Buffer, label: &str) -> Result<Vec<T>> {
+pub fn read_back<T: Pod>(
+    dev: &GpuDevice,
+    mut enc: wgpu::CommandEncoder,
+    src: &wgpu::Buffer,
+    label: &str,
+) -> Result<Vec<T>> {
     let size = src.size();
     let staging = dev.device.create_buffer(&wgpu::BufferDescriptor {
         label: Some(&format!("{label} read-back")),

@@ -92,7 +92,14 @@ impl GpuLinks {
         let gather_group = bind(
             &self.gather,
             "gather_bounce bind group",
-            &[(0, &self.uniforms), (1, &self.offsets), (2, &self.targets), (3, &self.weights), (4, &radiosity), (5, &bounce)],
+            &[
+                (0, &self.uniforms),
+                (1, &self.offsets),
+                (2, &self.targets),
+                (3, &self.weights),
+                (4, &radiosity),
+                (5, &bounce),
+            ],
         );
         let update_group = bind(
             &self.update,
@@ -132,8 +139,8 @@ impl BounceKernel for GpuBounces<'_> {
         let mut enc = d.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("bounces") });
         for b in 0..count {
             {
-                let mut pass =
-                    enc.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some("bounce"), timestamp_writes: None });
+                let mut pass = enc
+                    .begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some("bounce"), timestamp_writes: None });
                 pass.set_pipeline(&l.gather);
                 pass.set_bind_group(0, &self.gather_group, &[]);
                 pass.dispatch_workgroups(l.groups.0, l.groups.1, 1);

@@ -90,7 +90,11 @@ pub fn shared_structs() -> Vec<SharedStruct> {
         shared!(HitRecord, "HitRecord", [tri, u, v, t]),
         shared!(RayVertex, "RayVertex", [origin, skip, tangent, _pad0, bitangent, _pad1, normal, _pad2]),
         shared!(ShadowRay, "ShadowRay", [origin, skip, dir, tmin, tmax, _pad0, _pad1, _pad2]),
-        shared!(TraceParams, "TraceParams", [count, rays_per_vertex, groups_x, leaf_count, root_min, _pad0, root_max, _pad1]),
+        shared!(
+            TraceParams,
+            "TraceParams",
+            [count, rays_per_vertex, groups_x, leaf_count, root_min, _pad0, root_max, _pad1]
+        ),
         shared!(GatherUniforms, "GatherUniforms", [vertex_count, groups_x, _pad0, _pad1]),
     ]
 }

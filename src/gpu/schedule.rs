@@ -118,7 +118,8 @@ fn merge_batch(setup: &RaySetup, kd: &KdTree, first: usize, hits: &mut [HitRecor
             for (i, vh) in chunk.chunks_mut(rays).enumerate() {
                 fix_wedges(setup, out.first + i, vh);
                 let before = out.targets.len();
-                let c = merge_vertex(vh, &kd.triangles, weight_per_ray, &mut scratch, &mut out.targets, &mut out.weights);
+                let c =
+                    merge_vertex(vh, &kd.triangles, weight_per_ray, &mut scratch, &mut out.targets, &mut out.weights);
                 out.counts.push((out.targets.len() - before) as u32);
                 out.stats.rays += vh.len() as u64;
                 out.stats.front_hits += c.front as u64;
@@ -165,7 +166,8 @@ pub fn shoot_links_gpu(
     // Vertices per second of every device on its last batch (0: unknown).
     let speeds = Mutex::new(vec![0f64; devices.len()]);
     let (tx, rx) = crossbeam_channel::bounded::<Result<(usize, usize, Vec<HitRecord>)>>(devices.len());
-    let mut shares: Vec<DeviceShare> = devices.iter().map(|d| DeviceShare { label: d.label.clone(), ..Default::default() }).collect();
+    let mut shares: Vec<DeviceShare> =
+        devices.iter().map(|d| DeviceShare { label: d.label.clone(), ..Default::default() }).collect();
     let mut batches: Vec<BatchLinks> = Vec::new();
     let mut merged_vertices = 0usize;
     let mut first_error = None;

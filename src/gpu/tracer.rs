@@ -105,16 +105,7 @@ impl GpuTracer {
             usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
             mapped_at_creation: false,
         });
-        let entries = [
-            &params,
-            &self.nodes,
-            &self.leaves,
-            &self.leaf_triangles,
-            &self.triangles,
-            dirs,
-            &verts,
-            &hits,
-        ];
+        let entries = [&params, &self.nodes, &self.leaves, &self.leaf_triangles, &self.triangles, dirs, &verts, &hits];
         let group = d.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("shoot bind group"),
             layout: &self.shoot.get_bind_group_layout(0),
@@ -126,8 +117,8 @@ impl GpuTracer {
         });
         let mut enc = d.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("shoot") });
         {
-            let mut pass =
-                enc.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some("shoot_rays"), timestamp_writes: None });
+            let mut pass = enc
+                .begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some("shoot_rays"), timestamp_writes: None });
             pass.set_pipeline(&self.shoot);
             pass.set_bind_group(0, &group, &[]);
             pass.dispatch_workgroups(gx, gy, 1);

@@ -357,6 +357,15 @@ fn torso() -> SceneDesc {
     }
     let mut figure = b.finish("torso/figure", 60.0);
     figure.dynamic = true;
+    // The figure twists about its vertical axis and sways a little.
+    let mut twist = super::deform::Deform::new(super::deform::DeformKind::Twist, 40.0);
+    twist.period_s = 4.0;
+    twist.toward = Vec3::X;
+    let mut bend = super::deform::Deform::new(super::deform::DeformKind::Bend, 12.0);
+    bend.center = Vec3::new(0.0, 0.6, 0.0);
+    bend.toward = Vec3::X;
+    bend.period_s = 6.0;
+    figure.deform = vec![twist, bend];
 
     scene(
         "torso",
