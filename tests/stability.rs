@@ -219,7 +219,13 @@ fn grey(name: &str, positions: Vec<Vec3>, triangles: Vec<[u32; 3]>) -> MeshDesc 
 fn custom(meshes: Vec<MeshDesc>, lights: Vec<Light>) -> SceneDesc {
     SceneDesc {
         name: "custom".into(),
-        settings: Settings { rays_per_vertex: 64, bounces: Bounces::Fixed(3), smoothing_angle_deg: 30.0, seed: 1 },
+        settings: Settings {
+            rays_per_vertex: 64,
+            bounces: Bounces::Fixed(3),
+            smoothing_angle_deg: 30.0,
+            seed: 1,
+            backend: Default::default(),
+        },
         camera: Camera::default(),
         meshes,
         lights,
