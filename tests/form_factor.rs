@@ -45,7 +45,13 @@ fn parallel_squares_match_the_analytic_form_factor() {
     let e0 = 2.0f32;
     let desc = SceneDesc {
         name: "squares".into(),
-        settings: Settings { rays_per_vertex: 1024, bounces: Bounces::Fixed(1), smoothing_angle_deg: 0.0, seed: 5 },
+        settings: Settings {
+            rays_per_vertex: 1024,
+            bounces: Bounces::Fixed(1),
+            smoothing_angle_deg: 0.0,
+            seed: 5,
+            backend: Default::default(),
+        },
         camera: Camera::default(),
         meshes: vec![a.finish("A", 30.0), b.finish("B", 30.0)],
         lights: vec![Light::Directional { direction: dir, irradiance: Vec3::splat(e0) }],
