@@ -6,6 +6,7 @@
 
 pub mod accuracy;
 pub mod bench;
+pub mod engine;
 pub mod error;
 pub mod exchange;
 pub mod export;
