@@ -14,6 +14,7 @@ pub mod gpu;
 pub mod kdtree;
 pub mod links;
 pub mod reference;
+pub mod render;
 pub mod sampling;
 pub mod scene;
 pub mod solver;

@@ -56,6 +56,8 @@ enum Command {
         #[arg(long)]
         cache: Option<PathBuf>,
     },
+    /// Render a scene (GI solved first) to a PNG.
+    Render(cli::render::RenderArgs),
     /// Write the built-in scenes as .toml + .obj + .mtl files into DIR.
     Scenes {
         #[arg(default_value = "scenes")]
@@ -73,6 +75,7 @@ fn main() -> Result<()> {
             ..Default::default()
         }),
         Some(Command::Solve(args)) => cli::solve::run(args),
+        Some(Command::Render(args)) => cli::render::run(args),
         Some(Command::Bench { scenes, backend, rays, runs, json, markdown }) => {
             cli::bench::run(cli::bench::Args { scenes, backend, rays, runs, json, markdown })
         }

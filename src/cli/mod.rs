@@ -2,4 +2,5 @@
 
 pub mod bench;
 pub mod error;
+pub mod render;
 pub mod solve;

@@ -158,7 +158,7 @@ pub fn closed_room(n: u32, albedo: f32) -> SceneDesc {
     b.cuboid(Vec3::new(-1.0, 0.0, -1.0), Vec3::new(1.0, 2.0, 1.0), n, m, true);
     scene(
         "closed_room",
-        camera(Vec3::new(0.0, 1.0, 0.95), Vec3::new(0.0, 1.0, 0.0), 60.0),
+        camera(Vec3::new(0.0, 1.3, 0.98), Vec3::new(0.0, 0.55, -0.2), 80.0),
         vec![b.finish("closed_room/room", 30.0)],
         vec![point(Vec3::new(0.2, 1.5, 0.1), Vec3::ONE)],
     )
@@ -207,7 +207,7 @@ fn cornell() -> SceneDesc {
 
     scene(
         "cornell",
-        camera(Vec3::new(0.0, 1.0, 0.95), Vec3::new(0.0, 1.0, 0.0), 60.0),
+        camera(Vec3::new(0.0, 1.3, 0.98), Vec3::new(0.0, 0.55, -0.2), 80.0),
         vec![r.finish("cornell/room", 30.0), b.finish("cornell/boxes", 30.0)],
         vec![point(Vec3::new(0.0, 1.85, 0.0), Vec3::splat(4.0))],
     )
