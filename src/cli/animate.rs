@@ -98,24 +98,27 @@ pub fn run(args: AnimateArgs) -> Result<()> {
     for k in 0..args.frames {
         let tf = Instant::now();
         let time = k as f32 / args.fps;
+        let mut changes = Vec::new();
         if let Some(Light::Point { position, intensity }) = light0 {
             let a = std::f32::consts::TAU * k as f32 / args.frames as f32;
             let r = 0.15 * extent;
             let p = position + glam::Vec3::new(r * a.sin(), 0.0, r * (a.cos() - 1.0));
             lights[0] = Light::Point { position: p, intensity };
-            engine.send(Change::MoveLight { index: 0, light: lights[0] });
+            changes.push(Change::MoveLight { index: 0, light: lights[0] });
         } else if let Some(Light::Directional { direction, irradiance }) = light0 {
             let q = glam::Quat::from_rotation_y(std::f32::consts::TAU * k as f32 / args.frames as f32);
             lights[0] = Light::Directional { direction: q * direction, irradiance };
-            engine.send(Change::MoveLight { index: 0, light: lights[0] });
+            changes.push(Change::MoveLight { index: 0, light: lights[0] });
         }
         let (positions, normals) = if deforms {
             let (p, n) = deform_scene(&prepared, &rest, &rest_normals, time);
-            engine.send(Change::Deform { positions: p.clone() });
+            changes.push(Change::Deform { positions: p.clone() });
             (p, n)
         } else {
             (rest.clone(), rest_normals.clone())
         };
+        // One message per frame: the light move and the deformation are one update.
+        engine.send_batch(changes);
         if args.sync {
             engine.wait_idle(Duration::from_secs(3600));
         }

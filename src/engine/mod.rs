@@ -112,7 +112,7 @@ struct Shared {
 }
 
 enum Msg {
-    Change(Change),
+    Change(Vec<Change>),
     Stop,
 }
 
@@ -147,8 +147,16 @@ impl Engine {
 
     /// Queues a change (never blocks).
     pub fn send(&mut self, change: Change) {
-        self.sent += 1;
-        let _ = self.tx.send(Msg::Change(change));
+        self.send_batch(vec![change]);
+    }
+
+    /// Queues changes that are handled together (one update for all of them).
+    pub fn send_batch(&mut self, changes: Vec<Change>) {
+        if changes.is_empty() {
+            return;
+        }
+        self.sent += changes.len() as u64;
+        let _ = self.tx.send(Msg::Change(changes));
     }
 
     /// The newest published result, if any (never waits for the worker).
@@ -221,9 +229,9 @@ impl Worker {
             let stop = msgs.iter().any(|m| matches!(m, Msg::Stop));
             let changes: Vec<Change> = msgs
                 .into_iter()
-                .filter_map(|m| match m {
-                    Msg::Change(c) => Some(c),
-                    Msg::Stop => None,
+                .flat_map(|m| match m {
+                    Msg::Change(c) => c,
+                    Msg::Stop => Vec::new(),
                 })
                 .collect();
             if !changes.is_empty() {
