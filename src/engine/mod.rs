@@ -13,7 +13,7 @@
 //! | mesh deformed (new positions; static meshes must not move) | kd-tree + links + light links + gather |
 //! | settings: rays or seed | kd-tree + links + light links + gather |
 //! | settings: bounces or smoothing | gather |
-//! | nothing | nothing (the worker sleeps on the channel) |
+//! | deform to the current positions, or nothing | nothing (the worker sleeps on the channel) |
 //!
 //! Each finished update is published as a new `Arc<GiResult>` with a version
 //! one higher than the last. A change that fails (bad light index, wrong
@@ -307,7 +307,8 @@ impl Worker {
                 Change::Panic => dirty.panic = true,
             }
         }
-        if let Some(p) = positions {
+        // Positions identical to the current ones are no geometry change.
+        if let Some(p) = positions.filter(|p| *p != scene.positions) {
             scene.normals = vertex_normals(&scene, &p, &scene.normals);
             scene.positions = p;
             dirty.geometry = true;
