@@ -73,6 +73,7 @@ fn main() -> Result<()> {
         None => cli::render::run(cli::render::RenderArgs {
             scene: "cornell".into(),
             out: PathBuf::from("out/cornell.png"),
+            exr: None,
             size: "640x480".into(),
             view: linkgi::render::View::Combined,
             backend: "auto".into(),

@@ -243,3 +243,29 @@ fn kd_tree_of_frame_matches_solver() {
     assert_eq!(own, given);
     assert!(own.pixels.iter().any(|p| p.max_element() > 0.01), "the image is black");
 }
+
+#[test]
+fn exr_holds_linear_radiance() {
+    let img = HdrImage {
+        width: 3,
+        height: 2,
+        pixels: (0..6).map(|i| Vec3::new(i as f32, 10.0 + i as f32, 100.0 + i as f32)).collect(),
+    };
+    let bytes = render::exr_bytes(&img);
+    assert_eq!(&bytes[..4], &[0x76, 0x2f, 0x31, 0x01]);
+    let text = String::from_utf8_lossy(&bytes);
+    for a in ["channels\0chlist", "compression\0compression", "dataWindow\0box2i", "lineOrder\0lineOrder"] {
+        assert!(text.contains(a), "missing attribute {a}");
+    }
+    // The offset table points at each scanline block: y, size, then B, G, R rows of f32.
+    let line = 3 * 4 * 3;
+    let header_end = bytes.len() - 2 * (8 + line) - 16;
+    let off1 = u64::from_le_bytes(bytes[header_end + 8..header_end + 16].try_into().unwrap()) as usize;
+    assert_eq!(i32::from_le_bytes(bytes[off1..off1 + 4].try_into().unwrap()), 1);
+    assert_eq!(i32::from_le_bytes(bytes[off1 + 4..off1 + 8].try_into().unwrap()), line as i32);
+    let f = |o: usize| f32::from_le_bytes(bytes[o..o + 4].try_into().unwrap());
+    // Pixel (2, 1) is index 5: B = 105 at channel 0, R = 5 at channel 2.
+    assert_eq!(f(off1 + 8 + 2 * 4), 105.0);
+    assert_eq!(f(off1 + 8 + 3 * 4 + 2 * 4), 15.0);
+    assert_eq!(f(off1 + 8 + 6 * 4 + 2 * 4), 5.0);
+}

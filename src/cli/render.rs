@@ -3,7 +3,7 @@
 
 use anyhow::{bail, Context, Result};
 use linkgi::gpu::Backend;
-use linkgi::render::{write_png, Frame, RenderParams, Renderer, View};
+use linkgi::render::{write_exr, write_png, Frame, RenderParams, Renderer, View};
 use linkgi::scene::{self, prep};
 use linkgi::solver::{Compute, SolveParams, Solver};
 use std::path::PathBuf;
@@ -17,6 +17,9 @@ pub struct RenderArgs {
     /// Output PNG.
     #[arg(long, default_value = "out/render.png")]
     pub out: PathBuf,
+    /// Also write the linear radiance (before exposure and tone mapping) as OpenEXR.
+    #[arg(long, value_name = "FILE")]
+    pub exr: Option<PathBuf>,
     /// Image size, WIDTHxHEIGHT.
     #[arg(long, default_value = "640x480")]
     pub size: String,
@@ -74,6 +77,10 @@ pub fn run(args: RenderArgs) -> Result<()> {
     let frame = Frame::of(&solver.scene, &sol.e_indirect, desc.camera);
     let (img, stats) = renderer.render(&frame, &params)?;
     write_png(&img, args.exposure, &args.out)?;
+    if let Some(exr) = &args.exr {
+        write_exr(&img, exr)?;
+        println!("wrote {} (linear radiance, W/(m^2 sr))", exr.display());
+    }
     println!(
         "rendered {} ({}x{}, {:?}) on {} in {:.1} ms (GI {:.0} ms on {}); wrote {}",
         solver.scene.name,
