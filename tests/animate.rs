@@ -50,3 +50,18 @@ fn torso_deforms_every_frame() {
     // Frame 0 is at t = 0, where the deformers are the identity: no rebuild.
     assert_eq!(col(&rows, 7), vec![1, 2], "kd builds: one per deformed frame");
 }
+
+#[test]
+fn bad_size_is_a_clear_error() {
+    for (args, needle) in [
+        (vec!["render", "cornell", "--size", "0x5"], "--size 0x5"),
+        (vec!["render", "cornell", "--size", "big"], "WIDTHxHEIGHT"),
+        (vec!["animate", "nosuchscene", "--frames", "2"], "nosuchscene"),
+    ] {
+        let out = Command::new(env!("CARGO_BIN_EXE_linkgi")).args(&args).output().unwrap();
+        assert!(!out.status.success(), "{args:?} succeeded");
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert!(stderr.contains(needle), "{args:?}: {stderr}");
+        assert!(!stderr.contains("panicked"), "{args:?} panicked: {stderr}");
+    }
+}

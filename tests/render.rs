@@ -269,3 +269,23 @@ fn exr_holds_linear_radiance() {
     assert_eq!(f(off1 + 8 + 3 * 4 + 2 * 4), 15.0);
     assert_eq!(f(off1 + 8 + 6 * 4 + 2 * 4), 5.0);
 }
+
+#[test]
+fn bad_frames_are_errors() {
+    let c = cornell();
+    let mut frame = Frame::of(&c.solver.scene, &c.sol.e_indirect, c.camera);
+    let many = vec![c.solver.scene.lights[0]; 9];
+    frame.lights = &many;
+    let p = RenderParams { width: 8, height: 6, ..params(View::Combined) };
+    let e = render_cpu(&frame, &p, None).unwrap_err().to_string();
+    assert!(e.contains("9 lights") && e.contains("at most 8"), "{e}");
+    let short = vec![Vec3::ZERO; 5];
+    let mut frame = Frame::of(&c.solver.scene, &short, c.camera);
+    frame.lights = &c.solver.scene.lights;
+    let e = render_cpu(&frame, &p, None).unwrap_err().to_string();
+    assert!(e.contains("5 indirect values"), "{e}");
+    if let Some(dev) = device() {
+        let r = GpuRenderer::new(dev).unwrap();
+        assert!(r.render(&frame, &p).unwrap_err().to_string().contains("5 indirect values"));
+    }
+}

@@ -122,7 +122,9 @@ pub fn run(args: AnimateArgs) -> Result<()> {
         if args.sync {
             engine.wait_idle(Duration::from_secs(3600));
         }
-        let gi = engine.latest().context("the GI engine published no result")?;
+        let Some(gi) = engine.latest() else {
+            anyhow::bail!("the GI engine published no result: {}", engine.last_error().unwrap_or_default());
+        };
         if gi.version != last_version {
             if last_version != 0 {
                 update_ms.push(gi.update_ms);
