@@ -6,6 +6,7 @@
 
 pub mod accuracy;
 pub mod bench;
+pub mod engine;
 pub mod error;
 pub mod exchange;
 pub mod export;
@@ -13,6 +14,7 @@ pub mod gpu;
 pub mod kdtree;
 pub mod links;
 pub mod reference;
+pub mod render;
 pub mod sampling;
 pub mod scene;
 pub mod solver;

@@ -56,6 +56,10 @@ enum Command {
         #[arg(long)]
         cache: Option<PathBuf>,
     },
+    /// Render a scene (GI solved first) to a PNG.
+    Render(cli::render::RenderArgs),
+    /// Animate: move the first light, run deformers, render every frame with the async engine's GI.
+    Animate(cli::animate::AnimateArgs),
     /// Write the built-in scenes as .toml + .obj + .mtl files into DIR.
     Scenes {
         #[arg(default_value = "scenes")]
@@ -66,13 +70,19 @@ enum Command {
 fn main() -> Result<()> {
     let cli = Cli::parse();
     match cli.command {
-        None => cli::solve::run(cli::solve::SolveArgs {
+        None => cli::render::run(cli::render::RenderArgs {
             scene: "cornell".into(),
-            export: Some(PathBuf::from("out/cornell")),
-            devices: 1,
-            ..Default::default()
+            out: PathBuf::from("out/cornell.png"),
+            exr: None,
+            size: "640x480".into(),
+            view: linkgi::render::View::Combined,
+            backend: "auto".into(),
+            exposure: 0.6,
+            rays: None,
         }),
         Some(Command::Solve(args)) => cli::solve::run(args),
+        Some(Command::Render(args)) => cli::render::run(args),
+        Some(Command::Animate(args)) => cli::animate::run(args),
         Some(Command::Bench { scenes, backend, rays, runs, json, markdown }) => {
             cli::bench::run(cli::bench::Args { scenes, backend, rays, runs, json, markdown })
         }

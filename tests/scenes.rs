@@ -25,6 +25,7 @@ fn shipped_scene_files_match_builtins() {
         same_geometry(&prep::prepare(&from_file).unwrap(), &prep::prepare(&built).unwrap());
         for (f, b) in from_file.meshes.iter().zip(&built.meshes) {
             assert_eq!(f.dynamic, b.dynamic, "{name}: dynamic flag");
+            assert_eq!(f.deform, b.deform, "{name}: deformers");
         }
     }
 }

@@ -211,6 +211,7 @@ fn grey(name: &str, positions: Vec<Vec3>, triangles: Vec<[u32; 3]>) -> MeshDesc 
         crease_angle_deg: 60.0,
         transform: Default::default(),
         dynamic: false,
+        deform: Vec::new(),
         source: None,
     }
 }

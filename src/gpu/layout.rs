@@ -69,6 +69,40 @@ pub struct GatherUniforms {
     pub _pad0: u32,
 }
 
+/// Per-frame uniforms of the renderer (`shaders/render.wgsl`, 96 bytes).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct FrameUniforms {
+    /// Column-major world-to-clip matrix.
+    pub view_proj: [f32; 16],
+    pub camera_pos: [f32; 3],
+    pub light_count: u32,
+    /// 0 combined, 1 direct, 2 indirect.
+    pub view_mode: u32,
+    /// Offset along the normal before shadow lookups, metres.
+    pub normal_offset: f32,
+    /// One shadow-map texel in uv units.
+    pub shadow_texel: f32,
+    /// Bias subtracted from the depth before comparing.
+    pub depth_bias: f32,
+}
+
+/// One light of the renderer (48 bytes).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct LightGpu {
+    pub position: [f32; 3],
+    /// 0 point, 1 directional.
+    pub kind: u32,
+    /// Point: intensity W/sr; directional: irradiance W/m^2.
+    pub color: [f32; 3],
+    /// First shadow layer (six for a point light).
+    pub layer: u32,
+    /// Directional: unit direction of travel.
+    pub direction: [f32; 3],
+    pub _pad0: u32,
+}
+
 /// A struct shared with WGSL: name, size and `(field, offset)` pairs.
 pub struct SharedStruct {
     pub name: &'static str,
@@ -97,9 +131,16 @@ pub fn shared_structs() -> Vec<SharedStruct> {
             [count, rays_per_vertex, groups_x, leaf_count, root_min, _pad0, root_max, _pad1]
         ),
         shared!(GatherUniforms, "GatherUniforms", [vertex_count, groups_x, first_vertex, _pad0]),
+        shared!(
+            FrameUniforms,
+            "FrameUniforms",
+            [view_proj, camera_pos, light_count, view_mode, normal_offset, shadow_texel, depth_bias]
+        ),
+        shared!(LightGpu, "LightGpu", [position, kind, color, layer, direction, _pad0]),
     ]
 }
 
 /// The WGSL sources, for pipelines and the layout test.
 pub const SHOOT_WGSL: &str = include_str!("../../shaders/shoot.wgsl");
 pub const GATHER_WGSL: &str = include_str!("../../shaders/gather.wgsl");
+pub const RENDER_WGSL: &str = include_str!("../../shaders/render.wgsl");

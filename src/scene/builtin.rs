@@ -158,7 +158,7 @@ pub fn closed_room(n: u32, albedo: f32) -> SceneDesc {
     b.cuboid(Vec3::new(-1.0, 0.0, -1.0), Vec3::new(1.0, 2.0, 1.0), n, m, true);
     scene(
         "closed_room",
-        camera(Vec3::new(0.0, 1.0, 0.95), Vec3::new(0.0, 1.0, 0.0), 60.0),
+        camera(Vec3::new(0.0, 1.3, 0.98), Vec3::new(0.0, 0.55, -0.2), 80.0),
         vec![b.finish("closed_room/room", 30.0)],
         vec![point(Vec3::new(0.2, 1.5, 0.1), Vec3::ONE)],
     )
@@ -207,7 +207,7 @@ fn cornell() -> SceneDesc {
 
     scene(
         "cornell",
-        camera(Vec3::new(0.0, 1.0, 0.95), Vec3::new(0.0, 1.0, 0.0), 60.0),
+        camera(Vec3::new(0.0, 1.3, 0.98), Vec3::new(0.0, 0.55, -0.2), 80.0),
         vec![r.finish("cornell/room", 30.0), b.finish("cornell/boxes", 30.0)],
         vec![point(Vec3::new(0.0, 1.85, 0.0), Vec3::splat(4.0))],
     )
@@ -357,6 +357,15 @@ fn torso() -> SceneDesc {
     }
     let mut figure = b.finish("torso/figure", 60.0);
     figure.dynamic = true;
+    // The figure twists about its vertical axis and sways a little.
+    let mut twist = super::deform::Deform::new(super::deform::DeformKind::Twist, 40.0);
+    twist.period_s = 4.0;
+    twist.toward = Vec3::X;
+    let mut bend = super::deform::Deform::new(super::deform::DeformKind::Bend, 12.0);
+    bend.center = Vec3::new(0.0, 0.6, 0.0);
+    bend.toward = Vec3::X;
+    bend.period_s = 6.0;
+    figure.deform = vec![twist, bend];
 
     scene(
         "torso",

@@ -3,6 +3,7 @@
 //! The same serde types write scene files back out (built-in scenes are
 //! written to `scenes/` this way).
 
+use super::deform::{Deform, DeformKind};
 use super::{obj, Bounces, Camera, Light, SceneDesc, Settings, Transform};
 use crate::{Error, Result};
 use glam::Vec3;
@@ -69,6 +70,73 @@ pub struct MeshFile {
     pub transform: TransformFile,
     #[serde(default)]
     pub dynamic: bool,
+    /// `[[mesh.deform]]` tables (dynamic meshes only); see `scene::deform` for units.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub deform: Vec<DeformFile>,
+}
+
+/// One `[[mesh.deform]]` table.
+#[derive(Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DeformFile {
+    /// "twist", "bend" or "wave".
+    pub kind: String,
+    /// Twist/bend: degrees per metre of height along the axis; wave: metres.
+    pub amount: f32,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub axis: Option<[f32; 3]>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub center: Option<[f32; 3]>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub toward: Option<[f32; 3]>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub period_s: Option<f32>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub wavelength: Option<f32>,
+}
+
+fn deform_from(path: &Path, mesh: &str, d: &DeformFile) -> Result<Deform> {
+    let kind = match d.kind.as_str() {
+        "twist" => DeformKind::Twist,
+        "bend" => DeformKind::Bend,
+        "wave" => DeformKind::Wave,
+        k => {
+            return Err(scene_err(
+                path,
+                format!("mesh '{mesh}': deform.kind = \"{k}\": expected \"twist\", \"bend\" or \"wave\""),
+            ))
+        }
+    };
+    let mut out = Deform::new(kind, d.amount);
+    if let Some(a) = d.axis {
+        out.axis = Vec3::from(a);
+    }
+    if let Some(c) = d.center {
+        out.center = Vec3::from(c);
+    }
+    if let Some(t) = d.toward {
+        out.toward = Vec3::from(t);
+    }
+    if let Some(p) = d.period_s {
+        out.period_s = p;
+    }
+    if let Some(w) = d.wavelength {
+        out.wavelength = w;
+    }
+    out.validate().map_err(|m| scene_err(path, format!("mesh '{mesh}': {m}")))?;
+    Ok(out.normalized())
+}
+
+fn deform_to_file(d: &Deform) -> DeformFile {
+    DeformFile {
+        kind: format!("{:?}", d.kind).to_lowercase(),
+        amount: d.amount,
+        axis: Some(d.axis.into()),
+        center: Some(d.center.into()),
+        toward: Some(d.toward.into()),
+        period_s: Some(d.period_s),
+        wavelength: Some(d.wavelength),
+    }
 }
 
 fn default_crease() -> f32 {
@@ -200,6 +268,11 @@ pub fn parse_toml(path: &Path, text: &str) -> Result<SceneDesc> {
         mesh.crease_angle_deg = m.crease_angle_deg;
         mesh.transform = transform;
         mesh.dynamic = m.dynamic;
+        if !m.deform.is_empty() && !m.dynamic {
+            return Err(scene_err(path, format!("mesh '{}': [[mesh.deform]] needs dynamic = true", m.obj.display())));
+        }
+        let mesh_name = m.obj.display().to_string();
+        mesh.deform = m.deform.iter().map(|d| deform_from(path, &mesh_name, d)).collect::<Result<Vec<_>>>()?;
         meshes.push(mesh);
     }
     let lights = file.lights.iter().map(|l| light_from(path, l)).collect::<Result<Vec<_>>>()?;
@@ -263,6 +336,7 @@ pub fn to_toml(scene: &SceneDesc, obj_names: &[String]) -> String {
                     scale: m.transform.scale,
                 },
                 dynamic: m.dynamic,
+                deform: m.deform.iter().map(deform_to_file).collect(),
             })
             .collect(),
         lights: scene

@@ -8,6 +8,7 @@
 //! [`prep`] for welding, crease splitting and one-rings.
 
 pub mod builtin;
+pub mod deform;
 pub mod file;
 pub mod obj;
 pub mod prep;
@@ -68,6 +69,8 @@ pub struct MeshDesc {
     pub transform: Transform,
     /// True if the mesh may deform.
     pub dynamic: bool,
+    /// Deformers applied over time (dynamic meshes only), in order; see [`deform`].
+    pub deform: Vec<deform::Deform>,
     /// The OBJ file this mesh came from, if any (for errors and for writing scenes back).
     pub source: Option<PathBuf>,
 }

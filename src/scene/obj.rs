@@ -196,6 +196,7 @@ pub fn load_obj(path: &Path, warnings: &mut Vec<String>) -> Result<MeshDesc> {
         crease_angle_deg: 30.0,
         transform: Transform::default(),
         dynamic: false,
+        deform: Vec::new(),
         source: Some(path.to_path_buf()),
     })
 }

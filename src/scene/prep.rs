@@ -26,6 +26,8 @@ pub struct MeshRange {
     pub vertices: Range<u32>,
     pub triangles: Range<u32>,
     pub dynamic: bool,
+    /// Deformers of the mesh (world space), applied to its vertices over time.
+    pub deform: Vec<super::deform::Deform>,
 }
 
 /// Compressed sparse rows: `items[offsets[i]..offsets[i+1]]` belong to row `i`.
@@ -300,6 +302,7 @@ pub fn prepare(scene: &SceneDesc) -> Result<PreparedScene> {
             vertices: vbase..out.positions.len() as u32,
             triangles: tbase..out.triangles.len() as u32,
             dynamic: mesh.dynamic,
+            deform: mesh.deform.clone(),
         });
         pos_base += mp.welded_count;
     }

@@ -119,6 +119,7 @@ impl MeshBuilder {
             crease_angle_deg,
             transform: Transform::default(),
             dynamic: false,
+            deform: Vec::new(),
             source: None,
         }
     }

@@ -1,0 +1,152 @@
+// Rasterized display of a solved scene (src/render/gpu.rs).
+//
+// Outgoing radiance per pixel, W/(m^2 sr):
+//   L = rho / pi * (E_d(pixel) + E_i(interpolated from vertices))
+// E_d: sum over lights of I cos / r^2 (point) or E cos (directional), times
+// the shadow-map visibility (3x3 percentage-closer filtering, each tap a
+// hardware 2x2 comparison). Point lights use six 2D layers (one per cube
+// face, picked by the major axis of the light-to-point vector); directional
+// lights one layer each. Back faces are black (surfaces are one-sided).
+// The HDR target holds linear L; exposure and tone mapping run on read-back.
+
+const PI: f32 = 3.14159265358979;
+const MAX_LIGHTS: u32 = 8u;
+const MAX_SHADOW_LAYERS: u32 = 56u;
+
+struct FrameUniforms {
+    view_proj: mat4x4<f32>,
+    camera_pos: vec3<f32>,
+    light_count: u32,
+    // 0 combined, 1 direct, 2 indirect.
+    view_mode: u32,
+    // World-space offset along the normal before shadow lookups, metres.
+    normal_offset: f32,
+    // Size of one shadow-map texel in uv units.
+    shadow_texel: f32,
+    // Depth-space bias subtracted before comparing.
+    depth_bias: f32,
+}
+
+struct LightGpu {
+    position: vec3<f32>,
+    // 0 point, 1 directional.
+    kind: u32,
+    color: vec3<f32>,
+    // First shadow layer (point lights use six).
+    layer: u32,
+    direction: vec3<f32>,
+    _pad0: u32,
+}
+
+struct ShadowMatrices {
+    m: array<mat4x4<f32>, MAX_SHADOW_LAYERS>,
+}
+
+struct LightArray {
+    l: array<LightGpu, MAX_LIGHTS>,
+}
+
+@group(0) @binding(0) var<uniform> frame: FrameUniforms;
+@group(0) @binding(1) var<uniform> lights: LightArray;
+@group(0) @binding(2) var<uniform> shadow: ShadowMatrices;
+@group(0) @binding(3) var shadow_maps: texture_depth_2d_array;
+@group(0) @binding(4) var shadow_sampler: sampler_comparison;
+
+struct VsOut {
+    @builtin(position) clip: vec4<f32>,
+    @location(0) world: vec3<f32>,
+    @location(1) normal: vec3<f32>,
+    @location(2) albedo: vec3<f32>,
+    @location(3) e_indirect: vec3<f32>,
+}
+
+@vertex
+fn vs_main(
+    @location(0) position: vec3<f32>,
+    @location(1) normal: vec3<f32>,
+    @location(2) albedo: vec3<f32>,
+    @location(3) e_indirect: vec3<f32>,
+) -> VsOut {
+    var out: VsOut;
+    out.clip = frame.view_proj * vec4<f32>(position, 1.0);
+    out.world = position;
+    out.normal = normal;
+    out.albedo = albedo;
+    out.e_indirect = e_indirect;
+    return out;
+}
+
+// Depth-only pass into one shadow layer; the instance index selects the matrix.
+@vertex
+fn shadow_vs(@location(0) position: vec3<f32>, @builtin(instance_index) layer: u32) -> @builtin(position) vec4<f32> {
+    return shadow.m[layer] * vec4<f32>(position, 1.0);
+}
+
+fn pcf(layer: u32, p: vec3<f32>) -> f32 {
+    let clip = shadow.m[layer] * vec4<f32>(p, 1.0);
+    if clip.w <= 0.0 {
+        return 1.0;
+    }
+    let ndc = clip.xyz / clip.w;
+    let uv = vec2<f32>(ndc.x * 0.5 + 0.5, 0.5 - ndc.y * 0.5);
+    if any(uv < vec2<f32>(0.0)) || any(uv > vec2<f32>(1.0)) || ndc.z > 1.0 {
+        return 1.0;
+    }
+    let depth = ndc.z - frame.depth_bias;
+    var sum = 0.0;
+    for (var y = -1; y <= 1; y++) {
+        for (var x = -1; x <= 1; x++) {
+            let o = vec2<f32>(f32(x), f32(y)) * frame.shadow_texel;
+            sum += textureSampleCompareLevel(shadow_maps, shadow_sampler, uv + o, i32(layer), depth);
+        }
+    }
+    return sum / 9.0;
+}
+
+fn cube_face(d: vec3<f32>) -> u32 {
+    let a = abs(d);
+    if a.x >= a.y && a.x >= a.z {
+        return select(1u, 0u, d.x > 0.0);
+    }
+    if a.y >= a.z {
+        return select(3u, 2u, d.y > 0.0);
+    }
+    return select(5u, 4u, d.z > 0.0);
+}
+
+@fragment
+fn fs_main(in: VsOut, @builtin(front_facing) front: bool) -> @location(0) vec4<f32> {
+    if !front {
+        return vec4<f32>(0.0, 0.0, 0.0, 1.0);
+    }
+    let n = normalize(in.normal);
+    let p = in.world + n * frame.normal_offset;
+    var e_d = vec3<f32>(0.0);
+    for (var i = 0u; i < frame.light_count; i++) {
+        let l = lights.l[i];
+        if l.kind == 0u {
+            let d = l.position - in.world;
+            let r2 = max(dot(d, d), 1e-8);
+            let c = dot(n, d) / sqrt(r2);
+            if c <= 0.0 {
+                continue;
+            }
+            let vis = pcf(l.layer + cube_face(p - l.position), p);
+            e_d += l.color * (c / r2) * vis;
+        } else {
+            let c = dot(n, -l.direction);
+            if c <= 0.0 {
+                continue;
+            }
+            let vis = pcf(l.layer, p);
+            e_d += l.color * c * vis;
+        }
+    }
+    var e = e_d + in.e_indirect;
+    if frame.view_mode == 1u {
+        e = e_d;
+    } else if frame.view_mode == 2u {
+        e = in.e_indirect;
+    }
+    return vec4<f32>(in.albedo / PI * e, 1.0);
+}

@@ -1,0 +1,184 @@
+//! `linkgi animate`: moves the first light along a circle and runs the
+//! scene's deformers while the asynchronous engine updates GI in the
+//! background; each frame is rendered with whatever GI is published at that
+//! moment (`--sync` waits for every update instead). Writes
+//! `DIR/frame_NNNN.png` and `DIR/frames.csv` (frame time, GI version and age,
+//! engine counters).
+
+use anyhow::{Context, Result};
+use indicatif::{ProgressBar, ProgressStyle};
+use linkgi::engine::{Change, Engine, EngineParams};
+use linkgi::gpu::Backend;
+use linkgi::render::{write_png, Frame, RenderParams, Renderer};
+use linkgi::scene::deform::{deform_scene, has_deformers};
+use linkgi::scene::{self, prep, Light};
+use linkgi::solver::{Compute, SolveParams};
+use std::fmt::Write as _;
+use std::path::PathBuf;
+use std::time::{Duration, Instant};
+
+/// Arguments of `linkgi animate`.
+#[derive(clap::Args, Debug)]
+pub struct AnimateArgs {
+    /// Scene file or built-in name.
+    pub scene: String,
+    /// Number of frames.
+    #[arg(long, default_value_t = 48)]
+    pub frames: u32,
+    /// Output folder for the PNGs and frames.csv.
+    #[arg(long, default_value = "out/animate")]
+    pub out: PathBuf,
+    /// Animation time step per frame is 1/fps seconds (deformers use this time).
+    #[arg(long, default_value_t = 24.0)]
+    pub fps: f32,
+    /// Wait for the GI of every frame's changes before rendering it.
+    #[arg(long)]
+    pub sync: bool,
+    /// Image size, WIDTHxHEIGHT.
+    #[arg(long, default_value = "320x240")]
+    pub size: String,
+    /// auto/gpu: rasterize on the first adapter, else the CPU; cpu: CPU fallback. GI as in `render`.
+    #[arg(long, default_value = "auto")]
+    pub backend: String,
+    /// Rays per vertex of the GI (a square number); overrides the scene's setting.
+    #[arg(long)]
+    pub rays: Option<u32>,
+    /// Radiance scale before tone mapping.
+    #[arg(long, default_value_t = 0.6)]
+    pub exposure: f32,
+}
+
+pub fn run(args: AnimateArgs) -> Result<()> {
+    let (width, height) = super::render::parse_size(&args.size)?;
+    let backend: Backend = args.backend.parse()?;
+    if args.frames == 0 || !(args.fps.is_finite() && args.fps > 0.0) {
+        anyhow::bail!("--frames must be at least 1 and --fps positive");
+    }
+    let mut desc = scene::load(&args.scene)?;
+    if let Some(r) = args.rays {
+        desc.settings.rays_per_vertex = r;
+    }
+    let prepared = prep::prepare(&desc)?;
+    let (compute, note) = Compute::from_backend(backend, 1)?;
+    if let Some(n) = note {
+        eprintln!("{n}");
+    }
+    let renderer = Renderer::open(backend);
+    std::fs::create_dir_all(&args.out).with_context(|| format!("creating {}", args.out.display()))?;
+    let rest = prepared.positions.clone();
+    let rest_normals = prepared.normals.clone();
+    let deforms = has_deformers(&prepared);
+    let mut lights = prepared.lights.clone();
+    let extent = Frame::of(&prepared, &rest, desc.camera).extent();
+    let mut engine = Engine::start(
+        prepared.clone(),
+        SolveParams::from_settings(&prepared.settings),
+        compute.clone(),
+        EngineParams::default(),
+    );
+    let t_first = Instant::now();
+    engine.wait_idle(Duration::from_secs(3600));
+    let first_ms = t_first.elapsed().as_secs_f64() * 1e3;
+    println!("first GI in {first_ms:.0} ms ({}); rendering on {}", compute.describe(), renderer.describe());
+
+    let params = RenderParams { width, height, exposure: args.exposure, ..Default::default() };
+    let mut csv = String::from(
+        "frame,time_s,frame_ms,render_ms,gi_version,gi_age_ms,gi_updates,kd_builds,light_link_updates,gathers\n",
+    );
+    let bar = ProgressBar::new(args.frames as u64);
+    bar.set_style(
+        ProgressStyle::with_template("frames [{bar:40}] {pos}/{len} ({eta}) {msg}")
+            .expect("template")
+            .progress_chars("=> "),
+    );
+    let light0 = lights.first().copied();
+    let mut update_ms = Vec::new();
+    let mut last_version = 0;
+    let start = Instant::now();
+    for k in 0..args.frames {
+        let tf = Instant::now();
+        let time = k as f32 / args.fps;
+        let mut changes = Vec::new();
+        if let Some(Light::Point { position, intensity }) = light0 {
+            let a = std::f32::consts::TAU * k as f32 / args.frames as f32;
+            let r = 0.15 * extent;
+            let p = position + glam::Vec3::new(r * a.sin(), 0.0, r * (a.cos() - 1.0));
+            lights[0] = Light::Point { position: p, intensity };
+            changes.push(Change::MoveLight { index: 0, light: lights[0] });
+        } else if let Some(Light::Directional { direction, irradiance }) = light0 {
+            let q = glam::Quat::from_rotation_y(std::f32::consts::TAU * k as f32 / args.frames as f32);
+            lights[0] = Light::Directional { direction: q * direction, irradiance };
+            changes.push(Change::MoveLight { index: 0, light: lights[0] });
+        }
+        let (positions, normals) = if deforms {
+            let (p, n) = deform_scene(&prepared, &rest, &rest_normals, time);
+            changes.push(Change::Deform { positions: p.clone() });
+            (p, n)
+        } else {
+            (rest.clone(), rest_normals.clone())
+        };
+        // One message per frame: the light move and the deformation are one update.
+        engine.send_batch(changes);
+        if args.sync {
+            engine.wait_idle(Duration::from_secs(3600));
+        }
+        let Some(gi) = engine.latest() else {
+            anyhow::bail!("the GI engine published no result: {}", engine.last_error().unwrap_or_default());
+        };
+        if gi.version != last_version {
+            if last_version != 0 {
+                update_ms.push(gi.update_ms);
+            }
+            last_version = gi.version;
+        }
+        let frame = Frame {
+            positions: &positions,
+            normals: &normals,
+            albedo: &prepared.albedo,
+            triangles: &prepared.triangles,
+            e_indirect: &gi.e_indirect,
+            lights: &lights,
+            camera: desc.camera,
+        };
+        let (img, stats) = renderer.render(&frame, &params)?;
+        write_png(&img, args.exposure, &args.out.join(format!("frame_{k:04}.png")))?;
+        let c = engine.counters();
+        let frame_ms = tf.elapsed().as_secs_f64() * 1e3;
+        let age = gi.published.elapsed().as_secs_f64() * 1e3;
+        writeln!(
+            csv,
+            "{k},{time:.4},{frame_ms:.2},{:.2},{},{age:.1},{},{},{},{}",
+            stats.ms, gi.version, c.published, c.kd_builds, c.light_link_updates, c.gathers
+        )?;
+        bar.set_message(format!("GI v{} age {age:.0} ms", gi.version));
+        bar.inc(1);
+    }
+    bar.finish_and_clear();
+    let secs = start.elapsed().as_secs_f64();
+    engine.wait_idle(Duration::from_secs(3600));
+    let c = engine.counters();
+    let csv_path = args.out.join("frames.csv");
+    std::fs::write(&csv_path, csv).with_context(|| format!("writing {}", csv_path.display()))?;
+    let mean = |v: &[f64]| if v.is_empty() { 0.0 } else { v.iter().sum::<f64>() / v.len() as f64 };
+    println!(
+        "{} frames in {secs:.2} s ({:.1} fps); GI updates seen {} ({:.1}/s), mean update {:.1} ms; \
+         engine: {} updates, {} kd builds, {} light-link updates, {} gathers, {} changes in {} batches",
+        args.frames,
+        args.frames as f64 / secs,
+        update_ms.len(),
+        update_ms.len() as f64 / secs,
+        mean(&update_ms),
+        c.published,
+        c.kd_builds,
+        c.light_link_updates,
+        c.gathers,
+        c.changes,
+        c.batches
+    );
+    println!(
+        "last stages: rebuild {:.1} ms, light links {:.1} ms, gather {:.1} ms",
+        c.rebuild_ms, c.light_links_ms, c.gather_ms
+    );
+    println!("wrote {} frames and {}", args.frames, csv_path.display());
+    Ok(())
+}

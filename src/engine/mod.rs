@@ -1,0 +1,424 @@
+//! The asynchronous GI engine (DESIGN.md §6): a background worker thread
+//! owns the [`Solver`]; the application sends [`Change`]s over a crossbeam
+//! channel and reads the newest published [`GiResult`] without blocking.
+//!
+//! The worker blocks until a change arrives, then drains everything queued
+//! and coalesces it (light edits are applied in order to one light list,
+//! the newest deformation and the newest settings win) and redoes only what
+//! the batch invalidates:
+//!
+//! | change | redone |
+//! |---|---|
+//! | light moved / added / removed | light links + gather |
+//! | mesh deformed (new positions; static meshes must not move) | kd-tree + links + light links + gather |
+//! | settings: rays or seed | kd-tree + links + light links + gather |
+//! | settings: bounces or smoothing | gather |
+//! | deform to the current positions, or nothing | nothing (the worker sleeps on the channel) |
+//!
+//! Each finished update is published as a new `Arc<GiResult>` with a version
+//! one higher than the last. A change that fails (bad light index, wrong
+//! position count, a GPU error) or a panic inside the solver is reported
+//! (`Engine::last_error`, the `errors` counter) and the last good result
+//! stays published; after a panic the solver is rebuilt from the last good
+//! scene on the next change. Irradiance in W/m^2, positions in metres,
+//! times in ms.
+
+use crate::scene::deform::vertex_normals;
+use crate::scene::prep::PreparedScene;
+use crate::scene::{Light, Settings};
+use crate::solver::{Compute, SolveParams, Solver};
+use crossbeam_channel::{Receiver, Sender};
+use glam::Vec3;
+use std::panic::AssertUnwindSafe;
+use std::sync::{Arc, Mutex};
+use std::thread::JoinHandle;
+use std::time::{Duration, Instant};
+
+/// A change sent to the worker.
+#[derive(Clone, Debug)]
+pub enum Change {
+    /// Replace light `index`.
+    MoveLight {
+        index: usize,
+        light: Light,
+    },
+    AddLight(Light),
+    RemoveLight(usize),
+    /// New world positions of every solver vertex (same count and order as
+    /// the prepared scene; normals are recomputed from the triangles).
+    Deform {
+        positions: Vec<Vec3>,
+    },
+    /// New solver settings (`backend` is ignored: the engine keeps its compute).
+    Settings(Settings),
+    /// Test hook: the worker panics while handling this change.
+    #[doc(hidden)]
+    Panic,
+}
+
+/// One published GI state.
+#[derive(Clone, Debug)]
+pub struct GiResult {
+    /// 1 for the first solve, +1 for every update.
+    pub version: u64,
+    /// Smoothed indirect irradiance per solver vertex, W/m^2.
+    pub e_indirect: Vec<Vec3>,
+    /// Direct irradiance per solver vertex, W/m^2.
+    pub e_direct: Vec<Vec3>,
+    /// The lights the result was computed for.
+    pub lights: Vec<Light>,
+    /// When the result was published.
+    pub published: Instant,
+    /// Time from taking the batch of changes to publishing, ms.
+    pub update_ms: f64,
+}
+
+/// What the worker has done so far and the stage times of its last update.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Counters {
+    pub kd_builds: u64,
+    pub link_builds: u64,
+    pub light_link_updates: u64,
+    pub gathers: u64,
+    /// Results published (the version of the newest result).
+    pub published: u64,
+    /// Changes received.
+    pub changes: u64,
+    /// Batches of changes handled (fewer than `changes` when they coalesce).
+    pub batches: u64,
+    /// Failed updates (errors and panics).
+    pub errors: u64,
+    /// Last kd-tree + links rebuild, ms.
+    pub rebuild_ms: f64,
+    /// Last light-link update, ms.
+    pub light_links_ms: f64,
+    /// Last gather + smoothing, ms.
+    pub gather_ms: f64,
+    /// Last whole update, ms.
+    pub update_ms: f64,
+}
+
+/// Engine options.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct EngineParams {
+    /// Extra sleep before each update (tests and demos of a slow solve). Default 0.
+    pub delay: Duration,
+}
+
+struct Shared {
+    latest: Mutex<Option<Arc<GiResult>>>,
+    counters: Mutex<Counters>,
+    last_error: Mutex<Option<String>>,
+}
+
+enum Msg {
+    Change(Vec<Change>),
+    Stop,
+}
+
+/// Handle of the running engine; dropping it stops the worker.
+pub struct Engine {
+    tx: Sender<Msg>,
+    shared: Arc<Shared>,
+    sent: u64,
+    handle: Option<JoinHandle<()>>,
+}
+
+fn lock<T>(m: &Mutex<T>) -> std::sync::MutexGuard<'_, T> {
+    m.lock().unwrap_or_else(|p| p.into_inner())
+}
+
+impl Engine {
+    /// Starts the worker; it builds the solver and publishes version 1.
+    pub fn start(scene: PreparedScene, params: SolveParams, compute: Compute, options: EngineParams) -> Engine {
+        let (tx, rx) = crossbeam_channel::unbounded();
+        let shared = Arc::new(Shared {
+            latest: Mutex::new(None),
+            counters: Mutex::new(Counters::default()),
+            last_error: Mutex::new(None),
+        });
+        let sh = shared.clone();
+        let handle = std::thread::Builder::new()
+            .name("linkgi-gi".into())
+            .spawn(move || Worker { shared: sh, compute, options, params, solver: None, good: scene }.run(rx))
+            .expect("spawn GI worker");
+        Engine { tx, shared, sent: 0, handle: Some(handle) }
+    }
+
+    /// Queues a change (never blocks).
+    pub fn send(&mut self, change: Change) {
+        self.send_batch(vec![change]);
+    }
+
+    /// Queues changes that are handled together (one update for all of them).
+    pub fn send_batch(&mut self, changes: Vec<Change>) {
+        if changes.is_empty() {
+            return;
+        }
+        self.sent += changes.len() as u64;
+        let _ = self.tx.send(Msg::Change(changes));
+    }
+
+    /// The newest published result, if any (never waits for the worker).
+    pub fn latest(&self) -> Option<Arc<GiResult>> {
+        lock(&self.shared.latest).clone()
+    }
+
+    pub fn counters(&self) -> Counters {
+        *lock(&self.shared.counters)
+    }
+
+    /// The message of the newest failed update, if any.
+    pub fn last_error(&self) -> Option<String> {
+        lock(&self.shared.last_error).clone()
+    }
+
+    /// Waits until the first result is out and every change sent so far has
+    /// been handled (published or failed), or `timeout` passes. True when idle.
+    pub fn wait_idle(&self, timeout: Duration) -> bool {
+        let end = Instant::now() + timeout;
+        loop {
+            let c = self.counters();
+            if c.changes >= self.sent && (c.published > 0 || c.errors > 0) {
+                return true;
+            }
+            if Instant::now() > end || self.handle.as_ref().is_some_and(|h| h.is_finished()) {
+                return false;
+            }
+            std::thread::sleep(Duration::from_millis(1));
+        }
+    }
+}
+
+impl Drop for Engine {
+    fn drop(&mut self) {
+        let _ = self.tx.send(Msg::Stop);
+        if let Some(h) = self.handle.take() {
+            let _ = h.join();
+        }
+    }
+}
+
+/// What one batch of changes invalidates.
+#[derive(Default)]
+struct Dirty {
+    geometry: bool,
+    lights: bool,
+    gather: bool,
+    panic: bool,
+}
+
+struct Worker {
+    shared: Arc<Shared>,
+    compute: Compute,
+    options: EngineParams,
+    params: SolveParams,
+    solver: Option<Solver>,
+    /// The scene of the last good solve (rebuild source after a panic).
+    good: PreparedScene,
+}
+
+impl Worker {
+    fn run(mut self, rx: Receiver<Msg>) {
+        // First solve: everything.
+        let scene = self.good.clone();
+        self.update(scene, Dirty { geometry: true, lights: true, gather: true, panic: false }, 0);
+        while let Ok(first) = rx.recv() {
+            let mut msgs = vec![first];
+            msgs.extend(rx.try_iter());
+            let stop = msgs.iter().any(|m| matches!(m, Msg::Stop));
+            let changes: Vec<Change> = msgs
+                .into_iter()
+                .flat_map(|m| match m {
+                    Msg::Change(c) => c,
+                    Msg::Stop => Vec::new(),
+                })
+                .collect();
+            if !changes.is_empty() {
+                let n = changes.len() as u64;
+                match self.coalesce(changes) {
+                    Ok((scene, dirty)) => self.update(scene, dirty, n),
+                    Err(e) => self.fail(e, n),
+                }
+            }
+            if stop {
+                break;
+            }
+        }
+    }
+
+    fn current(&self) -> &PreparedScene {
+        self.solver.as_ref().map(|s| &s.scene).unwrap_or(&self.good)
+    }
+
+    /// Applies a batch of changes to a copy of the current scene.
+    fn coalesce(&mut self, changes: Vec<Change>) -> Result<(PreparedScene, Dirty), String> {
+        let mut scene = self.current().clone();
+        let mut dirty = Dirty::default();
+        let mut positions = None;
+        for c in changes {
+            match c {
+                Change::MoveLight { index, light } => {
+                    let n = scene.lights.len();
+                    *scene.lights.get_mut(index).ok_or(format!("move light {index}: the scene has {n} lights"))? =
+                        light;
+                    dirty.lights = true;
+                }
+                Change::AddLight(l) => {
+                    scene.lights.push(l);
+                    dirty.lights = true;
+                }
+                Change::RemoveLight(index) => {
+                    if index >= scene.lights.len() {
+                        return Err(format!("remove light {index}: the scene has {} lights", scene.lights.len()));
+                    }
+                    scene.lights.remove(index);
+                    dirty.lights = true;
+                }
+                Change::Deform { positions: p } => {
+                    if p.len() != scene.positions.len() {
+                        return Err(format!("deform: {} positions for {} vertices", p.len(), scene.positions.len()));
+                    }
+                    if p.iter().any(|v| !v.is_finite()) {
+                        return Err("deform: non-finite position".into());
+                    }
+                    for m in scene.meshes.iter().filter(|m| !m.dynamic) {
+                        let r = m.vertices.start as usize..m.vertices.end as usize;
+                        if p[r.clone()] != scene.positions[r] {
+                            return Err(format!("deform: moves vertices of the static mesh '{}'", m.name));
+                        }
+                    }
+                    positions = Some(p);
+                }
+                Change::Settings(s) => {
+                    s.validate().map_err(|e| e.to_string())?;
+                    let old = scene.settings;
+                    scene.settings = Settings { backend: old.backend, ..s };
+                    if s.rays_per_vertex != old.rays_per_vertex || s.seed != old.seed {
+                        dirty.geometry = true;
+                    }
+                    dirty.gather = true;
+                    self.params = SolveParams {
+                        kd: self.params.kd,
+                        light: self.params.light,
+                        ..SolveParams::from_settings(&scene.settings)
+                    };
+                }
+                Change::Panic => dirty.panic = true,
+            }
+        }
+        // Positions identical to the current ones are no geometry change.
+        if let Some(p) = positions.filter(|p| *p != scene.positions) {
+            scene.normals = vertex_normals(&scene, &p, &scene.normals);
+            scene.positions = p;
+            dirty.geometry = true;
+        }
+        Ok((scene, dirty))
+    }
+
+    fn update(&mut self, scene: PreparedScene, dirty: Dirty, changes: u64) {
+        if !(dirty.geometry || dirty.lights || dirty.gather || dirty.panic) {
+            let mut c = lock(&self.shared.counters);
+            c.changes += changes;
+            c.batches += 1;
+            return;
+        }
+        if !self.options.delay.is_zero() {
+            std::thread::sleep(self.options.delay);
+        }
+        let t0 = Instant::now();
+        let mut solver = self.solver.take();
+        let params = self.params;
+        let compute = self.compute.clone();
+        let shared = self.shared.clone();
+        let outcome = std::panic::catch_unwind(AssertUnwindSafe(|| -> Result<Solver, String> {
+            if dirty.panic {
+                panic!("injected panic (Change::Panic)");
+            }
+            let mut c = Counters::default();
+            let mut s = match solver.take() {
+                Some(s) if !dirty.geometry => s,
+                _ => {
+                    let t = Instant::now();
+                    let s = Solver::new_on(scene.clone(), params, &compute, &|_, _| {}).map_err(|e| e.to_string())?;
+                    c.rebuild_ms = t.elapsed().as_secs_f64() * 1e3;
+                    c.kd_builds += 1;
+                    c.link_builds += 1;
+                    c.light_link_updates += 1;
+                    c.light_links_ms = s.light_links.ms;
+                    s
+                }
+            };
+            s.params = params;
+            s.scene.settings = scene.settings;
+            if dirty.lights && c.light_link_updates == 0 {
+                s.scene.lights = scene.lights.clone();
+                let t = Instant::now();
+                s.update_lights();
+                c.light_links_ms = t.elapsed().as_secs_f64() * 1e3;
+                c.light_link_updates += 1;
+            }
+            let t = Instant::now();
+            let sol = s.solve();
+            c.gather_ms = t.elapsed().as_secs_f64() * 1e3;
+            c.gathers += 1;
+            let update_ms = t0.elapsed().as_secs_f64() * 1e3;
+            let mut total = lock(&shared.counters);
+            let version = total.published + 1;
+            let result = Arc::new(GiResult {
+                version,
+                e_indirect: sol.e_indirect,
+                e_direct: sol.e_direct,
+                lights: s.scene.lights.clone(),
+                published: Instant::now(),
+                update_ms,
+            });
+            *lock(&shared.latest) = Some(result);
+            total.kd_builds += c.kd_builds;
+            total.link_builds += c.link_builds;
+            total.light_link_updates += c.light_link_updates;
+            total.gathers += 1;
+            total.published = version;
+            total.changes += changes;
+            total.batches += 1;
+            if c.kd_builds > 0 {
+                total.rebuild_ms = c.rebuild_ms;
+            }
+            if c.light_link_updates > 0 {
+                total.light_links_ms = c.light_links_ms;
+            }
+            total.gather_ms = c.gather_ms;
+            total.update_ms = update_ms;
+            Ok(s)
+        }));
+        match outcome {
+            Ok(Ok(s)) => {
+                self.good = s.scene.clone();
+                self.solver = Some(s);
+            }
+            Ok(Err(e)) => {
+                self.solver = solver;
+                self.fail(e, changes);
+            }
+            Err(p) => {
+                let msg = p
+                    .downcast_ref::<&str>()
+                    .map(|s| s.to_string())
+                    .or_else(|| p.downcast_ref::<String>().cloned())
+                    .unwrap_or_else(|| "unknown panic".into());
+                // The solver may be half-updated: rebuild from the last good scene next time.
+                self.solver = None;
+                self.fail(format!("GI worker panicked: {msg}"), changes);
+            }
+        }
+    }
+
+    fn fail(&mut self, message: String, changes: u64) {
+        eprintln!("warning: GI update failed, keeping the last result: {message}");
+        *lock(&self.shared.last_error) = Some(message);
+        let mut c = lock(&self.shared.counters);
+        c.errors += 1;
+        c.changes += changes;
+        c.batches += 1;
+    }
+}

@@ -1,0 +1,94 @@
+//! CPU fallback renderer (no adapter): one primary ray per pixel centre
+//! through a kd-tree of the frame's triangles; at a front-face hit the
+//! normal, albedo and `E_i` are interpolated with the hit's barycentrics and
+//! each light's visibility is one shadow ray from the hit offset along the
+//! normal (hard shadows). Back faces and misses are black. Radiance as in
+//! [`super`]: `L = rho / pi * (E_d + E_i)`; rows run in parallel (rayon).
+
+use super::{pixel_ray, Frame, HdrImage, RenderParams, RenderStats, View};
+use crate::kdtree::{KdBuildParams, KdTree, Ray};
+use crate::scene::Light;
+use glam::Vec3;
+use rayon::prelude::*;
+use std::f32::consts::PI;
+use std::time::Instant;
+
+/// Renders `frame`; `kd` must be built over `frame.positions`/`triangles`
+/// when given, else one is built here.
+pub fn render_cpu(frame: &Frame, params: &RenderParams, kd: Option<&KdTree>) -> crate::Result<(HdrImage, RenderStats)> {
+    frame.validate()?;
+    let t0 = Instant::now();
+    let built;
+    let kd = match kd {
+        Some(k) => k,
+        None => {
+            built = KdTree::build(frame.positions, frame.triangles, &KdBuildParams::default());
+            &built
+        }
+    };
+    let (w, h) = (params.width.max(1), params.height.max(1));
+    let extent = frame.extent();
+    let offset = params.normal_offset * extent;
+    let pixels: Vec<Vec3> = (0..h)
+        .into_par_iter()
+        .flat_map_iter(|y| {
+            (0..w).map(move |x| {
+                let ray = pixel_ray(&frame.camera, w, h, extent, x, y);
+                shade(frame, kd, params.view, offset, ray)
+            })
+        })
+        .collect();
+    let stats = RenderStats { ms: t0.elapsed().as_secs_f64() * 1e3, ..Default::default() };
+    Ok((HdrImage { width: w, height: h, pixels }, stats))
+}
+
+fn shade(frame: &Frame, kd: &KdTree, view: View, offset: f32, ray: Ray) -> Vec3 {
+    let Some(hit) = kd.intersect(&ray) else { return Vec3::ZERO };
+    if !hit.front {
+        return Vec3::ZERO;
+    }
+    let t = frame.triangles[hit.tri as usize];
+    let b = hit.barycentrics();
+    let lerp = |a: &[Vec3]| a[t[0] as usize] * b[0] + a[t[1] as usize] * b[1] + a[t[2] as usize] * b[2];
+    let p = ray.origin + ray.dir * hit.t;
+    let n = lerp(frame.normals).normalize_or_zero();
+    let rho = lerp(frame.albedo);
+    let e_i = lerp(frame.e_indirect);
+    let origin = p + n * offset;
+    let mut e_d = Vec3::ZERO;
+    if view != View::Indirect {
+        for l in frame.lights {
+            match *l {
+                Light::Point { position, intensity } => {
+                    let d = position - p;
+                    let r2 = d.length_squared().max(1e-8);
+                    let c = n.dot(d) / r2.sqrt();
+                    if c <= 0.0 {
+                        continue;
+                    }
+                    let to = position - origin;
+                    let dist = to.length();
+                    let shadow = Ray { tmax: dist * (1.0 - 1e-4), ..Ray::new(origin, to / dist) };
+                    if !kd.occluded(&shadow) {
+                        e_d += intensity * (c / r2);
+                    }
+                }
+                Light::Directional { direction, irradiance } => {
+                    let c = n.dot(-direction);
+                    if c <= 0.0 {
+                        continue;
+                    }
+                    if !kd.occluded(&Ray::new(origin, -direction)) {
+                        e_d += irradiance * c;
+                    }
+                }
+            }
+        }
+    }
+    let e = match view {
+        View::Combined => e_d + e_i,
+        View::Direct => e_d,
+        View::Indirect => e_i,
+    };
+    rho / PI * e
+}

@@ -1,0 +1,387 @@
+//! wgpu rasterizer (`shaders/render.wgsl`): one depth-only pass per shadow
+//! layer (`shadow_vs`; six per point light with 90-degree-plus-margin
+//! perspective views along +-x, +-y, +-z, one per directional light with an
+//! orthographic view over the frame's bounding sphere), then the main pass
+//! (`vs_main`/`fs_main`) into an `Rgba16Float` target with a `Depth32Float`
+//! buffer, read back as linear radiance. Shadow layers are only allocated
+//! for the lights present: a frame without point lights has no cube maps.
+
+use super::{camera_matrices, up_for, Frame, HdrImage, RenderParams, RenderStats, MAX_LIGHTS};
+use crate::error::{Error, Result};
+use crate::gpu::buffers::uniform_init;
+use crate::gpu::layout::{FrameUniforms, LightGpu, RENDER_WGSL};
+use crate::gpu::GpuDevice;
+use crate::scene::Light;
+use bytemuck::{Pod, Zeroable};
+use glam::{Mat4, Vec3};
+use std::sync::Arc;
+use std::time::Instant;
+use wgpu::util::DeviceExt;
+
+/// Shadow layers the shader's matrix array holds (8 point lights x 6).
+pub const MAX_SHADOW_LAYERS: usize = 56;
+const HDR_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
+const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
+
+/// One vertex of the render mesh (48 bytes): `vs_main` locations 0-3.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct RenderVertex {
+    pub position: [f32; 3],
+    pub normal: [f32; 3],
+    pub albedo: [f32; 3],
+    pub e_indirect: [f32; 3],
+}
+
+/// Pipelines on one device, reused for every frame.
+pub struct GpuRenderer {
+    pub dev: Arc<GpuDevice>,
+    main: wgpu::RenderPipeline,
+    shadow: wgpu::RenderPipeline,
+    sampler: wgpu::Sampler,
+}
+
+fn vertex_layout(attributes: &[wgpu::VertexAttribute]) -> wgpu::VertexBufferLayout<'_> {
+    wgpu::VertexBufferLayout {
+        array_stride: std::mem::size_of::<RenderVertex>() as u64,
+        step_mode: wgpu::VertexStepMode::Vertex,
+        attributes,
+    }
+}
+
+impl GpuRenderer {
+    pub fn new(dev: Arc<GpuDevice>) -> Result<GpuRenderer> {
+        let d = &dev.device;
+        let scope = d.push_error_scope(wgpu::ErrorFilter::Validation);
+        let module = d.create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some("render.wgsl"),
+            source: wgpu::ShaderSource::Wgsl(RENDER_WGSL.into()),
+        });
+        let all = wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32x3, 2 => Float32x3, 3 => Float32x3];
+        let pos_only = wgpu::vertex_attr_array![0 => Float32x3];
+        let main = d.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+            label: Some("render main pipeline"),
+            layout: None,
+            vertex: wgpu::VertexState {
+                module: &module,
+                entry_point: Some("vs_main"),
+                compilation_options: Default::default(),
+                buffers: &[Some(vertex_layout(&all))],
+            },
+            primitive: wgpu::PrimitiveState { cull_mode: None, ..Default::default() },
+            depth_stencil: Some(wgpu::DepthStencilState {
+                format: DEPTH_FORMAT,
+                depth_write_enabled: Some(true),
+                depth_compare: Some(wgpu::CompareFunction::Less),
+                stencil: Default::default(),
+                bias: Default::default(),
+            }),
+            multisample: Default::default(),
+            fragment: Some(wgpu::FragmentState {
+                module: &module,
+                entry_point: Some("fs_main"),
+                compilation_options: Default::default(),
+                targets: &[Some(HDR_FORMAT.into())],
+            }),
+            multiview_mask: None,
+            cache: None,
+        });
+        let shadow = d.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+            label: Some("render shadow pipeline"),
+            layout: None,
+            vertex: wgpu::VertexState {
+                module: &module,
+                entry_point: Some("shadow_vs"),
+                compilation_options: Default::default(),
+                buffers: &[Some(vertex_layout(&pos_only))],
+            },
+            primitive: wgpu::PrimitiveState { cull_mode: None, ..Default::default() },
+            depth_stencil: Some(wgpu::DepthStencilState {
+                format: DEPTH_FORMAT,
+                depth_write_enabled: Some(true),
+                depth_compare: Some(wgpu::CompareFunction::Less),
+                stencil: Default::default(),
+                bias: wgpu::DepthBiasState { constant: 0, slope_scale: 0.0, clamp: 0.0 },
+            }),
+            multisample: Default::default(),
+            fragment: None,
+            multiview_mask: None,
+            cache: None,
+        });
+        let sampler = d.create_sampler(&wgpu::SamplerDescriptor {
+            label: Some("shadow comparison sampler"),
+            address_mode_u: wgpu::AddressMode::ClampToEdge,
+            address_mode_v: wgpu::AddressMode::ClampToEdge,
+            mag_filter: wgpu::FilterMode::Linear,
+            min_filter: wgpu::FilterMode::Linear,
+            compare: Some(wgpu::CompareFunction::LessEqual),
+            ..Default::default()
+        });
+        if let Some(e) = pollster::block_on(scope.pop()) {
+            return Err(Error::Gpu(format!("render pipelines: {e}")));
+        }
+        Ok(GpuRenderer { dev, main, shadow, sampler })
+    }
+
+    /// Renders `frame` and reads back linear radiance.
+    pub fn render(&self, frame: &Frame, params: &RenderParams) -> Result<(HdrImage, RenderStats)> {
+        frame.validate()?;
+        let t0 = Instant::now();
+        let d = &self.dev.device;
+        let scope = d.push_error_scope(wgpu::ErrorFilter::Validation);
+        let (w, h) = (params.width.max(1), params.height.max(1));
+        let max_dim = self.dev.limits.max_texture_dimension_2d;
+        if w > max_dim || h > max_dim {
+            return Err(Error::Setting(format!("render size {w}x{h} exceeds the device limit {max_dim}")));
+        }
+        let (lo, hi) = frame.bounds();
+        let extent = frame.extent();
+        let center = (lo + hi) * 0.5;
+        let radius = extent * 0.5;
+
+        // Lights and their shadow layers.
+        let mut lights = [LightGpu::default(); MAX_LIGHTS];
+        let mut mats: Vec<Mat4> = Vec::new();
+        let mut stats = RenderStats::default();
+        for (i, l) in frame.lights.iter().enumerate() {
+            let layer = mats.len() as u32;
+            match *l {
+                Light::Point { position, intensity } => {
+                    lights[i] = LightGpu {
+                        position: position.into(),
+                        kind: 0,
+                        color: intensity.into(),
+                        layer,
+                        ..Default::default()
+                    };
+                    let far = (position - center).length() + radius * 1.01;
+                    // Slightly wider than 90 degrees so PCF taps at face edges stay inside.
+                    let proj = Mat4::perspective_rh(2.0 * 1.05f32.atan(), 1.0, far * 1e-4, far);
+                    for dir in [Vec3::X, -Vec3::X, Vec3::Y, -Vec3::Y, Vec3::Z, -Vec3::Z] {
+                        mats.push(proj * Mat4::look_to_rh(position, dir, up_for(dir)));
+                    }
+                    stats.cube_shadow_maps += 1;
+                }
+                Light::Directional { direction, irradiance } => {
+                    lights[i] = LightGpu {
+                        position: center.into(),
+                        kind: 1,
+                        color: irradiance.into(),
+                        layer,
+                        direction: direction.into(),
+                        ..Default::default()
+                    };
+                    let eye = center - direction * radius * 2.0;
+                    let view = Mat4::look_to_rh(eye, direction, up_for(direction));
+                    let proj = Mat4::orthographic_rh(-radius, radius, -radius, radius, 0.0, radius * 4.0);
+                    mats.push(proj * view);
+                    stats.shadow_maps_2d += 1;
+                }
+            }
+        }
+        stats.shadow_layers = mats.len() as u32;
+        let mut mat_data = [[0f32; 16]; MAX_SHADOW_LAYERS];
+        for (m, out) in mats.iter().zip(mat_data.iter_mut()) {
+            *out = m.to_cols_array();
+        }
+
+        let (view, proj) = camera_matrices(&frame.camera, w as f32 / h as f32, extent * 4.0);
+        let shadow_size = params.shadow_size.clamp(16, max_dim);
+        let uniforms = FrameUniforms {
+            view_proj: (proj * view).to_cols_array(),
+            camera_pos: frame.camera.position.into(),
+            light_count: frame.lights.len() as u32,
+            view_mode: params.view.mode(),
+            normal_offset: params.normal_offset * extent,
+            shadow_texel: 1.0 / shadow_size as f32,
+            depth_bias: 0.0,
+        };
+
+        let verts: Vec<RenderVertex> = (0..frame.positions.len())
+            .map(|i| RenderVertex {
+                position: frame.positions[i].into(),
+                normal: frame.normals[i].into(),
+                albedo: frame.albedo[i].into(),
+                e_indirect: frame.e_indirect[i].into(),
+            })
+            .collect();
+        let vbuf = d.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("render vertices"),
+            contents: bytemuck::cast_slice(&verts),
+            usage: wgpu::BufferUsages::VERTEX,
+        });
+        let ibuf = d.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("render indices"),
+            contents: bytemuck::cast_slice(frame.triangles),
+            usage: wgpu::BufferUsages::INDEX,
+        });
+        let index_count = frame.triangles.len() as u32 * 3;
+        let frame_buf = uniform_init(d, "render frame uniforms", &uniforms);
+        let light_buf = uniform_init(d, "render lights", &lights);
+        let mat_buf = uniform_init(d, "render shadow matrices", &mat_data);
+
+        // Shadow maps: only the layers needed (one placeholder layer when there are none).
+        let layers = mats.len().max(1) as u32;
+        let size = if mats.is_empty() { 1 } else { shadow_size };
+        let shadow_tex = d.create_texture(&wgpu::TextureDescriptor {
+            label: Some(if mats.is_empty() { "shadow map placeholder" } else { "shadow maps" }),
+            size: wgpu::Extent3d { width: size, height: size, depth_or_array_layers: layers },
+            mip_level_count: 1,
+            sample_count: 1,
+            dimension: wgpu::TextureDimension::D2,
+            format: DEPTH_FORMAT,
+            usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING,
+            view_formats: &[],
+        });
+        let shadow_array = shadow_tex.create_view(&wgpu::TextureViewDescriptor {
+            label: Some("shadow maps array view"),
+            dimension: Some(wgpu::TextureViewDimension::D2Array),
+            ..Default::default()
+        });
+        let shadow_group = d.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("shadow pass bind group"),
+            layout: &self.shadow.get_bind_group_layout(0),
+            entries: &[wgpu::BindGroupEntry { binding: 2, resource: mat_buf.as_entire_binding() }],
+        });
+        let main_group = d.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("main pass bind group"),
+            layout: &self.main.get_bind_group_layout(0),
+            entries: &[
+                wgpu::BindGroupEntry { binding: 0, resource: frame_buf.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 1, resource: light_buf.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 2, resource: mat_buf.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 3, resource: wgpu::BindingResource::TextureView(&shadow_array) },
+                wgpu::BindGroupEntry { binding: 4, resource: wgpu::BindingResource::Sampler(&self.sampler) },
+            ],
+        });
+
+        let hdr = d.create_texture(&wgpu::TextureDescriptor {
+            label: Some("hdr target"),
+            size: wgpu::Extent3d { width: w, height: h, depth_or_array_layers: 1 },
+            mip_level_count: 1,
+            sample_count: 1,
+            dimension: wgpu::TextureDimension::D2,
+            format: HDR_FORMAT,
+            usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
+            view_formats: &[],
+        });
+        let depth = d.create_texture(&wgpu::TextureDescriptor {
+            label: Some("depth buffer"),
+            size: wgpu::Extent3d { width: w, height: h, depth_or_array_layers: 1 },
+            mip_level_count: 1,
+            sample_count: 1,
+            dimension: wgpu::TextureDimension::D2,
+            format: DEPTH_FORMAT,
+            usage: wgpu::TextureUsages::RENDER_ATTACHMENT,
+            view_formats: &[],
+        });
+        let hdr_view =
+            hdr.create_view(&wgpu::TextureViewDescriptor { label: Some("hdr target view"), ..Default::default() });
+        let depth_view =
+            depth.create_view(&wgpu::TextureViewDescriptor { label: Some("depth buffer view"), ..Default::default() });
+
+        let mut enc = d.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("render frame") });
+        for layer in 0..mats.len() as u32 {
+            let layer_view = shadow_tex.create_view(&wgpu::TextureViewDescriptor {
+                label: Some("shadow layer view"),
+                dimension: Some(wgpu::TextureViewDimension::D2),
+                base_array_layer: layer,
+                array_layer_count: Some(1),
+                ..Default::default()
+            });
+            let mut pass = enc.begin_render_pass(&wgpu::RenderPassDescriptor {
+                label: Some("shadow pass"),
+                color_attachments: &[],
+                depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+                    view: &layer_view,
+                    depth_ops: Some(wgpu::Operations { load: wgpu::LoadOp::Clear(1.0), store: wgpu::StoreOp::Store }),
+                    stencil_ops: None,
+                }),
+                timestamp_writes: None,
+                occlusion_query_set: None,
+                multiview_mask: None,
+            });
+            pass.set_pipeline(&self.shadow);
+            pass.set_bind_group(0, &shadow_group, &[]);
+            pass.set_vertex_buffer(0, vbuf.slice(..));
+            pass.set_index_buffer(ibuf.slice(..), wgpu::IndexFormat::Uint32);
+            pass.draw_indexed(0..index_count, 0, layer..layer + 1);
+        }
+        {
+            let mut pass = enc.begin_render_pass(&wgpu::RenderPassDescriptor {
+                label: Some("main pass"),
+                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                    view: &hdr_view,
+                    depth_slice: None,
+                    resolve_target: None,
+                    ops: wgpu::Operations {
+                        load: wgpu::LoadOp::Clear(wgpu::Color::BLACK),
+                        store: wgpu::StoreOp::Store,
+                    },
+                })],
+                depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+                    view: &depth_view,
+                    depth_ops: Some(wgpu::Operations { load: wgpu::LoadOp::Clear(1.0), store: wgpu::StoreOp::Discard }),
+                    stencil_ops: None,
+                }),
+                timestamp_writes: None,
+                occlusion_query_set: None,
+                multiview_mask: None,
+            });
+            pass.set_pipeline(&self.main);
+            pass.set_bind_group(0, &main_group, &[]);
+            pass.set_vertex_buffer(0, vbuf.slice(..));
+            pass.set_index_buffer(ibuf.slice(..), wgpu::IndexFormat::Uint32);
+            pass.draw_indexed(0..index_count, 0, 0..1);
+        }
+        let row = (w as u64 * 8).next_multiple_of(256);
+        let staging = d.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("hdr read-back"),
+            size: row * h as u64,
+            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        enc.copy_texture_to_buffer(
+            wgpu::TexelCopyTextureInfo {
+                texture: &hdr,
+                mip_level: 0,
+                origin: wgpu::Origin3d::ZERO,
+                aspect: wgpu::TextureAspect::All,
+            },
+            wgpu::TexelCopyBufferInfo {
+                buffer: &staging,
+                layout: wgpu::TexelCopyBufferLayout {
+                    offset: 0,
+                    bytes_per_row: Some(row as u32),
+                    rows_per_image: None,
+                },
+            },
+            wgpu::Extent3d { width: w, height: h, depth_or_array_layers: 1 },
+        );
+        self.dev.queue.submit([enc.finish()]);
+        if let Some(e) = pollster::block_on(scope.pop()) {
+            return Err(Error::Gpu(format!("render: {e}")));
+        }
+        let (tx, rx) = crossbeam_channel::bounded(1);
+        staging.map_async(wgpu::MapMode::Read, .., move |r| {
+            let _ = tx.send(r);
+        });
+        self.dev.wait()?;
+        rx.recv()
+            .map_err(|_| Error::Gpu("render read-back: mapping never completed".into()))?
+            .map_err(|e| Error::Gpu(format!("render read-back: {e}")))?;
+        let data = staging.get_mapped_range(..).map_err(|e| Error::Gpu(format!("render read-back: {e}")))?;
+        let mut pixels = Vec::with_capacity((w * h) as usize);
+        for y in 0..h as usize {
+            let r = &data[y * row as usize..y * row as usize + w as usize * 8];
+            for px in r.chunks_exact(8) {
+                let c: [half::f16; 4] = bytemuck::pod_read_unaligned(px);
+                pixels.push(Vec3::new(c[0].to_f32(), c[1].to_f32(), c[2].to_f32()));
+            }
+        }
+        drop(data);
+        staging.unmap();
+        stats.ms = t0.elapsed().as_secs_f64() * 1e3;
+        Ok((HdrImage { width: w, height: h, pixels }, stats))
+    }
+}

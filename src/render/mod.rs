@@ -1,0 +1,330 @@
+//! Display of a solved scene: direct light per pixel, indirect light from
+//! the vertices (DESIGN.md §6).
+//!
+//! Outgoing radiance per pixel, W/(m^2 sr): `L = rho / pi * (E_d + E_i)`,
+//! where `E_d` is the direct irradiance evaluated at the pixel (point lights
+//! `I cos / r^2`, directional `E cos`, times visibility) and `E_i` the
+//! solver's indirect irradiance interpolated from the triangle's vertices.
+//! The `direct` and `indirect` views keep one of the two terms.
+//!
+//! Two renderers produce the same [`HdrImage`] of linear radiance:
+//! - [`gpu::GpuRenderer`]: wgpu rasterization into an `Rgba16Float` target,
+//!   shadow maps with percentage-closer filtering (six 2D layers per point
+//!   light, a cube map's faces; one per directional light);
+//! - [`cpu::render_cpu`]: the fallback with no adapter: a primary ray per
+//!   pixel and a shadow ray per light through the kd-tree (hard shadows).
+//!
+//! [`tone_map`] is shared by both: `c = ACES(L * exposure)` (Narkowicz's fit),
+//! then the sRGB transfer curve, 8 bits per channel. The camera is a pinhole
+//! with a vertical field of view, y up.
+
+pub mod cpu;
+pub mod gpu;
+
+use crate::scene::prep::PreparedScene;
+use crate::scene::{Camera, Light};
+use glam::{Mat4, Vec3};
+use std::path::Path;
+
+/// Lights a renderer handles at most.
+pub const MAX_LIGHTS: usize = 8;
+
+/// Which terms of the radiance are shown.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum)]
+pub enum View {
+    #[default]
+    Combined,
+    Direct,
+    Indirect,
+}
+
+impl View {
+    pub fn mode(self) -> u32 {
+        match self {
+            View::Combined => 0,
+            View::Direct => 1,
+            View::Indirect => 2,
+        }
+    }
+}
+
+/// Renderer settings.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RenderParams {
+    /// Image size in pixels. Default 640 x 480.
+    pub width: u32,
+    pub height: u32,
+    pub view: View,
+    /// Radiance scale before tone mapping. Default 0.6.
+    pub exposure: f32,
+    /// Shadow-map layer size in texels (GPU). Default 1024.
+    pub shadow_size: u32,
+    /// Offset of shadow lookups and shadow-ray origins along the normal,
+    /// as a fraction of the scene's bounding-box diagonal. Default 0.002.
+    pub normal_offset: f32,
+}
+
+impl Default for RenderParams {
+    fn default() -> Self {
+        Self { width: 640, height: 480, view: View::Combined, exposure: 0.6, shadow_size: 1024, normal_offset: 0.002 }
+    }
+}
+
+/// What a frame draws: geometry (possibly deformed), per-vertex albedo and
+/// indirect irradiance (W/m^2), lights and camera.
+#[derive(Clone, Copy, Debug)]
+pub struct Frame<'a> {
+    pub positions: &'a [Vec3],
+    pub normals: &'a [Vec3],
+    pub albedo: &'a [Vec3],
+    pub triangles: &'a [[u32; 3]],
+    pub e_indirect: &'a [Vec3],
+    pub lights: &'a [Light],
+    pub camera: Camera,
+}
+
+impl<'a> Frame<'a> {
+    /// A frame of `scene` as prepared, with `e_indirect` per vertex.
+    pub fn of(scene: &'a PreparedScene, e_indirect: &'a [Vec3], camera: Camera) -> Frame<'a> {
+        Frame {
+            positions: &scene.positions,
+            normals: &scene.normals,
+            albedo: &scene.albedo,
+            triangles: &scene.triangles,
+            e_indirect,
+            lights: &scene.lights,
+            camera,
+        }
+    }
+
+    /// Checks counts and the light limit.
+    pub fn validate(&self) -> crate::Result<()> {
+        let n = self.positions.len();
+        if self.normals.len() != n || self.albedo.len() != n || self.e_indirect.len() != n {
+            return Err(crate::Error::Setting(format!(
+                "render: {} positions, {} normals, {} albedos, {} indirect values",
+                n,
+                self.normals.len(),
+                self.albedo.len(),
+                self.e_indirect.len()
+            )));
+        }
+        if self.lights.len() > MAX_LIGHTS {
+            return Err(crate::Error::Setting(format!(
+                "render: {} lights, the renderer handles at most {MAX_LIGHTS}",
+                self.lights.len()
+            )));
+        }
+        if let Some(t) = self.triangles.iter().find(|t| t.iter().any(|&i| i as usize >= n)) {
+            return Err(crate::Error::Setting(format!("render: triangle {t:?} indexes past {n} vertices")));
+        }
+        Ok(())
+    }
+
+    /// Bounding box `(min, max)` of the positions.
+    pub fn bounds(&self) -> (Vec3, Vec3) {
+        self.positions.iter().fold((Vec3::splat(f32::MAX), Vec3::splat(f32::MIN)), |(a, b), &p| (a.min(p), b.max(p)))
+    }
+
+    /// Length of the bounding-box diagonal, metres.
+    pub fn extent(&self) -> f32 {
+        let (a, b) = self.bounds();
+        (b - a).length().max(1e-6)
+    }
+}
+
+/// The camera's view and projection. `far` in metres.
+pub fn camera_matrices(c: &Camera, aspect: f32, far: f32) -> (Mat4, Mat4) {
+    let view = Mat4::look_at_rh(c.position, c.target, up_for(c.target - c.position));
+    let proj = Mat4::perspective_rh(c.fov_deg.to_radians(), aspect, far * 1e-4, far);
+    (view, proj)
+}
+
+/// The primary ray through the centre of pixel `(x, y)` (rows top to bottom)
+/// of a `width` x `height` image; `extent` is the scene's diagonal (sets the far plane).
+pub fn pixel_ray(c: &Camera, width: u32, height: u32, extent: f32, x: u32, y: u32) -> crate::kdtree::Ray {
+    let (view, proj) = camera_matrices(c, width as f32 / height as f32, extent * 4.0);
+    let inv = (proj * view).inverse();
+    let ndc_x = (x as f32 + 0.5) / width as f32 * 2.0 - 1.0;
+    let ndc_y = 1.0 - (y as f32 + 0.5) / height as f32 * 2.0;
+    let far = inv * glam::Vec4::new(ndc_x, ndc_y, 1.0, 1.0);
+    let dir = (far.truncate() / far.w - c.position).normalize();
+    crate::kdtree::Ray::new(c.position, dir)
+}
+
+/// +y, or +z when looking straight up or down.
+pub fn up_for(forward: Vec3) -> Vec3 {
+    if forward.normalize_or_zero().cross(Vec3::Y).length_squared() < 1e-6 {
+        Vec3::Z
+    } else {
+        Vec3::Y
+    }
+}
+
+/// Linear radiance per pixel, rows top to bottom.
+#[derive(Clone, Debug, PartialEq)]
+pub struct HdrImage {
+    pub width: u32,
+    pub height: u32,
+    pub pixels: Vec<Vec3>,
+}
+
+impl HdrImage {
+    pub fn at(&self, x: u32, y: u32) -> Vec3 {
+        self.pixels[(y * self.width + x) as usize]
+    }
+}
+
+/// Figures of one render.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct RenderStats {
+    /// Point lights given a cube shadow map (six layers each).
+    pub cube_shadow_maps: u32,
+    /// Directional lights given a 2D shadow map.
+    pub shadow_maps_2d: u32,
+    /// Shadow-map layers allocated (0 when the frame has no lights).
+    pub shadow_layers: u32,
+    /// Time from call to read-back, ms.
+    pub ms: f64,
+}
+
+/// ACES filmic curve (Narkowicz 2015 fit), input and output in [0, inf) -> [0, 1].
+pub fn aces(x: f32) -> f32 {
+    let (a, b, c, d, e) = (2.51, 0.03, 2.43, 0.59, 0.14);
+    ((x * (a * x + b)) / (x * (c * x + d) + e)).clamp(0.0, 1.0)
+}
+
+/// sRGB transfer curve of a linear value in [0, 1].
+pub fn srgb(x: f32) -> f32 {
+    if x <= 0.0031308 {
+        12.92 * x
+    } else {
+        1.055 * x.powf(1.0 / 2.4) - 0.055
+    }
+}
+
+/// Exposure, ACES and sRGB: 8-bit RGB rows, top to bottom.
+pub fn tone_map(img: &HdrImage, exposure: f32) -> image::RgbImage {
+    let mut out = image::RgbImage::new(img.width, img.height);
+    for (i, p) in out.pixels_mut().enumerate() {
+        let l = img.pixels[i] * exposure;
+        let c = |v: f32| (srgb(aces(v.max(0.0))) * 255.0 + 0.5) as u8;
+        *p = image::Rgb([c(l.x), c(l.y), c(l.z)]);
+    }
+    out
+}
+
+/// Writes the tone-mapped image as PNG.
+pub fn write_png(img: &HdrImage, exposure: f32, path: &Path) -> crate::Result<()> {
+    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir).map_err(|source| crate::Error::Io { path: dir.to_path_buf(), source })?;
+    }
+    tone_map(img, exposure)
+        .save_with_format(path, image::ImageFormat::Png)
+        .map_err(|e| crate::Error::Io { path: path.to_path_buf(), source: std::io::Error::other(e.to_string()) })
+}
+
+/// Which renderer runs.
+pub enum Renderer {
+    Gpu(gpu::GpuRenderer),
+    /// No adapter: [`cpu::render_cpu`].
+    Cpu,
+}
+
+impl Renderer {
+    /// The GPU renderer on the first adapter (software ones included), or
+    /// the CPU fallback with one line saying so when there is none or it fails.
+    pub fn open(backend: crate::gpu::Backend) -> Renderer {
+        if backend == crate::gpu::Backend::Cpu {
+            eprintln!("note: rendering on the CPU (--backend cpu): ray-traced fallback, hard shadows");
+            return Renderer::Cpu;
+        }
+        match crate::gpu::open_all().into_iter().next() {
+            Some(dev) => match gpu::GpuRenderer::new(dev) {
+                Ok(r) => Renderer::Gpu(r),
+                Err(e) => {
+                    eprintln!("note: {e}; rendering on the CPU (ray-traced fallback)");
+                    Renderer::Cpu
+                }
+            },
+            None => {
+                eprintln!("note: no graphics adapter: rendering on the CPU (ray-traced fallback, hard shadows)");
+                Renderer::Cpu
+            }
+        }
+    }
+
+    pub fn describe(&self) -> String {
+        match self {
+            Renderer::Gpu(r) => format!("gpu: {}", r.dev.describe()),
+            Renderer::Cpu => "cpu fallback".into(),
+        }
+    }
+
+    /// Renders `frame`; the CPU path builds a kd-tree of the frame's geometry.
+    pub fn render(&self, frame: &Frame, params: &RenderParams) -> crate::Result<(HdrImage, RenderStats)> {
+        match self {
+            Renderer::Gpu(r) => r.render(frame, params),
+            Renderer::Cpu => cpu::render_cpu(frame, params, None),
+        }
+    }
+}
+
+/// Writes linear radiance as an OpenEXR file: single-part scanline image,
+/// no compression, 32-bit float channels B, G, R (alphabetical, as the
+/// format stores them), one scanline per block.
+pub fn write_exr(img: &HdrImage, path: &Path) -> crate::Result<()> {
+    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir).map_err(|source| crate::Error::Io { path: dir.to_path_buf(), source })?;
+    }
+    std::fs::write(path, exr_bytes(img)).map_err(|source| crate::Error::Io { path: path.to_path_buf(), source })
+}
+
+/// The bytes of [`write_exr`].
+pub fn exr_bytes(img: &HdrImage) -> Vec<u8> {
+    fn attr(out: &mut Vec<u8>, name: &str, ty: &str, value: &[u8]) {
+        out.extend(name.as_bytes());
+        out.push(0);
+        out.extend(ty.as_bytes());
+        out.push(0);
+        out.extend((value.len() as i32).to_le_bytes());
+        out.extend(value);
+    }
+    let (w, h) = (img.width as i32, img.height as i32);
+    let mut out = vec![0x76, 0x2f, 0x31, 0x01, 2, 0, 0, 0];
+    let mut chlist = Vec::new();
+    for c in ["B", "G", "R"] {
+        chlist.extend(c.as_bytes());
+        chlist.push(0);
+        chlist.extend(2i32.to_le_bytes()); // FLOAT
+        chlist.extend([0u8, 0, 0, 0]); // pLinear + reserved
+        chlist.extend(1i32.to_le_bytes());
+        chlist.extend(1i32.to_le_bytes());
+    }
+    chlist.push(0);
+    attr(&mut out, "channels", "chlist", &chlist);
+    attr(&mut out, "compression", "compression", &[0]);
+    let window: Vec<u8> = [0, 0, w - 1, h - 1].iter().flat_map(|v| v.to_le_bytes()).collect();
+    attr(&mut out, "dataWindow", "box2i", &window);
+    attr(&mut out, "displayWindow", "box2i", &window);
+    attr(&mut out, "lineOrder", "lineOrder", &[0]);
+    attr(&mut out, "pixelAspectRatio", "float", &1f32.to_le_bytes());
+    attr(&mut out, "screenWindowCenter", "v2f", &[0u8; 8]);
+    attr(&mut out, "screenWindowWidth", "float", &1f32.to_le_bytes());
+    out.push(0);
+    let line_bytes = 3 * 4 * w as usize;
+    let table_end = out.len() + 8 * h as usize;
+    for y in 0..h as usize {
+        out.extend(((table_end + y * (8 + line_bytes)) as u64).to_le_bytes());
+    }
+    for y in 0..img.height {
+        out.extend((y as i32).to_le_bytes());
+        out.extend((line_bytes as i32).to_le_bytes());
+        for ch in [2usize, 1, 0] {
+            for x in 0..img.width {
+                out.extend(img.at(x, y)[ch].to_le_bytes());
+            }
+        }
+    }
+    out
+}

@@ -1,0 +1,148 @@
+//! The asynchronous engine: only what a change invalidates is redone, the
+//! caller never waits for a solve, and failures keep the last good result.
+
+use glam::Vec3;
+use linkgi::engine::{Change, Engine, EngineParams};
+use linkgi::scene::deform::deform_scene;
+use linkgi::scene::{builtin, prep, Bounces, Light};
+use linkgi::solver::{Compute, SolveParams};
+use std::time::Duration;
+
+const WAIT: Duration = Duration::from_secs(120);
+
+fn start(name: &str, rays: u32, delay_ms: u64) -> (Engine, prep::PreparedScene) {
+    let mut desc = builtin::builtin(name).unwrap();
+    desc.settings.rays_per_vertex = rays;
+    let scene = prep::prepare(&desc).unwrap();
+    let params = SolveParams::from_settings(&scene.settings);
+    let opts = EngineParams { delay: Duration::from_millis(delay_ms) };
+    (Engine::start(scene.clone(), params, Compute::Cpu, opts), scene)
+}
+
+fn first_point(scene: &prep::PreparedScene) -> (Vec3, Vec3) {
+    match scene.lights[0] {
+        Light::Point { position, intensity } => (position, intensity),
+        _ => panic!("first light is not a point light"),
+    }
+}
+
+#[test]
+fn moving_a_light_redoes_light_links_and_gather_only() {
+    let (mut e, scene) = start("cornell", 16, 0);
+    assert!(e.wait_idle(WAIT));
+    let c0 = e.counters();
+    assert_eq!((c0.kd_builds, c0.link_builds, c0.light_link_updates, c0.gathers, c0.published), (1, 1, 1, 1, 1));
+    let v0 = e.latest().unwrap();
+    let (p, i) = first_point(&scene);
+    for k in 1..=3 {
+        e.send(Change::MoveLight {
+            index: 0,
+            light: Light::Point { position: p - Vec3::X * 0.1 * k as f32, intensity: i },
+        });
+        assert!(e.wait_idle(WAIT));
+    }
+    let c = e.counters();
+    assert_eq!(c.kd_builds, 1, "a light move rebuilt the kd-tree");
+    assert_eq!(c.link_builds, 1, "a light move rebuilt the links");
+    assert_eq!(c.light_link_updates, 4);
+    assert_eq!(c.gathers, 4);
+    let v = e.latest().unwrap();
+    assert_eq!(v.version, 4);
+    assert!(v.e_direct != v0.e_direct, "the direct light did not change");
+    // A settings change of bounces only is a gather.
+    let mut s = scene.settings;
+    s.bounces = Bounces::Fixed(1);
+    e.send(Change::Settings(s));
+    assert!(e.wait_idle(WAIT));
+    let c = e.counters();
+    assert_eq!((c.kd_builds, c.light_link_updates, c.gathers), (1, 4, 5));
+    let one = e.latest().unwrap();
+    let sum = |v: &[Vec3]| v.iter().map(|x| x.element_sum()).sum::<f32>();
+    assert!(sum(&one.e_indirect) < sum(&v.e_indirect), "one bounce is not less than three");
+}
+
+#[test]
+fn static_scene_never_rebuilds_the_kd_tree() {
+    let (mut e, scene) = start("cornell", 16, 0);
+    let (p, i) = first_point(&scene);
+    e.send(Change::AddLight(Light::Directional {
+        direction: Vec3::new(0.2, -1.0, 0.1).normalize(),
+        irradiance: Vec3::ONE,
+    }));
+    e.send(Change::MoveLight { index: 0, light: Light::Point { position: p + Vec3::Z * 0.2, intensity: i } });
+    e.send(Change::RemoveLight(1));
+    // Moving a static mesh's vertices is refused, not a rebuild.
+    let moved: Vec<Vec3> = scene.positions.iter().map(|&q| q + Vec3::Y * 0.01).collect();
+    assert!(e.wait_idle(WAIT));
+    e.send(Change::Deform { positions: moved });
+    assert!(e.wait_idle(WAIT));
+    let c = e.counters();
+    assert_eq!(c.kd_builds, 1);
+    assert_eq!(c.link_builds, 1);
+    assert!(e.last_error().unwrap().contains("static mesh"), "{:?}", e.last_error());
+    assert_eq!(e.latest().unwrap().lights.len(), 1);
+}
+
+#[test]
+fn deforming_rebuilds_kd_tree_and_links() {
+    let (mut e, scene) = start("torso", 4, 100);
+    let (pos, _) = deform_scene(&scene, &scene.positions, &scene.normals, 1.0);
+    // Sent while the first solve runs: the two deformations coalesce into one rebuild.
+    e.send(Change::Deform { positions: pos.clone() });
+    e.send(Change::Deform { positions: pos });
+    assert!(e.wait_idle(WAIT));
+    let c = e.counters();
+    assert_eq!((c.kd_builds, c.link_builds, c.published, c.batches), (2, 2, 2, 2), "{c:?}");
+    assert!(c.rebuild_ms > 0.0);
+    // A light move afterwards is no rebuild.
+    let (p, i) = first_point(&scene);
+    e.send(Change::MoveLight { index: 0, light: Light::Point { position: p + Vec3::X * 0.1, intensity: i } });
+    assert!(e.wait_idle(WAIT));
+    let c = e.counters();
+    assert_eq!((c.kd_builds, c.link_builds, c.light_link_updates), (2, 2, 3), "{c:?}");
+}
+
+#[test]
+fn the_caller_keeps_running_during_a_slow_solve() {
+    let (mut e, scene) = start("cornell", 16, 300);
+    // The first solve is slow (300 ms extra); the loop keeps counting frames.
+    let mut frames = 0u64;
+    let mut frames_without_gi = 0u64;
+    while e.latest().is_none() {
+        frames += 1;
+        frames_without_gi += 1;
+        std::thread::sleep(Duration::from_millis(2));
+        assert!(frames < 1_000_000);
+    }
+    assert!(frames_without_gi > 5, "the loop ran only {frames_without_gi} frames while the first solve ran");
+    let (p, i) = first_point(&scene);
+    e.send(Change::MoveLight { index: 0, light: Light::Point { position: p + Vec3::X * 0.2, intensity: i } });
+    let mut frames_during_update = 0u64;
+    while e.latest().unwrap().version < 2 {
+        frames_during_update += 1;
+        // The render loop keeps using version 1 meanwhile.
+        assert_eq!(e.latest().unwrap().version, 1);
+        std::thread::sleep(Duration::from_millis(2));
+    }
+    assert!(frames_during_update > 5, "only {frames_during_update} frames during the update");
+}
+
+#[test]
+fn failures_keep_the_last_good_result() {
+    let (mut e, scene) = start("cornell", 16, 0);
+    assert!(e.wait_idle(WAIT));
+    let good = e.latest().unwrap();
+    e.send(Change::MoveLight { index: 7, light: scene.lights[0] });
+    assert!(e.wait_idle(WAIT));
+    assert!(e.last_error().unwrap().contains("move light 7"));
+    e.send(Change::Panic);
+    assert!(e.wait_idle(WAIT));
+    assert!(e.last_error().unwrap().contains("panicked"));
+    assert_eq!(e.counters().errors, 2);
+    assert_eq!(e.latest().unwrap().version, good.version, "a failed update published a result");
+    // The worker still works after a panic (it rebuilds from the last good scene).
+    let (p, i) = first_point(&scene);
+    e.send(Change::MoveLight { index: 0, light: Light::Point { position: p + Vec3::X * 0.1, intensity: i } });
+    assert!(e.wait_idle(WAIT));
+    assert_eq!(e.latest().unwrap().version, good.version + 1);
+}

@@ -1,0 +1,291 @@
+//! Rendered images of the Cornell box, checked against the scene's
+//! geometry: each pixel is classified with a primary ray through the
+//! kd-tree (floor near the red wall, near the green wall, in the light's
+//! shadow or lit), then the rendered radiance of those sets is compared.
+//! GPU tests run on any adapter (lavapipe in CI); with no adapter they fail
+//! when `CI` is set and skip with a message otherwise. The CPU fallback is
+//! tested everywhere and must agree with the GPU image.
+
+use glam::Vec3;
+use linkgi::gpu::{self, GpuDevice};
+use linkgi::kdtree::{KdBuildParams, KdTree, Ray};
+use linkgi::render::{self, cpu::render_cpu, gpu::GpuRenderer, Frame, HdrImage, RenderParams, View};
+use linkgi::scene::{builtin, prep, Light};
+use linkgi::solver::{Solution, SolveParams, Solver};
+use std::sync::{Arc, OnceLock};
+
+const W: u32 = 160;
+const H: u32 = 120;
+
+fn device() -> Option<Arc<GpuDevice>> {
+    static DEV: OnceLock<Option<Arc<GpuDevice>>> = OnceLock::new();
+    DEV.get_or_init(|| {
+        let d = gpu::open_all().into_iter().next();
+        match &d {
+            Some(d) => eprintln!("render tests on {}", d.describe()),
+            None if std::env::var_os("CI").is_some() => {
+                panic!("no graphics adapter in CI: install mesa-vulkan-drivers (lavapipe)")
+            }
+            None => eprintln!("SKIPPED: no graphics adapter (install mesa-vulkan-drivers for lavapipe)"),
+        }
+        d
+    })
+    .clone()
+}
+
+struct Cornell {
+    solver: Solver,
+    sol: Solution,
+    camera: linkgi::scene::Camera,
+}
+
+fn cornell() -> &'static Cornell {
+    static C: OnceLock<Cornell> = OnceLock::new();
+    C.get_or_init(|| {
+        let mut desc = builtin::builtin("cornell").unwrap();
+        desc.settings.rays_per_vertex = 64;
+        let scene = prep::prepare(&desc).unwrap();
+        let solver = Solver::new(scene, SolveParams::from_settings(&desc.settings), &|_, _| {});
+        let sol = solver.solve();
+        // Higher and steeper than the scene's camera, so the floor beside both walls is in view.
+        let camera = linkgi::scene::Camera {
+            position: Vec3::new(0.0, 1.75, 0.95),
+            target: Vec3::new(0.0, 0.0, -0.25),
+            fov_deg: 80.0,
+        };
+        Cornell { solver, sol, camera }
+    })
+}
+
+fn params(view: View) -> RenderParams {
+    RenderParams { width: W, height: H, view, shadow_size: 512, ..Default::default() }
+}
+
+#[derive(Clone, Copy, PartialEq)]
+enum Class {
+    FloorRed,
+    FloorGreen,
+    FloorShadow,
+    FloorLit,
+    Other,
+}
+
+/// Classifies each pixel by what its primary ray meets.
+fn classify(c: &Cornell) -> Vec<Vec<Class>> {
+    let s = &c.solver.scene;
+    let kd = &c.solver.kd;
+    let frame = Frame::of(s, &c.sol.e_indirect, c.camera);
+    let extent = frame.extent();
+    let Light::Point { position: light, .. } = s.lights[0] else { panic!() };
+    let mut out = Vec::new();
+    for y in 0..H {
+        let mut row = Vec::new();
+        for x in 0..W {
+            let ray = render::pixel_ray(&c.camera, W, H, extent, x, y);
+            let class = match kd.intersect(&ray) {
+                Some(hit) if hit.front => {
+                    let p = ray.origin + ray.dir * hit.t;
+                    if p.y.abs() > 1e-3 {
+                        Class::Other
+                    } else {
+                        // Shadow: the light is blocked from this floor point and from points 3 cm around it.
+                        let blocked = |q: Vec3| {
+                            let o = q + Vec3::Y * 1e-3;
+                            let d = light - o;
+                            kd.occluded(&Ray { tmax: d.length() * 0.999, ..Ray::new(o, d.normalize()) })
+                        };
+                        let around = [Vec3::ZERO, Vec3::X * 0.03, -Vec3::X * 0.03, Vec3::Z * 0.03, -Vec3::Z * 0.03];
+                        let n_blocked = around.iter().filter(|&&o| blocked(p + o)).count();
+                        if n_blocked == around.len() {
+                            Class::FloorShadow
+                        } else if p.x < -0.55 && n_blocked == 0 {
+                            Class::FloorRed
+                        } else if p.x > 0.55 && n_blocked == 0 {
+                            Class::FloorGreen
+                        } else if n_blocked == 0 {
+                            Class::FloorLit
+                        } else {
+                            Class::Other
+                        }
+                    }
+                }
+                _ => Class::Other,
+            };
+            row.push(class);
+        }
+        out.push(row);
+    }
+    out
+}
+
+fn classes() -> &'static Vec<Vec<Class>> {
+    static C: OnceLock<Vec<Vec<Class>>> = OnceLock::new();
+    C.get_or_init(|| classify(cornell()))
+}
+
+fn mean_of(img: &HdrImage, class: Class) -> (Vec3, usize) {
+    let cl = classes();
+    let mut sum = Vec3::ZERO;
+    let mut n = 0;
+    for y in 0..H {
+        for x in 0..W {
+            if cl[y as usize][x as usize] == class {
+                sum += img.at(x, y);
+                n += 1;
+            }
+        }
+    }
+    assert!(n >= 10, "only {n} pixels in class {}: the camera does not see enough floor", class as u32);
+    (sum / n as f32, n)
+}
+
+/// Colour bleeding, the box's shadow, and indirect light inside the shadow.
+fn check_image(name: &str, combined: &HdrImage, direct: &HdrImage, indirect: &HdrImage) {
+    // Red channel relative to green on the floor: higher near the red (left) wall.
+    let (red_side, _) = mean_of(indirect, Class::FloorRed);
+    let (green_side, _) = mean_of(indirect, Class::FloorGreen);
+    let ratio = |v: Vec3| v.x / v.y.max(1e-6);
+    assert!(
+        ratio(red_side) > 1.1 * ratio(green_side),
+        "{name}: no red bleeding: r/g near the red wall {red_side}, near the green wall {green_side}"
+    );
+    assert!(red_side.x > green_side.x, "{name}: red channel near the red wall {red_side} vs {green_side}");
+    // The shadow is darker than the open floor.
+    let (shadow, ns) = mean_of(combined, Class::FloorShadow);
+    let (lit, nl) = mean_of(combined, Class::FloorLit);
+    assert!(shadow.element_sum() < 0.6 * lit.element_sum(), "{name}: shadow {shadow} ({ns} px) vs lit {lit} ({nl} px)");
+    let (shadow_direct, _) = mean_of(direct, Class::FloorShadow);
+    let (lit_direct, _) = mean_of(direct, Class::FloorLit);
+    assert!(
+        shadow_direct.element_sum() < 0.1 * lit_direct.element_sum(),
+        "{name}: direct light in the shadow {shadow_direct} vs lit {lit_direct}"
+    );
+    // Indirect light reaches into the shadow.
+    let (shadow_indirect, _) = mean_of(indirect, Class::FloorShadow);
+    assert!(shadow_indirect.min_element() > 0.005, "{name}: indirect view is dark in the shadow: {shadow_indirect}");
+    assert!(shadow.element_sum() > 0.5 * shadow_indirect.element_sum(), "{name}: combined lost the indirect light");
+}
+
+fn render_views(f: impl Fn(View) -> HdrImage) -> (HdrImage, HdrImage, HdrImage) {
+    (f(View::Combined), f(View::Direct), f(View::Indirect))
+}
+
+fn save(name: &str, img: &HdrImage) {
+    let dir = std::path::Path::new(env!("CARGO_TARGET_TMPDIR")).join("render");
+    render::write_png(img, 0.6, &dir.join(name)).unwrap();
+}
+
+#[test]
+fn cpu_fallback_image() {
+    let c = cornell();
+    let frame = Frame::of(&c.solver.scene, &c.sol.e_indirect, c.camera);
+    let (comb, dir, ind) = render_views(|v| render_cpu(&frame, &params(v), Some(&c.solver.kd)).unwrap().0);
+    save("cornell-cpu.png", &comb);
+    check_image("cpu", &comb, &dir, &ind);
+}
+
+#[test]
+fn gpu_image_and_agreement_with_cpu() {
+    let Some(dev) = device() else { return };
+    let c = cornell();
+    let r = GpuRenderer::new(dev).unwrap();
+    let frame = Frame::of(&c.solver.scene, &c.sol.e_indirect, c.camera);
+    let (comb, dir, ind) = render_views(|v| r.render(&frame, &params(v)).unwrap().0);
+    save("cornell-gpu.png", &comb);
+    save("cornell-gpu-indirect.png", &ind);
+    check_image("gpu", &comb, &dir, &ind);
+    // CPU and GPU agree after tone mapping (shadow edges and PCF differ a little).
+    let cpu = render_cpu(&frame, &params(View::Combined), Some(&c.solver.kd)).unwrap().0;
+    let (a, b) = (render::tone_map(&comb, 0.6), render::tone_map(&cpu, 0.6));
+    let diff: f64 = a.as_raw().iter().zip(b.as_raw()).map(|(&x, &y)| (x as f64 - y as f64).abs()).sum::<f64>()
+        / a.as_raw().len() as f64
+        / 255.0;
+    assert!(diff < 0.03, "mean abs difference GPU vs CPU {diff:.4}");
+    // Indirect-only views agree more closely (no shadows involved).
+    let cpu_ind = render_cpu(&frame, &params(View::Indirect), Some(&c.solver.kd)).unwrap().0;
+    let d: f32 = ind.pixels.iter().zip(&cpu_ind.pixels).map(|(a, b)| (*a - *b).abs().element_sum()).sum::<f32>()
+        / ind.pixels.iter().map(|a| a.element_sum()).sum::<f32>();
+    assert!(d < 0.05, "indirect views differ by {d:.4} relative");
+}
+
+#[test]
+fn directional_lights_make_no_cube_shadow_maps() {
+    let Some(dev) = device() else { return };
+    let c = cornell();
+    let r = GpuRenderer::new(dev).unwrap();
+    let sun = [Light::Directional { direction: Vec3::new(0.3, -1.0, -0.2).normalize(), irradiance: Vec3::ONE }];
+    let mut frame = Frame::of(&c.solver.scene, &c.sol.e_indirect, c.camera);
+    frame.lights = &sun;
+    let (img, stats) = r.render(&frame, &params(View::Direct)).unwrap();
+    save("cornell-sun.png", &img);
+    assert_eq!((stats.cube_shadow_maps, stats.shadow_maps_2d, stats.shadow_layers), (0, 1, 1));
+    // The room is closed: the sun lights nothing inside it (but for receivers
+    // that lie exactly in a wall's plane, one-pixel lines along the corners,
+    // where wall and receiver have the same shadow-map depth).
+    let lit = img.pixels.iter().filter(|p| p.max_element() > 1e-3).count();
+    assert!(lit * 100 < img.pixels.len(), "sunlight leaked into the closed room: {lit} pixels lit");
+    // Point lights: one cube (six layers) each.
+    let both = [c.solver.scene.lights[0], sun[0]];
+    frame.lights = &both;
+    let (_, stats) = r.render(&frame, &params(View::Direct)).unwrap();
+    assert_eq!((stats.cube_shadow_maps, stats.shadow_maps_2d, stats.shadow_layers), (1, 1, 7));
+}
+
+#[test]
+fn kd_tree_of_frame_matches_solver() {
+    // The CPU renderer builds its own tree when none is given: same image.
+    let c = cornell();
+    let frame = Frame::of(&c.solver.scene, &c.sol.e_indirect, c.camera);
+    let p = RenderParams { width: 40, height: 30, ..params(View::Combined) };
+    let own = render_cpu(&frame, &p, None).unwrap().0;
+    let kd = KdTree::build(&c.solver.scene.positions, &c.solver.scene.triangles, &KdBuildParams::default());
+    let given = render_cpu(&frame, &p, Some(&kd)).unwrap().0;
+    assert_eq!(own, given);
+    assert!(own.pixels.iter().any(|p| p.max_element() > 0.01), "the image is black");
+}
+
+#[test]
+fn exr_holds_linear_radiance() {
+    let img = HdrImage {
+        width: 3,
+        height: 2,
+        pixels: (0..6).map(|i| Vec3::new(i as f32, 10.0 + i as f32, 100.0 + i as f32)).collect(),
+    };
+    let bytes = render::exr_bytes(&img);
+    assert_eq!(&bytes[..4], &[0x76, 0x2f, 0x31, 0x01]);
+    let text = String::from_utf8_lossy(&bytes);
+    for a in ["channels\0chlist", "compression\0compression", "dataWindow\0box2i", "lineOrder\0lineOrder"] {
+        assert!(text.contains(a), "missing attribute {a}");
+    }
+    // The offset table points at each scanline block: y, size, then B, G, R rows of f32.
+    let line = 3 * 4 * 3;
+    let header_end = bytes.len() - 2 * (8 + line) - 16;
+    let off1 = u64::from_le_bytes(bytes[header_end + 8..header_end + 16].try_into().unwrap()) as usize;
+    assert_eq!(i32::from_le_bytes(bytes[off1..off1 + 4].try_into().unwrap()), 1);
+    assert_eq!(i32::from_le_bytes(bytes[off1 + 4..off1 + 8].try_into().unwrap()), line as i32);
+    let f = |o: usize| f32::from_le_bytes(bytes[o..o + 4].try_into().unwrap());
+    // Pixel (2, 1) is index 5: B = 105 at channel 0, R = 5 at channel 2.
+    assert_eq!(f(off1 + 8 + 2 * 4), 105.0);
+    assert_eq!(f(off1 + 8 + 3 * 4 + 2 * 4), 15.0);
+    assert_eq!(f(off1 + 8 + 6 * 4 + 2 * 4), 5.0);
+}
+
+#[test]
+fn bad_frames_are_errors() {
+    let c = cornell();
+    let mut frame = Frame::of(&c.solver.scene, &c.sol.e_indirect, c.camera);
+    let many = vec![c.solver.scene.lights[0]; 9];
+    frame.lights = &many;
+    let p = RenderParams { width: 8, height: 6, ..params(View::Combined) };
+    let e = render_cpu(&frame, &p, None).unwrap_err().to_string();
+    assert!(e.contains("9 lights") && e.contains("at most 8"), "{e}");
+    let short = vec![Vec3::ZERO; 5];
+    let mut frame = Frame::of(&c.solver.scene, &short, c.camera);
+    frame.lights = &c.solver.scene.lights;
+    let e = render_cpu(&frame, &p, None).unwrap_err().to_string();
+    assert!(e.contains("5 indirect values"), "{e}");
+    if let Some(dev) = device() {
+        let r = GpuRenderer::new(dev).unwrap();
+        assert!(r.render(&frame, &p).unwrap_err().to_string().contains("5 indirect values"));
+    }
+}
