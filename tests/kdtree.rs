@@ -2,7 +2,7 @@
 //! brute force on random and degenerate meshes.
 
 use glam::Vec3;
-use linkgi::kdtree::traverse::{brute_force, NO_SKIP};
+use linkgi::kdtree::traverse::brute_force;
 use linkgi::kdtree::{Hit, KdBuildParams, KdTree, Ray};
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg32;
