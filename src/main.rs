@@ -60,6 +60,8 @@ enum Command {
     Render(cli::render::RenderArgs),
     /// Animate: move the first light, run deformers, render every frame with the async engine's GI.
     Animate(cli::animate::AnimateArgs),
+    /// Interactive window: orbit, move lights, deform, switch views while GI updates (see README).
+    View(cli::view::ViewArgs),
     /// Write the built-in scenes as .toml + .obj + .mtl files into DIR.
     Scenes {
         #[arg(default_value = "scenes")]
@@ -83,6 +85,7 @@ fn main() -> Result<()> {
         Some(Command::Solve(args)) => cli::solve::run(args),
         Some(Command::Render(args)) => cli::render::run(args),
         Some(Command::Animate(args)) => cli::animate::run(args),
+        Some(Command::View(args)) => cli::view::run(args),
         Some(Command::Bench { scenes, backend, rays, runs, json, markdown }) => {
             cli::bench::run(cli::bench::Args { scenes, backend, rays, runs, json, markdown })
         }

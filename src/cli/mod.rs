@@ -5,3 +5,4 @@ pub mod bench;
 pub mod error;
 pub mod render;
 pub mod solve;
+pub mod view;

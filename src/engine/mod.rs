@@ -71,6 +71,10 @@ pub struct GiResult {
     pub published: Instant,
     /// Time from taking the batch of changes to publishing, ms.
     pub update_ms: f64,
+    /// Merged vertex links of the solver that produced the result.
+    pub links: u64,
+    /// Bounces the gather ran.
+    pub bounces: u32,
 }
 
 /// What the worker has done so far and the stage times of its last update.
@@ -367,6 +371,8 @@ impl Worker {
             let version = total.published + 1;
             let result = Arc::new(GiResult {
                 version,
+                links: s.links.stats.merged_links,
+                bounces: sol.gather.bounces,
                 e_indirect: sol.e_indirect,
                 e_direct: sol.e_direct,
                 lights: s.scene.lights.clone(),
