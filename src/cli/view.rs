@@ -430,10 +430,6 @@ impl Viewer {
             img.save_with_format(&path, image::ImageFormat::Png)
                 .with_context(|| format!("writing {}", path.display()))?;
             eprintln!("wrote {}", path.display());
-            // The screenshot action is done once its frame is written.
-            if self.script.get(self.script_pos).is_some_and(|s| matches!(s.action, Action::Screenshot(_))) {
-                self.script_pos += 1;
-            }
         }
         self.hud(&window, gi.as_deref());
         Ok(())
