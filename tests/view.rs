@@ -60,6 +60,7 @@ fn scripted_view_writes_screenshots_that_follow_the_script() {
          0 screenshot b.png\n\
          0 view indirect\n\
          0 screenshot c.png\n\
+         0 screenshot c2.png\n\
          0 quit\n",
     )
     .unwrap();
@@ -93,6 +94,9 @@ fn scripted_view_writes_screenshots_that_follow_the_script() {
     eprintln!("mean abs diff a-b {ab:.2}, b-c {bc:.2}");
     assert!(ab > 5.0, "moving the light barely changed the picture (mean abs diff {ab:.2})");
     assert!(bc > 5.0, "the indirect view looks like the combined one (mean abs diff {bc:.2})");
+    // Two screenshots in a row both run, of the same unchanged view.
+    let c2 = load(&shots.join("c2.png"));
+    assert!(mean_abs_diff(&c, &c2) < 1.0, "c2.png differs from c.png");
     // Not a black or blank window: the shown image has contrast.
     let (lo, hi) = a.as_raw().iter().fold((255u8, 0u8), |(l, h), &v| (l.min(v), h.max(v)));
     assert!(hi as i32 - lo as i32 > 100, "screenshot a has no contrast ({lo}..{hi})");
