@@ -94,6 +94,10 @@ fn scripted_view_writes_screenshots_that_follow_the_script() {
     eprintln!("mean abs diff a-b {ab:.2}, b-c {bc:.2}");
     assert!(ab > 5.0, "moving the light barely changed the picture (mean abs diff {ab:.2})");
     assert!(bc > 5.0, "the indirect view looks like the combined one (mean abs diff {bc:.2})");
+    // The indirect view shows the engine's GI: zero GI would draw it black.
+    let c_mean = c.as_raw().iter().map(|&v| v as f64).sum::<f64>() / c.as_raw().len() as f64;
+    eprintln!("mean of c {c_mean:.1}");
+    assert!(c_mean > 20.0, "the indirect view is (nearly) black: mean {c_mean:.1}; was the GI shown?");
     // Two screenshots in a row both run, of the same unchanged view.
     let c2 = load(&shots.join("c2.png"));
     assert!(mean_abs_diff(&c, &c2) < 1.0, "c2.png differs from c.png");
