@@ -603,6 +603,9 @@ pub fn run(args: ViewArgs) -> Result<()> {
         }
         None => (Vec::new(), PathBuf::new()),
     };
+    // Before the scene and the engine: no display fails fast.
+    let event_loop = EventLoop::new().context("opening the window system (is DISPLAY or WAYLAND_DISPLAY set?)")?;
+    event_loop.set_control_flow(ControlFlow::Poll);
     let mut desc = scene::load(&args.scene)?;
     for w in &desc.warnings {
         eprintln!("warning: {w}");
@@ -637,8 +640,6 @@ pub fn run(args: ViewArgs) -> Result<()> {
         compute,
         EngineParams::default(),
     );
-    let event_loop = EventLoop::new().context("opening the window system (is DISPLAY or WAYLAND_DISPLAY set?)")?;
-    event_loop.set_control_flow(ControlFlow::Poll);
     let n = prepared.positions.len();
     let mut viewer = Viewer {
         rest: prepared.positions.clone(),
