@@ -69,11 +69,14 @@ pub struct BenchParams {
     pub warmup: u32,
     /// Bounces timed (default 3, as the paper).
     pub bounces: u32,
+    /// Frames rendered (640 x 480, combined view, offscreen including
+    /// read-back) to measure render fps after the runs; 0 skips it (default 10).
+    pub render_frames: u32,
 }
 
 impl Default for BenchParams {
     fn default() -> Self {
-        Self { rays_per_vertex: 256, runs: 5, warmup: 1, bounces: 3 }
+        Self { rays_per_vertex: 256, runs: 5, warmup: 1, bounces: 3, render_frames: 10 }
     }
 }
 
@@ -137,6 +140,10 @@ pub struct BenchRow {
     pub k_shadow_rays_per_s: Stat,
     pub bounces_ms: Stat,
     pub first_solution_ms: Stat,
+    /// Offscreen frames per second of the renderer with the solved GI (NaN: not measured).
+    pub render_fps: f64,
+    /// The renderer used ("gpu: <adapter>" or "cpu fallback").
+    pub renderer: String,
 }
 
 impl BenchRow {
@@ -163,6 +170,8 @@ impl BenchRow {
             k_shadow_rays_per_s: st(|r| r.shadow_rays_per_s / 1e3),
             bounces_ms: st(|r| r.bounces_ms),
             first_solution_ms: st(|r| r.first_solution_ms),
+            render_fps: f64::NAN,
+            renderer: String::new(),
         }
     }
 }
@@ -184,7 +193,7 @@ pub fn run_once(
     scene: &prep::PreparedScene,
     params: &SolveParams,
     compute: &Compute,
-) -> crate::Result<(RunTimes, Sizes)> {
+) -> crate::Result<(RunTimes, Sizes, Vec<glam::Vec3>)> {
     let t0 = Instant::now();
     let solver = Solver::new_on(scene.clone(), *params, compute, &|_, _| {})?;
     let solution = solver.solve();
@@ -208,7 +217,25 @@ pub fn run_once(
         bytes_raw: l.raw_bytes,
         bytes_merged: l.merged_bytes,
     };
-    Ok((times, sizes))
+    Ok((times, sizes, solution.e_indirect))
+}
+
+/// Frames per second of `frames` offscreen renders of `scene` with `e_indirect`.
+fn render_fps(
+    desc: &SceneDesc,
+    scene: &prep::PreparedScene,
+    e_indirect: &[glam::Vec3],
+    frames: u32,
+) -> crate::Result<(f64, String)> {
+    let renderer = crate::render::Renderer::open(crate::gpu::Backend::Auto);
+    let frame = crate::render::Frame::of(scene, e_indirect, desc.camera);
+    let params = crate::render::RenderParams::default();
+    renderer.render(&frame, &params)?; // warm-up: pipelines, shadow maps
+    let t = Instant::now();
+    for _ in 0..frames {
+        renderer.render(&frame, &params)?;
+    }
+    Ok((frames as f64 / t.elapsed().as_secs_f64().max(1e-9), renderer.describe()))
 }
 
 /// Benchmarks one scene: `warmup` unmeasured runs, then `runs` measured
@@ -230,14 +257,21 @@ pub fn run_scene(
     }
     let mut runs = Vec::new();
     let mut sizes = Sizes::default();
+    let mut e_indirect = Vec::new();
     for _ in 0..params.runs.max(1) {
-        let (t, s) = run_once(&scene, &solve_params, compute)?;
+        let (t, s, e) = run_once(&scene, &solve_params, compute)?;
         runs.push(t);
         sizes = s;
+        e_indirect = e;
         progress();
     }
     let mut row = BenchRow::from_runs(&desc.name, &sizes, params.rays_per_vertex, &runs);
     row.backend = label.clone();
     row.device = compute.describe();
+    if params.render_frames > 0 {
+        let (fps, renderer) = render_fps(&desc, &scene, &e_indirect, params.render_frames)?;
+        row.render_fps = fps;
+        row.renderer = renderer;
+    }
     Ok(row)
 }

@@ -47,13 +47,13 @@ pub fn markdown(rows: &[BenchRow]) -> String {
     let _ = writeln!(out, "\n### Times (median [min, max] of {runs} runs, 3 bounces)\n");
     let _ = writeln!(
         out,
-        "| scene | source | kd ms | links ms | k rays/s | light links ms | k shadow rays/s | bounces ms | first solution s |"
+        "| scene | source | kd ms | links ms | k rays/s | light links ms | k shadow rays/s | bounces ms | first solution s | fps |"
     );
-    let _ = writeln!(out, "|---|---|---|---|---|---|---|---|---|");
+    let _ = writeln!(out, "|---|---|---|---|---|---|---|---|---|---|");
     for r in rows {
         let _ = writeln!(
             out,
-            "| {} | linkgi {} | {} | {} | {} | {} | {} | {} | {} |",
+            "| {} | linkgi {} | {} | {} | {} | {} | {} | {} | {} | {} |",
             r.scene,
             r.backend,
             stat(&r.kd_ms, 1),
@@ -70,11 +70,12 @@ pub fn markdown(rows: &[BenchRow]) -> String {
                 },
                 2
             ),
+            if r.render_fps.is_finite() { format!("{:.1}", r.render_fps) } else { String::new() },
         );
         for p in paper_rows(&r.scene) {
             let _ = writeln!(
                 out,
-                "| {} | paper, {} GPU{} | {:.0} | {:.0} | {:.0} | {:.0} | | {:.0} | {:.1} |",
+                "| {} | paper, {} GPU{} | {:.0} | {:.0} | {:.0} | {:.0} | | {:.0} | {:.1} | {:.1} |",
                 p.name,
                 p.gpus,
                 if p.gpus > 1 { "s" } else { "" },
@@ -83,7 +84,8 @@ pub fn markdown(rows: &[BenchRow]) -> String {
                 p.k_rays_per_s,
                 p.light_links_ms,
                 p.bounces_ms,
-                p.first_frame_s
+                p.first_frame_s,
+                p.fps
             );
         }
     }
