@@ -80,3 +80,26 @@ pub fn checked<T>(dev: &GpuDevice, what: &str, f: impl FnOnce() -> T) -> Result<
         None => Ok(out),
     }
 }
+
+/// Compiles `source` once; the returned function builds the compute
+/// pipeline of one entry point (labelled with its name, layout from the shader).
+pub fn compute_pipelines<'a>(
+    d: &'a wgpu::Device,
+    label: &str,
+    source: &'static str,
+) -> impl Fn(&str) -> wgpu::ComputePipeline + 'a {
+    let module = d.create_shader_module(wgpu::ShaderModuleDescriptor {
+        label: Some(label),
+        source: wgpu::ShaderSource::Wgsl(source.into()),
+    });
+    move |entry: &str| {
+        d.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+            label: Some(entry),
+            layout: None,
+            module: &module,
+            entry_point: Some(entry),
+            compilation_options: Default::default(),
+            cache: None,
+        })
+    }
+}

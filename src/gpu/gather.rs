@@ -8,7 +8,7 @@
 //! links of `u32` targets) are cut into segments of whole rows, each with
 //! its own buffers, gathered by one dispatch each.
 
-use super::buffers::{checked, dispatch_size, read_back, storage_init, uniform_init};
+use super::buffers::{checked, compute_pipelines, dispatch_size, read_back, storage_init, uniform_init};
 use super::context::GpuDevice;
 use super::layout::{GatherUniforms, GATHER_WGSL};
 use crate::error::Result;
@@ -82,21 +82,10 @@ impl GpuLinks {
     }
 
     fn upload(dev: Arc<GpuDevice>, links: &Links, albedo: &[Vec3], max_links: usize) -> GpuLinks {
-        let d = &dev.device;
-        let module = d.create_shader_module(wgpu::ShaderModuleDescriptor {
-            label: Some("gather.wgsl"),
-            source: wgpu::ShaderSource::Wgsl(GATHER_WGSL.into()),
-        });
-        let pipeline = |entry: &str| {
-            d.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-                label: Some(entry),
-                layout: None,
-                module: &module,
-                entry_point: Some(entry),
-                compilation_options: Default::default(),
-                cache: None,
-            })
-        };
+        let device = dev.device.clone();
+        let d = &device;
+        let pipelines = compute_pipelines(d, "gather.wgsl", GATHER_WGSL);
+        let pipeline = |entry: &str| pipelines(entry);
         let n = links.vertex_count() as u32;
         let groups = dispatch_size(n, WORKGROUP, dev.limits.max_compute_workgroups_per_dimension);
         let max_dim = dev.limits.max_compute_workgroups_per_dimension;

@@ -2,7 +2,7 @@
 //! pipelines of `shaders/shoot.wgsl`. The tree is uploaded once; each call
 //! traces one batch and reads its results back.
 
-use super::buffers::{checked, dispatch_size, read_back, storage_init, uniform_init};
+use super::buffers::{checked, compute_pipelines, dispatch_size, read_back, storage_init, uniform_init};
 use super::context::GpuDevice;
 use super::layout::{RayVertex, ShadowRay, TraceParams, SHOOT_WGSL};
 use crate::error::Result;
@@ -44,21 +44,10 @@ impl GpuTracer {
     }
 
     fn upload(dev: Arc<GpuDevice>, kd: &KdTree) -> Result<GpuTracer> {
-        let d = &dev.device;
-        let module = d.create_shader_module(wgpu::ShaderModuleDescriptor {
-            label: Some("shoot.wgsl"),
-            source: wgpu::ShaderSource::Wgsl(SHOOT_WGSL.into()),
-        });
-        let pipeline = |entry: &str| {
-            d.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-                label: Some(entry),
-                layout: None,
-                module: &module,
-                entry_point: Some(entry),
-                compilation_options: Default::default(),
-                cache: None,
-            })
-        };
+        let device = dev.device.clone();
+        let d = &device;
+        let pipelines = compute_pipelines(d, "shoot.wgsl", SHOOT_WGSL);
+        let pipeline = |entry: &str| pipelines(entry);
         let shoot = pipeline("shoot_rays");
         let visibility = pipeline("light_visibility");
         Ok(GpuTracer {
