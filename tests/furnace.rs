@@ -12,21 +12,11 @@ mod common;
 use glam::Vec3;
 use linkgi::scene::{builtin, Bounces};
 
-fn mesh_area(s: &linkgi::scene::prep::PreparedScene) -> f32 {
-    s.triangles
-        .iter()
-        .map(|t| {
-            let [a, b, c] = t.map(|i| s.positions[i as usize]);
-            0.5 * (b - a).cross(c - a).length()
-        })
-        .sum()
-}
-
 /// Returns (mean relative error, max per-vertex relative error) of smoothed E_i.
 fn furnace_error(rho: f32, light: Vec3, intensity: f32, bounces: Bounces) -> (f32, f32, u32) {
     let desc = common::with_settings(builtin::furnace(rho, 4, light, intensity), 256, bounces, 30.0);
     let (solver, sol) = common::solve(&desc);
-    let r2 = mesh_area(&solver.scene) / (4.0 * std::f32::consts::PI);
+    let r2 = common::mesh_area(&solver.scene) / (4.0 * std::f32::consts::PI);
     let expect = rho / (1.0 - rho) * intensity / r2;
     let mut max_err = 0f32;
     for e in &sol.e_indirect {
@@ -65,7 +55,7 @@ fn fixed_bounces_truncate_the_series() {
     let rho = 0.5f32;
     let desc = common::with_settings(builtin::furnace(rho, 3, Vec3::ZERO, 2.0), 64, Bounces::Fixed(3), 30.0);
     let (solver, sol) = common::solve(&desc);
-    let r2 = mesh_area(&solver.scene) / (4.0 * std::f32::consts::PI);
+    let r2 = common::mesh_area(&solver.scene) / (4.0 * std::f32::consts::PI);
     let expect = rho * (1.0 - rho.powi(3)) / (1.0 - rho) * 2.0 / r2;
     let mean = common::mean(&sol.e_indirect).x;
     assert!((mean / expect - 1.0).abs() < 0.02, "mean {mean} expected {expect}");

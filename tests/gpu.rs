@@ -9,7 +9,7 @@ mod common;
 use glam::Vec3;
 use linkgi::exchange::{self, gather::drive, GatherParams, LightLinks};
 use linkgi::gpu::{self, schedule, GpuDevice, GpuLinks, GpuTracer};
-use linkgi::links::{HitRecord, LinkParams, RaySetup};
+use linkgi::links::{LinkParams, RaySetup};
 use linkgi::scene::{self, prep, Bounces};
 use linkgi::solver::{Compute, GpuCompute, SolveParams, Solver};
 use std::sync::{Arc, OnceLock};
@@ -281,9 +281,4 @@ fn gpu_light_links_follow_a_moved_light() {
     }
     let after = solver.solve();
     assert!(rel(common::mean(&before.e_direct), common::mean(&after.e_direct), 1e-30) > 1e-3, "direct light changed");
-}
-
-#[allow(dead_code)]
-fn _hit_is_pod(h: HitRecord) -> [u8; 16] {
-    bytemuck::cast(h)
 }

@@ -8,16 +8,6 @@ use linkgi::reference::{self, ReferenceParams};
 use linkgi::scene::{builtin, prep, Bounces};
 use std::time::Instant;
 
-fn mesh_area(s: &prep::PreparedScene) -> f32 {
-    s.triangles
-        .iter()
-        .map(|t| {
-            let [a, b, c] = t.map(|i| s.positions[i as usize]);
-            0.5 * (b - a).cross(c - a).length()
-        })
-        .sum()
-}
-
 /// Inside a closed sphere (effective radius R from the mesh area) with
 /// albedo rho and a point light of intensity I anywhere inside, every
 /// vertex has `E_i = rho / (1 - rho) * I / R^2` (tests/furnace.rs).
@@ -30,7 +20,7 @@ fn reference_furnace_within_one_percent() {
         let t = Instant::now();
         let r = reference::compute(&scene, &params);
         let secs = t.elapsed().as_secs_f64();
-        let r2 = mesh_area(&scene) / (4.0 * std::f32::consts::PI);
+        let r2 = common::mesh_area(&scene) / (4.0 * std::f32::consts::PI);
         let expect = rho / (1.0 - rho) * intensity / r2;
         let mut max_err = 0f32;
         let mut max_z = 0f32;

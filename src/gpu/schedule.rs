@@ -91,8 +91,7 @@ pub fn ray_vertices(setup: &RaySetup) -> Vec<RayVertex> {
 /// traces them; the CPU decides, so both paths agree).
 pub fn fix_wedges(setup: &RaySetup, v: usize, hits: &mut [HitRecord]) {
     let wedges = setup.wedges(v);
-    for (k, h) in hits.iter_mut().enumerate() {
-        let d = setup.direction(v, k);
+    for (h, d) in hits.iter_mut().zip(setup.world_directions(v)) {
         if let Some(w) = wedges.iter().find(|w| w.dives_under(d)) {
             *h = w.self_hit();
         }

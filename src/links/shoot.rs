@@ -126,22 +126,20 @@ impl RaySetup {
         &self.wedges[self.wedge_offsets[v] as usize..self.wedge_offsets[v + 1] as usize]
     }
 
-    /// World direction of ray `k` of vertex `v`.
+    /// World directions of all rays of vertex `v`, in ray order (the frame
+    /// is computed once).
     #[inline]
-    pub fn direction(&self, v: usize, k: usize) -> Vec3 {
+    pub fn world_directions(&self, v: usize) -> impl Iterator<Item = Vec3> + '_ {
         let (t, b, n) = vertex_frame(self.normals[v], self.rotations[v]);
-        let d = self.directions.dirs[k];
-        (t * d.x + b * d.y + n * d.z).normalize()
+        self.directions.dirs.iter().map(move |d| (t * d.x + b * d.y + n * d.z).normalize())
     }
 
     /// Traces all rays of vertex `v` on the CPU into `out` (one record per ray).
     pub fn trace_vertex(&self, kd: &KdTree, v: usize, out: &mut Vec<HitRecord>) {
         out.clear();
-        let (t, b, n) = vertex_frame(self.normals[v], self.rotations[v]);
         let origin = self.origins[v];
         let wedges = self.wedges(v);
-        for d in &self.directions.dirs {
-            let dir = (t * d.x + b * d.y + n * d.z).normalize();
+        for dir in self.world_directions(v) {
             if let Some(w) = wedges.iter().find(|w| w.dives_under(dir)) {
                 out.push(w.self_hit());
                 continue;

@@ -34,3 +34,14 @@ pub fn with_settings(mut desc: SceneDesc, rays: u32, bounces: Bounces, smoothing
 pub fn mean(v: &[Vec3]) -> Vec3 {
     v.iter().copied().sum::<Vec3>() / v.len() as f32
 }
+
+/// Total area of the scene's triangles, m^2.
+pub fn mesh_area(s: &prep::PreparedScene) -> f32 {
+    s.triangles
+        .iter()
+        .map(|t| {
+            let [a, b, c] = t.map(|i| s.positions[i as usize]);
+            0.5 * (b - a).cross(c - a).length()
+        })
+        .sum()
+}
