@@ -1,7 +1,7 @@
 //! Every struct shared with WGSL has the same size and field offsets in
 //! Rust and in the shaders (parsed with naga). No GPU needed.
 
-use linkgi::gpu::layout::{shared_structs, GATHER_WGSL, RENDER_WGSL, SHOOT_WGSL};
+use linkgi::gpu::layout::{shared_structs, GATHER_WGSL, RENDER_WGSL, SHOOT_WGSL, TONEMAP_WGSL};
 use std::collections::HashMap;
 
 /// `name -> (size, [(field, offset)])` of every struct in a WGSL source.
@@ -23,6 +23,7 @@ fn shared_structs_match_wgsl() {
         ("shoot.wgsl", wgsl_structs(SHOOT_WGSL, "shoot.wgsl")),
         ("gather.wgsl", wgsl_structs(GATHER_WGSL, "gather.wgsl")),
         ("render.wgsl", wgsl_structs(RENDER_WGSL, "render.wgsl")),
+        ("tonemap.wgsl", wgsl_structs(TONEMAP_WGSL, "tonemap.wgsl")),
     ];
     for s in shared_structs() {
         let mut seen = 0;
@@ -44,7 +45,7 @@ fn every_wgsl_struct_outside_the_shader_is_listed() {
     // LightGpu and column-major 4x4 matrices; VsOut is stage-internal.)
     let internal = ["Shear", "Best", "VsOut", "LightArray", "ShadowMatrices"];
     let listed: Vec<&str> = shared_structs().iter().map(|s| s.name).collect();
-    for src in [SHOOT_WGSL, GATHER_WGSL, RENDER_WGSL] {
+    for src in [SHOOT_WGSL, GATHER_WGSL, RENDER_WGSL, TONEMAP_WGSL] {
         for name in wgsl_structs(src, "shader").keys() {
             assert!(listed.contains(&name.as_str()) || internal.contains(&name.as_str()), "{name} has no Rust twin");
         }

@@ -289,3 +289,38 @@ fn bad_frames_are_errors() {
         assert!(r.render(&frame, &p).unwrap_err().to_string().contains("5 indirect values"));
     }
 }
+
+/// The display pass (`tonemap.wgsl`, used by the viewer's window) agrees with
+/// the CPU tone map of the read-back image, for a linear target (the shader
+/// applies the sRGB curve) and an sRGB one (the hardware does), and calls the
+/// overlay once per target.
+#[test]
+fn gpu_display_pass_matches_cpu_tone_map() {
+    let Some(dev) = device() else { return };
+    let c = cornell();
+    let r = GpuRenderer::new(dev.clone()).unwrap();
+    let frame = Frame::of(&c.solver.scene, &c.sol.e_indirect, c.camera);
+    for exposure in [0.6f32, 4.0] {
+        let p = RenderParams { exposure, ..params(View::Combined) };
+        let cpu = render::tone_map(&r.render(&frame, &p).unwrap().0, exposure);
+        for format in [wgpu::TextureFormat::Rgba8Unorm, wgpu::TextureFormat::Bgra8UnormSrgb] {
+            let pass = render::present::ToneMapPass::new(&dev, format).unwrap();
+            let tex = render::present::offscreen_target(&dev, W, H, format);
+            let view = tex.create_view(&Default::default());
+            let mut overlays = 0;
+            r.present(&frame, &p, &pass, &[&view], |_, _| {
+                overlays += 1;
+                Ok(())
+            })
+            .unwrap();
+            assert_eq!(overlays, 1);
+            let gpu = render::present::read_back_rgb8(&dev, &tex).unwrap();
+            let diffs: Vec<u8> = gpu.as_raw().iter().zip(cpu.as_raw()).map(|(&a, &b)| a.abs_diff(b)).collect();
+            let max = *diffs.iter().max().unwrap();
+            let mean = diffs.iter().map(|&d| d as f64).sum::<f64>() / diffs.len() as f64;
+            assert!(max <= 2 && mean < 0.2, "{format:?} exposure {exposure}: max diff {max}, mean {mean:.3}");
+            // Not a black image: the lit scene shows.
+            assert!(gpu.as_raw().iter().map(|&v| v as u64).sum::<u64>() > 40 * gpu.as_raw().len() as u64);
+        }
+    }
+}

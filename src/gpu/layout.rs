@@ -103,6 +103,18 @@ pub struct LightGpu {
     pub _pad0: u32,
 }
 
+/// Uniforms of the display pass (`shaders/tonemap.wgsl`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct ToneMapUniforms {
+    /// Radiance scale before the ACES curve.
+    pub exposure: f32,
+    /// 1: the shader applies the sRGB curve; 0: the target format encodes.
+    pub encode_srgb: u32,
+    pub _pad0: u32,
+    pub _pad1: u32,
+}
+
 /// A struct shared with WGSL: name, size and `(field, offset)` pairs.
 pub struct SharedStruct {
     pub name: &'static str,
@@ -137,6 +149,7 @@ pub fn shared_structs() -> Vec<SharedStruct> {
             [view_proj, camera_pos, light_count, view_mode, normal_offset, shadow_texel, depth_bias]
         ),
         shared!(LightGpu, "LightGpu", [position, kind, color, layer, direction, _pad0]),
+        shared!(ToneMapUniforms, "ToneMapUniforms", [exposure, encode_srgb, _pad0, _pad1]),
     ]
 }
 
@@ -144,3 +157,4 @@ pub fn shared_structs() -> Vec<SharedStruct> {
 pub const SHOOT_WGSL: &str = include_str!("../../shaders/shoot.wgsl");
 pub const GATHER_WGSL: &str = include_str!("../../shaders/gather.wgsl");
 pub const RENDER_WGSL: &str = include_str!("../../shaders/render.wgsl");
+pub const TONEMAP_WGSL: &str = include_str!("../../shaders/tonemap.wgsl");

@@ -123,12 +123,16 @@ impl GpuRenderer {
         Ok(GpuRenderer { dev, main, shadow, sampler })
     }
 
-    /// Renders `frame` and reads back linear radiance.
-    pub fn render(&self, frame: &Frame, params: &RenderParams) -> Result<(HdrImage, RenderStats)> {
+    /// Records the shadow passes and the main pass of `frame` into a new
+    /// encoder; returns it with the HDR target (`Rgba16Float`, linear
+    /// radiance; usable as a render attachment, copy source and texture).
+    pub fn encode(
+        &self,
+        frame: &Frame,
+        params: &RenderParams,
+    ) -> Result<(wgpu::CommandEncoder, wgpu::Texture, RenderStats)> {
         frame.validate()?;
-        let t0 = Instant::now();
         let d = &self.dev.device;
-        let scope = d.push_error_scope(wgpu::ErrorFilter::Validation);
         let (w, h) = (params.width.max(1), params.height.max(1));
         let max_dim = self.dev.limits.max_texture_dimension_2d;
         if w > max_dim || h > max_dim {
@@ -262,7 +266,9 @@ impl GpuRenderer {
             sample_count: 1,
             dimension: wgpu::TextureDimension::D2,
             format: HDR_FORMAT,
-            usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
+            usage: wgpu::TextureUsages::RENDER_ATTACHMENT
+                | wgpu::TextureUsages::COPY_SRC
+                | wgpu::TextureUsages::TEXTURE_BINDING,
             view_formats: &[],
         });
         let depth = d.create_texture(&wgpu::TextureDescriptor {
@@ -334,6 +340,16 @@ impl GpuRenderer {
             pass.set_index_buffer(ibuf.slice(..), wgpu::IndexFormat::Uint32);
             pass.draw_indexed(0..index_count, 0, 0..1);
         }
+        Ok((enc, hdr, stats))
+    }
+
+    /// Renders `frame` and reads back linear radiance.
+    pub fn render(&self, frame: &Frame, params: &RenderParams) -> Result<(HdrImage, RenderStats)> {
+        let t0 = Instant::now();
+        let d = &self.dev.device;
+        let scope = d.push_error_scope(wgpu::ErrorFilter::Validation);
+        let (mut enc, hdr, mut stats) = self.encode(frame, params)?;
+        let (w, h) = (hdr.width(), hdr.height());
         let row = (w as u64 * 8).next_multiple_of(256);
         let staging = d.create_buffer(&wgpu::BufferDescriptor {
             label: Some("hdr read-back"),

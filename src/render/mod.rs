@@ -20,6 +20,7 @@
 
 pub mod cpu;
 pub mod gpu;
+pub mod present;
 
 use crate::scene::prep::PreparedScene;
 use crate::scene::{Camera, Light};
