@@ -308,7 +308,7 @@ fn gpu_display_pass_matches_cpu_tone_map() {
             let tex = render::present::offscreen_target(&dev, W, H, format);
             let view = tex.create_view(&Default::default());
             let mut overlays = 0;
-            r.present(&frame, &p, &pass, &[&view], |_, _| {
+            r.present(&frame, &p, &pass, &[&view], |_, _, _| {
                 overlays += 1;
                 Ok(())
             })

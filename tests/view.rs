@@ -122,3 +122,204 @@ fn bad_script_names_file_and_line() {
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(err.contains("bad.txt:2") && err.contains("teleport"), "{err}");
 }
+
+/// `gi:` lines the viewer prints after each `wait_gi`: (version, links, rays, light 0 position, intensity).
+fn gi_lines(stdout: &str) -> Vec<(u64, u64, u32, glam::Vec3, f32)> {
+    stdout
+        .lines()
+        .filter_map(|l| l.strip_prefix("gi: "))
+        .map(|l| {
+            let w: Vec<&str> = l.split([' ', ',']).filter(|s| !s.is_empty()).collect();
+            let at = |key: &str| w.iter().position(|s| *s == key).unwrap_or_else(|| panic!("no {key} in gi line {l}"));
+            let num = |i: usize| -> f32 { w[i].parse().unwrap_or_else(|_| panic!("gi line {l}: '{}'", w[i])) };
+            let p = at("point");
+            (
+                w[at("version") + 1].parse().unwrap(),
+                w[at("links") + 1].parse().unwrap(),
+                w[at("rays") + 1].parse().unwrap(),
+                glam::Vec3::new(num(p + 1), num(p + 2), num(p + 3)),
+                num(at("intensity") + 1),
+            )
+        })
+        .collect()
+}
+
+/// Real window-system input: under Xvfb, `xdotool` drags a light in the Cornell box by
+/// its on-screen ring and orbits the camera with the mouse, between steps of
+/// a script; the panel's intensity and rays controls run through their
+/// script twins. Checks: the panel is drawn (window shot against scene
+/// shot), the light lands where the cursor ray meets the plane at its
+/// height, orbiting changes the view but not the light, doubling the
+/// intensity brightens the picture and the GI, and fewer rays give fewer links.
+#[test]
+fn mouse_drags_light_and_orbits_panel_shows() {
+    for tool in ["xvfb-run", "xdotool"] {
+        if !have(tool) {
+            if std::env::var_os("CI").is_some() {
+                panic!("{tool} is missing (apt-get install xvfb xdotool); the viewer mouse test cannot run in CI");
+            }
+            eprintln!("SKIPPED mouse_drags_light_and_orbits_panel_shows: {tool} not found");
+            return;
+        }
+    }
+    const MW: u32 = 640;
+    const MH: u32 = 480;
+    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("view_mouse");
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+
+    // Cornell's geometry with a camera that looks up at the light, which hangs off-centre.
+    let scenes = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes");
+    let toml = dir.join("lamp.toml");
+    let mut text = format!(
+        "[settings]\nrays_per_vertex = 64\n[camera]\nposition = [0.0, 1.0, 0.95]\ntarget = [0.0, 1.5, -0.5]\n\
+         fov_deg = 80.0\n[[light]]\nkind = \"point\"\nposition = [0.35, 1.8, -0.1]\nintensity = [4.0, 4.0, 4.0]\n"
+    );
+    for obj in ["cornell_0.obj", "cornell_1.obj"] {
+        text += &format!("[[mesh]]\nobj = {:?}\n", scenes.join(obj).display().to_string());
+    }
+    std::fs::write(&toml, text).unwrap();
+    let desc = linkgi::scene::load(toml.to_str().unwrap()).unwrap();
+    let scene = linkgi::scene::prep::prepare(&desc).unwrap();
+    let (light, intensity) = match scene.lights[0] {
+        linkgi::scene::Light::Point { position, intensity } => (position, intensity.max_element()),
+        _ => panic!("the first light is not a point light"),
+    };
+    let extent = linkgi::render::Frame::of(&scene, &scene.positions, desc.camera).extent();
+    let (view, proj) = linkgi::render::camera_matrices(&desc.camera, MW as f32 / MH as f32, extent * 4.0);
+    let clip = proj * view * light.extend(1.0);
+    let ndc = clip.truncate() / clip.w;
+    let (lx, ly) = ((ndc.x + 1.0) * 0.5 * MW as f32, (1.0 - ndc.y) * 0.5 * MH as f32);
+    assert!(clip.w > 0.0 && lx > 0.0 && ly > 0.0 && lx < MW as f32 && ly < MH as f32, "light off screen: {lx} {ly}");
+    let (x0, y0) = (lx.round() as i32, ly.round() as i32);
+    let (x1, y1) = (x0 + 60, y0 + 20);
+    // Expected drop point: the ray through the final cursor pixel meets y = light.y.
+    let ray = linkgi::render::pixel_ray(&desc.camera, MW, MH, extent, x1 as u32, y1 as u32);
+    let expected = ray.origin + ray.dir * ((light.y - ray.origin.y) / ray.dir.y);
+
+    let script = dir.join("script.txt");
+    std::fs::write(
+        &script,
+        format!(
+            "0 wait_gi\n0 screenshot a.png\n0 window_shot aw.png\n0 wait_file dragged\n0 wait_gi\n0 screenshot b.png\n\
+             0 wait_file orbited\n0 screenshot c.png\n0 set_intensity 0 {}\n0 wait_gi\n0 screenshot d.png\n\
+             0 set_rays 16\n0 wait_gi\n0 quit\n",
+            2.0 * intensity
+        ),
+    )
+    .unwrap();
+    let d = dir.display();
+    let driver = format!(
+        r#"set -u
+"$BIN" view "{toml}" --size {MW}x{MH} --script "{script}" --screenshot-dir "{d}" >"{d}/stdout.txt" 2>"{d}/stderr.txt" &
+pid=$!
+wait_for() {{
+  i=0
+  while [ ! -e "$1" ]; do
+    if ! kill -0 $pid 2>/dev/null; then echo "viewer exited before $1" >&2; exit 1; fi
+    i=$((i+1)); if [ $i -gt 3000 ]; then echo "timeout waiting for $1" >&2; kill $pid; exit 1; fi
+    sleep 0.1
+  done
+}}
+wait_for "{d}/aw.png"
+w=$(xdotool search --sync --name '^linkgi' | head -n 1)
+xdotool mousemove --window $w {x0} {y0} sleep 0.3 mousedown 1 sleep 0.3 \
+  mousemove --window $w {xm} {ym} sleep 0.3 mousemove --window $w {x1} {y1} sleep 0.3 mouseup 1 sleep 0.3
+touch "{d}/dragged"
+wait_for "{d}/b.png"
+xdotool mousemove --window $w 560 420 sleep 0.3 mousedown 1 sleep 0.3 \
+  mousemove --window $w 590 420 sleep 0.3 mousemove --window $w 620 430 sleep 0.3 mouseup 1 sleep 0.3
+touch "{d}/orbited"
+wait $pid
+"#,
+        script = script.display(),
+        toml = toml.display(),
+        xm = (x0 + x1) / 2,
+        ym = (y0 + y1) / 2,
+    );
+    let mut child = Command::new("xvfb-run")
+        .args(["-a", "sh", "-c", &driver])
+        .env("BIN", env!("CARGO_BIN_EXE_linkgi"))
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("start xvfb-run");
+    let start = Instant::now();
+    let status = loop {
+        if let Some(s) = child.try_wait().unwrap() {
+            break s;
+        }
+        if start.elapsed() > Duration::from_secs(400) {
+            let _ = child.kill();
+            panic!("the mouse test did not finish within 400 s");
+        }
+        std::thread::sleep(Duration::from_millis(50));
+    };
+    let out = child.wait_with_output().unwrap();
+    let stdout = std::fs::read_to_string(dir.join("stdout.txt")).unwrap_or_default();
+    let stderr = std::fs::read_to_string(dir.join("stderr.txt")).unwrap_or_default();
+    eprintln!("driver stderr:\n{}\nviewer stdout:\n{stdout}\nviewer stderr:\n{stderr}", String::from_utf8_lossy(&out.stderr));
+    assert!(status.success(), "viewer or driver failed: {status}");
+
+    let load = |name: &str| {
+        let img = image::open(dir.join(name)).unwrap_or_else(|e| panic!("{name}: {e}")).to_rgb8();
+        assert_eq!((img.width(), img.height()), (MW, MH), "{name} has the wrong size");
+        img
+    };
+    let (a, aw, b, c, dd) = (load("a.png"), load("aw.png"), load("b.png"), load("c.png"), load("d.png"));
+
+    // The panel: where the window shot differs from the scene shot, but for the light's ring.
+    let near_ring = |x: u32, y: u32| (x as f32 - lx).abs() < 14.0 && (y as f32 - ly).abs() < 14.0;
+    let ring_diff: u32 = (0..28 * 28)
+        .map(|i| ((lx as i32 - 14 + i % 28).clamp(0, MW as i32 - 1) as u32, (ly as i32 - 14 + i / 28).clamp(0, MH as i32 - 1) as u32))
+        .map(|(x, y)| (0..3).map(|k| aw.get_pixel(x, y)[k].abs_diff(a.get_pixel(x, y)[k]) as u32).sum::<u32>())
+        .sum();
+    assert!(ring_diff > 28 * 28 * 10, "no marker ring over the light at ({lx}, {ly})");
+    let (mut x_max, mut y_max, mut n) = (0u32, 0u32, 0usize);
+    for (x, y, p) in aw.enumerate_pixels() {
+        let q = a.get_pixel(x, y);
+        if !near_ring(x, y) && (0..3).map(|k| p[k].abs_diff(q[k]) as u32).sum::<u32>() > 30 {
+            x_max = x_max.max(x);
+            y_max = y_max.max(y);
+            n += 1;
+        }
+    }
+    eprintln!("panel: {n} pixels within x <= {x_max}, y <= {y_max}");
+    assert!(n > (MW * MH / 50) as usize, "no panel drawn over the scene ({n} pixels differ)");
+    assert!(x_max < MW * 3 / 4 && y_max < MH * 3 / 4, "the panel spreads over the window ({x_max}, {y_max})");
+    assert!(!(lx as u32 <= x_max && ly as u32 <= y_max), "the light's ring ({lx}, {ly}) lies under the panel");
+    // Outside the panel's box (and the light's ring) the two shots agree.
+    let mut outside = (0u64, 0u64);
+    for (x, y, p) in aw.enumerate_pixels() {
+        if (x > x_max + 2 || y > y_max + 2) && !near_ring(x, y) {
+            let q = a.get_pixel(x, y);
+            outside.0 += (0..3).map(|k| p[k].abs_diff(q[k]) as u64).sum::<u64>();
+            outside.1 += 3;
+        }
+    }
+    let outside = outside.0 as f64 / outside.1 as f64;
+    assert!(outside < 0.5, "window shot and scene shot differ outside the panel: {outside:.3}");
+
+    let gi = gi_lines(&stdout);
+    assert_eq!(gi.len(), 4, "expected four gi lines, got {gi:?}");
+    // The drag put the light where the cursor ray meets its height.
+    let (before, after) = (gi[0].3, gi[1].3);
+    assert!((before - light).length() < 1e-5, "first GI had the light at {before}, scene {light}");
+    assert_eq!(after.y, light.y, "a mouse drag must keep the light's height");
+    let miss = (after - expected).length();
+    eprintln!("light dragged to {after}, cursor ray says {expected} (miss {miss:.4} m)");
+    assert!(miss < 0.01 * extent, "light at {after}, expected {expected} (miss {miss} m)");
+    assert!((after - before).length() > 0.05 * extent, "the drag barely moved the light");
+    assert!(mean_abs_diff(&a, &b) > 3.0, "moving the light barely changed the picture");
+    // Orbiting moved the camera, not the light.
+    assert!(mean_abs_diff(&b, &c) > 5.0, "the mouse orbit did not change the view");
+    assert_eq!(gi[2].3, after, "orbiting moved the light");
+    // Doubled intensity: twice the light in the result, a brighter picture.
+    assert!((gi[2].4 / (2.0 * intensity) - 1.0).abs() < 1e-5, "intensity {} != 2 x {intensity}", gi[2].4);
+    let mean = |i: &image::RgbImage| i.as_raw().iter().map(|&v| v as f64).sum::<f64>() / i.as_raw().len() as f64;
+    assert!(mean(&dd) > 1.15 * mean(&c), "doubling the light: mean {} -> {}", mean(&c), mean(&dd));
+    // 16 rays per vertex instead of 64: a new link set, with fewer links.
+    assert_eq!((gi[0].2, gi[3].2), (64, 16));
+    assert!(gi[3].1 < gi[2].1, "links {} at 16 rays, {} at 64", gi[3].1, gi[2].1);
+    assert!(gi.windows(2).all(|w| w[1].0 > w[0].0), "GI versions must grow: {gi:?}");
+}

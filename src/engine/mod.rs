@@ -163,6 +163,11 @@ impl Engine {
         let _ = self.tx.send(Msg::Change(changes));
     }
 
+    /// Changes sent so far (compare with [`Counters::changes`], those handled).
+    pub fn sent(&self) -> u64 {
+        self.sent
+    }
+
     /// The newest published result, if any (never waits for the worker).
     pub fn latest(&self) -> Option<Arc<GiResult>> {
         lock(&self.shared.latest).clone()

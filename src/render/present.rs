@@ -112,22 +112,22 @@ impl ToneMapPass {
 
 impl GpuRenderer {
     /// Renders `frame`, tone-maps it into each of `targets` (views of
-    /// `pass.format()` textures of the frame's size) and calls `overlay` on
-    /// each after its tone map (egui, markers), then submits. No read-back.
+    /// `pass.format()` textures of the frame's size) and calls `overlay` with
+    /// each target's index after its tone map (egui, markers), then submits. No read-back.
     pub fn present(
         &self,
         frame: &Frame,
         params: &RenderParams,
         pass: &ToneMapPass,
         targets: &[&wgpu::TextureView],
-        mut overlay: impl FnMut(&mut wgpu::CommandEncoder, &wgpu::TextureView) -> Result<()>,
+        mut overlay: impl FnMut(&mut wgpu::CommandEncoder, usize, &wgpu::TextureView) -> Result<()>,
     ) -> Result<RenderStats> {
         let t0 = Instant::now();
         let scope = self.dev.device.push_error_scope(wgpu::ErrorFilter::Validation);
         let (mut enc, hdr, mut stats) = self.encode(frame, params)?;
-        for target in targets {
+        for (i, target) in targets.iter().enumerate() {
             pass.encode(&self.dev, &mut enc, &hdr, target, params.exposure);
-            overlay(&mut enc, target)?;
+            overlay(&mut enc, i, target)?;
         }
         self.dev.queue.submit([enc.finish()]);
         if let Some(e) = pollster::block_on(scope.pop()) {

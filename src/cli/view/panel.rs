@@ -1,0 +1,175 @@
+//! The viewer's egui panel: figures (fps, GI updates per second, age of the
+//! shown GI, links, bounces, stage times) and controls (view mode, light
+//! selection and intensity, rays per vertex, exposure, deformation,
+//! screenshot), plus markers over the point lights.
+//!
+//! The panel only reads a [`PanelModel`] and returns [`UiAction`]s; the
+//! viewer applies them through the same code as the keys and the script's
+//! `set_intensity`/`set_rays`, so scripted tests exercise what the sliders do.
+//! Units: intensity is the light's strongest channel (W/sr for point lights,
+//! W/m^2 for directional ones); ages and times in milliseconds.
+
+use glam::Vec2;
+use linkgi::render::View;
+use linkgi::scene::Light;
+
+/// What the panel shows.
+pub struct PanelModel<'a> {
+    pub scene: &'a str,
+    pub renderer: &'a str,
+    pub gi_device: &'a str,
+    pub fps: f64,
+    pub gi_updates_per_s: f64,
+    /// Age of the drawn GI, ms (`None` before the first result).
+    pub gi_age_ms: Option<f64>,
+    pub gi_version: u64,
+    pub links: u64,
+    pub bounces: u32,
+    /// Last update's stage times, ms: rebuild (kd-tree + links), light links, gather.
+    pub stage_ms: [f64; 3],
+    /// The engine has changes it has not published yet.
+    pub busy: bool,
+    pub last_error: Option<String>,
+    pub view: View,
+    pub playing: bool,
+    pub deforms: bool,
+    pub lights: &'a [Light],
+    pub selected: usize,
+    /// Intensity slider range per light (strongest channel).
+    pub intensity_range: &'a [(f32, f32)],
+    pub rays_per_vertex: u32,
+    /// The rays slider's position, k for k x k rays (may lead `rays_per_vertex` while dragged).
+    pub rays_k: u32,
+    pub exposure: f32,
+    /// Window pixels of each point light (markers), `None` when off screen.
+    pub light_pixels: &'a [Option<Vec2>],
+    pub pixels_per_point: f32,
+}
+
+/// A control the user changed.
+#[derive(Clone, Debug, PartialEq)]
+pub enum UiAction {
+    View(View),
+    Play(bool),
+    Select(usize),
+    /// New strongest channel of the selected light.
+    Intensity(f32),
+    /// The rays slider moved to k (k x k rays), not released yet.
+    RaysSlider(u32),
+    /// Rays per vertex (a square number): solve with it.
+    Rays(u32),
+    Exposure(f32),
+    Screenshot,
+}
+
+/// Strongest channel of a light.
+pub fn strength(light: &Light) -> f32 {
+    match light {
+        Light::Point { intensity, .. } => intensity.max_element(),
+        Light::Directional { irradiance, .. } => irradiance.max_element(),
+    }
+}
+
+fn light_name(i: usize, l: &Light) -> String {
+    match l {
+        Light::Point { .. } => format!("{i}: point"),
+        Light::Directional { .. } => format!("{i}: directional"),
+    }
+}
+
+/// Builds the panel and the light markers for one frame.
+pub fn panel(ctx: &egui::Context, m: &PanelModel) -> Vec<UiAction> {
+    let mut out = Vec::new();
+    // Light markers: a ring per point light, filled for the selected one.
+    let painter = ctx.layer_painter(egui::LayerId::background());
+    for (i, px) in m.light_pixels.iter().enumerate() {
+        if let Some(p) = px {
+            let at = egui::pos2(p.x / m.pixels_per_point, p.y / m.pixels_per_point);
+            let colour = egui::Color32::from_rgb(255, 220, 80);
+            if i == m.selected {
+                painter.circle_filled(at, 5.0, colour);
+            }
+            painter.circle_stroke(at, 8.0, egui::Stroke::new(1.5, colour));
+        }
+    }
+    egui::Window::new("linkgi")
+        .anchor(egui::Align2::LEFT_TOP, egui::vec2(6.0, 6.0))
+        .resizable(false)
+        .default_open(true)
+        .show(ctx, |ui| {
+            ui.label(format!("{} · drawn on {}", m.scene, m.renderer)).on_hover_text(format!("GI on {}", m.gi_device));
+            ui.label(format!(
+                "{:.1} fps · GI {:.2} updates/s{}",
+                m.fps,
+                m.gi_updates_per_s,
+                if m.busy { " · updating" } else { "" }
+            ));
+            ui.label(match m.gi_age_ms {
+                Some(a) => format!("GI v{} age {a:.0} ms · {:.2} M links · {} bounces", m.gi_version, m.links as f64 * 1e-6, m.bounces),
+                None => "waiting for the first GI solve".into(),
+            });
+            ui.label(format!(
+                "last update ms: rebuild {:.0} · lights {:.0} · gather {:.0}",
+                m.stage_ms[0], m.stage_ms[1], m.stage_ms[2]
+            ));
+            if let Some(e) = &m.last_error {
+                ui.colored_label(egui::Color32::from_rgb(255, 120, 100), format!("last GI error: {e}"));
+            }
+            ui.separator();
+            ui.horizontal(|ui| {
+                for (v, name) in [(View::Combined, "combined"), (View::Direct, "direct"), (View::Indirect, "indirect")] {
+                    if ui.selectable_label(m.view == v, name).clicked() && m.view != v {
+                        out.push(UiAction::View(v));
+                    }
+                }
+            });
+            let mut exposure = m.exposure;
+            if ui.add(egui::Slider::new(&mut exposure, 0.01..=100.0).logarithmic(true).text("exposure")).changed() {
+                out.push(UiAction::Exposure(exposure));
+            }
+            if !m.lights.is_empty() {
+                let sel = m.selected.min(m.lights.len() - 1);
+                egui::ComboBox::from_label("light")
+                    .selected_text(light_name(sel, &m.lights[sel]))
+                    .show_ui(ui, |ui| {
+                        for (i, l) in m.lights.iter().enumerate() {
+                            if ui.selectable_label(i == sel, light_name(i, l)).clicked() && i != sel {
+                                out.push(UiAction::Select(i));
+                            }
+                        }
+                    });
+                let (lo, hi) = m.intensity_range[sel];
+                let mut value = strength(&m.lights[sel]);
+                let unit = if matches!(m.lights[sel], Light::Point { .. }) { "intensity W/sr" } else { "irradiance W/m²" };
+                if ui.add(egui::Slider::new(&mut value, lo..=hi).logarithmic(true).text(unit)).changed() {
+                    out.push(UiAction::Intensity(value));
+                }
+            }
+            // Rays per vertex: k x k; a new solve only when the drag ends.
+            let mut k = m.rays_k;
+            let r = ui.add(
+                egui::Slider::new(&mut k, 1..=32).text("√ rays/vertex").custom_formatter(|v, _| {
+                    let k = v.round() as u32;
+                    format!("{k} ({} rays)", k * k)
+                }),
+            );
+            if r.changed() {
+                out.push(UiAction::RaysSlider(k));
+            }
+            if (r.drag_stopped() || (r.changed() && !r.dragged())) && k * k != m.rays_per_vertex {
+                out.push(UiAction::Rays(k * k));
+            }
+            ui.horizontal(|ui| {
+                let mut playing = m.playing;
+                let toggle = ui.add_enabled(m.deforms, egui::Checkbox::new(&mut playing, "deform"));
+                if toggle.changed() {
+                    out.push(UiAction::Play(playing));
+                }
+                if ui.button("screenshot").clicked() {
+                    out.push(UiAction::Screenshot);
+                }
+            });
+            ui.small("drag: orbit · right-drag: pan · wheel: zoom · drag a light's ring: move it · PgUp/PgDn: light height");
+        });
+    out
+}

@@ -1,0 +1,192 @@
+//! `linkgi view --script FILE`: timed actions that drive the viewer the way
+//! a user would (tests, demos, reproducible screenshots).
+//!
+//! One action per line, `<seconds> <action> [args]`; `#` starts a comment.
+//! Actions run in file order; each waits until `<seconds>` after the window
+//! opened and until the one before it is done:
+//! - `move_light <i> <dx> <dy> <dz>`: metres; a directional light's
+//!   direction is offset and renormalised;
+//! - `set_intensity <i> <value>`: the light's strongest channel becomes
+//!   `value` (W/sr or W/m^2), colour kept (what the panel's slider does);
+//! - `set_rays <n>`: rays per vertex, a square number (the panel's slider);
+//! - `deform on|off`; `view combined|direct|indirect`;
+//! - `wait_gi`: until every change sent before it is in a published result
+//!   and that result has been drawn (also while deformation plays); prints
+//!   `gi: version .., links .., bounces .., rays ..` and light 0
+//!   (`light0 point x y z intensity I`, the result's own lights); fails after 300 s;
+//! - `screenshot <name.png>`: the next frame's scene, without the panel;
+//! - `window_shot <name.png>`: the next frame as the window shows it,
+//!   panel and light markers included;
+//! - `wait_file <name>`: until `<name>` exists in the screenshot folder
+//!   (lets a test drive the mouse with real window-system events in
+//!   between); fails after 300 s;
+//! - `quit`.
+//!
+//! Screenshot names and `wait_file` names are relative to `--screenshot-dir`.
+
+use anyhow::{bail, Context, Result};
+use glam::Vec3;
+use linkgi::render::View;
+use std::path::Path;
+
+/// One scripted action.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Action {
+    MoveLight { index: usize, delta: Vec3 },
+    SetIntensity { index: usize, value: f32 },
+    SetRays(u32),
+    Deform(bool),
+    View(View),
+    WaitGi,
+    Screenshot(String),
+    WindowShot(String),
+    WaitFile(String),
+    Quit,
+}
+
+/// An action with its earliest time (seconds after the window opened) and source line.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ScriptLine {
+    pub at: f64,
+    pub action: Action,
+    pub line: usize,
+}
+
+const ACTIONS: &str =
+    "move_light, set_intensity, set_rays, deform, view, wait_gi, screenshot, window_shot, wait_file, quit";
+
+/// Parses a script; errors name `file` and the line.
+pub fn parse_script(text: &str, file: &Path) -> Result<Vec<ScriptLine>> {
+    let mut out = Vec::new();
+    for (i, raw) in text.lines().enumerate() {
+        let line = i + 1;
+        let here = || format!("{}:{line}", file.display());
+        let body = raw.split('#').next().unwrap_or("").trim();
+        if body.is_empty() {
+            continue;
+        }
+        let words: Vec<&str> = body.split_whitespace().collect();
+        let at: f64 = words[0]
+            .parse()
+            .ok()
+            .filter(|t: &f64| t.is_finite() && *t >= 0.0)
+            .with_context(|| format!("{}: '{}' is not a time in seconds (>= 0)", here(), words[0]))?;
+        let Some(&name) = words.get(1) else {
+            bail!("{}: missing action after the time", here());
+        };
+        let args = &words[2..];
+        let want = |n: usize| -> Result<()> {
+            if args.len() != n {
+                bail!("{}: {name} takes {n} argument(s), got {}", here(), args.len());
+            }
+            Ok(())
+        };
+        let number = |a: &str| -> Result<f32> {
+            a.parse().ok().filter(|v: &f32| v.is_finite()).with_context(|| format!("{}: {name}: '{a}' is not a number", here()))
+        };
+        let index = |a: &str| -> Result<usize> {
+            a.parse().with_context(|| format!("{}: {name}: '{a}' is not a light index", here()))
+        };
+        let action = match name {
+            "move_light" => {
+                want(4)?;
+                let d = [number(args[1])?, number(args[2])?, number(args[3])?];
+                Action::MoveLight { index: index(args[0])?, delta: Vec3::from(d) }
+            }
+            "set_intensity" => {
+                want(2)?;
+                let value = number(args[1])?;
+                if value < 0.0 {
+                    bail!("{}: set_intensity: {value} is negative", here());
+                }
+                Action::SetIntensity { index: index(args[0])?, value }
+            }
+            "set_rays" => {
+                want(1)?;
+                let n: u32 = args[0].parse().with_context(|| format!("{}: set_rays: '{}' is not a count", here(), args[0]))?;
+                let k = (n as f64).sqrt().round() as u32;
+                if n == 0 || k * k != n {
+                    bail!("{}: set_rays: {n} is not a positive square number (1, 4, 9, 16, ...)", here());
+                }
+                Action::SetRays(n)
+            }
+            "deform" => {
+                want(1)?;
+                match args[0] {
+                    "on" => Action::Deform(true),
+                    "off" => Action::Deform(false),
+                    a => bail!("{}: deform takes on or off, got '{a}'", here()),
+                }
+            }
+            "view" => {
+                want(1)?;
+                match args[0] {
+                    "combined" => Action::View(View::Combined),
+                    "direct" => Action::View(View::Direct),
+                    "indirect" => Action::View(View::Indirect),
+                    a => bail!("{}: view takes combined, direct or indirect, got '{a}'", here()),
+                }
+            }
+            "wait_gi" => {
+                want(0)?;
+                Action::WaitGi
+            }
+            "screenshot" => {
+                want(1)?;
+                Action::Screenshot(args[0].to_string())
+            }
+            "window_shot" => {
+                want(1)?;
+                Action::WindowShot(args[0].to_string())
+            }
+            "wait_file" => {
+                want(1)?;
+                Action::WaitFile(args[0].to_string())
+            }
+            "quit" => {
+                want(0)?;
+                Action::Quit
+            }
+            other => bail!("{}: unknown action '{other}' ({ACTIONS})", here()),
+        };
+        out.push(ScriptLine { at, action, line });
+    }
+    Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn parses_actions_and_names_bad_lines() {
+        let f = Path::new("s.txt");
+        let s = parse_script(
+            "# c\n0 wait_gi\n0.5 move_light 0 0.1 0 -0.2\n1 view indirect # x\n1 set_intensity 0 2.5\n\
+             1 set_rays 16\n1 window_shot w.png\n1 wait_file go\n2 quit\n",
+            f,
+        )
+        .unwrap();
+        assert_eq!(s.len(), 8);
+        assert_eq!(s[1].action, Action::MoveLight { index: 0, delta: Vec3::new(0.1, 0.0, -0.2) });
+        assert_eq!(s[1].line, 3);
+        assert_eq!(s[2].action, Action::View(View::Indirect));
+        assert_eq!(s[3].action, Action::SetIntensity { index: 0, value: 2.5 });
+        assert_eq!(s[4].action, Action::SetRays(16));
+        assert_eq!(s[5].action, Action::WindowShot("w.png".into()));
+        assert_eq!(s[6].action, Action::WaitFile("go".into()));
+        for (bad, line) in [
+            ("0 wait_gi\nx quit", 2),
+            ("1 fly", 1),
+            ("0 view sideways", 1),
+            ("0 move_light 0 1", 1),
+            ("0 set_rays 15", 1),
+            ("0 set_rays 0", 1),
+            ("0 quit\n0 set_intensity 0 -1", 2),
+            ("0 set_intensity 0 nan", 1),
+        ] {
+            let e = format!("{:#}", parse_script(bad, f).unwrap_err());
+            assert!(e.contains(&format!("s.txt:{line}")), "{bad}: {e}");
+        }
+    }
+}
