@@ -323,3 +323,43 @@ wait $pid
     assert!(gi[3].1 < gi[2].1, "links {} at 16 rays, {} at 64", gi[3].1, gi[2].1);
     assert!(gi.windows(2).all(|w| w[1].0 > w[0].0), "GI versions must grow: {gi:?}");
 }
+
+/// While the torso deforms every frame the engine is never idle; `wait_gi`
+/// still finishes once a result that includes every change sent before it
+/// has been drawn. Two waits 1 s apart give newer GI for a moved mesh.
+#[test]
+fn wait_gi_catches_up_while_deforming() {
+    if !have("xvfb-run") {
+        if std::env::var_os("CI").is_some() {
+            panic!("xvfb-run is missing (install xvfb)");
+        }
+        eprintln!("SKIPPED wait_gi_catches_up_while_deforming: xvfb-run not found");
+        return;
+    }
+    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("view_deform");
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let script = dir.join("script.txt");
+    std::fs::write(&script, "0 deform on\n0.5 wait_gi\n0 screenshot a.png\n1.5 wait_gi\n0 screenshot b.png\n0 quit\n").unwrap();
+    let out = Command::new("timeout")
+        .arg("400")
+        .args(["xvfb-run", "-a", env!("CARGO_BIN_EXE_linkgi"), "view", "torso", "--rays", "16", "--size", "160x120"])
+        .arg("--script")
+        .arg(&script)
+        .arg("--screenshot-dir")
+        .arg(&dir)
+        .output()
+        .expect("run xvfb-run");
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    eprintln!("stdout:\n{stdout}\nstderr:\n{}", String::from_utf8_lossy(&out.stderr));
+    assert!(out.status.success(), "linkgi view failed: {}", out.status);
+    let versions: Vec<u64> = stdout
+        .lines()
+        .filter_map(|l| l.strip_prefix("gi: version "))
+        .map(|l| l.split(',').next().unwrap().parse().unwrap())
+        .collect();
+    assert_eq!(versions.len(), 2, "{stdout}");
+    assert!(versions[1] > versions[0] && versions[0] > 1, "GI versions {versions:?}: no update for the deformed mesh");
+    let (a, b) = (load(&dir.join("a.png")), load(&dir.join("b.png")));
+    assert!(mean_abs_diff(&a, &b) > 1.0, "the deforming torso did not change between the shots");
+}
