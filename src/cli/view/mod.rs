@@ -783,7 +783,14 @@ pub fn run(args: ViewArgs) -> Result<()> {
     }
     if let Some(opened) = viewer.opened {
         let secs = opened.elapsed().as_secs_f64();
-        println!("{} frames in {secs:.2} s ({:.1} fps)", viewer.frames, viewer.frames as f64 / secs.max(1e-9));
+        let published = viewer.engine.counters().published;
+        println!(
+            "{} frames in {secs:.2} s ({:.1} fps); {published} GI results ({:.2} per s) on {}",
+            viewer.frames,
+            viewer.frames as f64 / secs.max(1e-9),
+            published as f64 / secs.max(1e-9),
+            viewer.display_name
+        );
     }
     Ok(())
 }
