@@ -236,10 +236,10 @@ impl SurfaceDisplay {
 }
 
 impl Display {
-    /// Swap chain with the panel unless `backend` is `cpu`; the blit path
-    /// (with one line saying why) when that cannot be set up.
-    pub fn open(window: &Arc<Window>, backend: Backend, vsync: bool) -> Result<Display> {
-        if backend != Backend::Cpu {
+    /// Swap chain with the panel unless `backend` is `cpu` or `blit` is
+    /// asked for; the blit path (with one line saying why) when that cannot be set up.
+    pub fn open(window: &Arc<Window>, backend: Backend, vsync: bool, blit: bool) -> Result<Display> {
+        if backend != Backend::Cpu && !blit {
             match SurfaceDisplay::open(window, vsync) {
                 Ok(d) => return Ok(Display::Surface(Box::new(d))),
                 Err(e) => eprintln!("note: {e:#}; drawing through an offscreen renderer, no panel (figures in the title)"),

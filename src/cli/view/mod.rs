@@ -79,6 +79,10 @@ pub struct ViewArgs {
     /// Present without waiting for the display's refresh (measures the real frame rate).
     #[arg(long)]
     pub no_vsync: bool,
+    /// Draw through the offscreen renderer and a CPU blit even where a swap chain
+    /// works (no panel; figures in the title). For broken window drivers and comparisons.
+    #[arg(long)]
+    pub blit: bool,
 }
 
 
@@ -156,6 +160,7 @@ struct Viewer {
     gi_device: String,
     backend: Backend,
     vsync: bool,
+    blit: bool,
     display: Option<Display>,
     display_name: String,
     lights: Vec<Light>,
@@ -609,7 +614,7 @@ impl ApplicationHandler for Viewer {
             .with_inner_size(self.size);
         let made = (|| -> Result<()> {
             let window = Arc::new(el.create_window(attrs).context("creating the window")?);
-            let display = Display::open(&window, self.backend, self.vsync)?;
+            let display = Display::open(&window, self.backend, self.vsync, self.blit)?;
             self.display_name = display.describe();
             eprintln!("GI on {}; drawing on {}", self.gi_device, self.display_name);
             self.window = Some(window);
@@ -744,6 +749,7 @@ pub fn run(args: ViewArgs) -> Result<()> {
         gi_device,
         backend,
         vsync: !args.no_vsync,
+        blit: args.blit,
         display: None,
         display_name: String::new(),
         selected: 0,
