@@ -324,3 +324,43 @@ fn gpu_display_pass_matches_cpu_tone_map() {
         }
     }
 }
+
+/// Shadow maps are reused while only the camera, the view or the indirect
+/// light change, giving the same image as freshly drawn ones, and redrawn
+/// when a light or the geometry moves.
+#[test]
+fn shadow_maps_are_reused_only_while_lights_and_geometry_stand_still() {
+    let Some(dev) = device() else { return };
+    let c = cornell();
+    let fresh = GpuRenderer::new(dev.clone()).unwrap();
+    let r = GpuRenderer::new(dev).unwrap();
+    let frame = Frame::of(&c.solver.scene, &c.sol.e_indirect, c.camera);
+    let p = params(View::Combined);
+    let (first, s1) = r.render(&frame, &p).unwrap();
+    assert!(!s1.shadow_maps_reused);
+    // Another camera and view, other indirect light: same shadow maps.
+    let mut moved_cam = frame;
+    moved_cam.camera.position += Vec3::new(0.2, -0.1, 0.0);
+    let dim: Vec<Vec3> = c.sol.e_indirect.iter().map(|e| *e * 0.5).collect();
+    moved_cam.e_indirect = &dim;
+    let (reused, s2) = r.render(&moved_cam, &p).unwrap();
+    assert!(s2.shadow_maps_reused);
+    let (expect, s3) = fresh.render(&moved_cam, &p).unwrap();
+    assert!(!s3.shadow_maps_reused);
+    assert_eq!(reused, expect, "reused shadow maps gave another image");
+    // A moved light or moved geometry redraws them.
+    let light = [match c.solver.scene.lights[0] {
+        Light::Point { position, intensity } => Light::Point { position: position + Vec3::new(0.3, 0.0, 0.0), intensity },
+        l => l,
+    }];
+    let mut moved_light = frame;
+    moved_light.lights = &light;
+    let (other, s4) = r.render(&moved_light, &p).unwrap();
+    assert!(!s4.shadow_maps_reused);
+    assert_ne!(other, first);
+    let shifted: Vec<Vec3> = c.solver.scene.positions.iter().map(|p| *p + Vec3::new(0.0, 1e-3, 0.0)).collect();
+    let mut moved_geo = moved_light;
+    moved_geo.positions = &shifted;
+    assert!(!r.render(&moved_geo, &p).unwrap().1.shadow_maps_reused);
+    assert!(r.render(&moved_geo, &p).unwrap().1.shadow_maps_reused);
+}

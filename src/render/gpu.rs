@@ -5,6 +5,9 @@
 //! (`vs_main`/`fs_main`) into an `Rgba16Float` target with a `Depth32Float`
 //! buffer, read back as linear radiance. Shadow layers are only allocated
 //! for the lights present: a frame without point lights has no cube maps.
+//! They are kept between frames and redrawn only when the lights, the
+//! geometry or the shadow-map size change (orbiting the camera, switching
+//! views or a new indirect result reuse them).
 
 use super::{camera_matrices, up_for, Frame, HdrImage, RenderParams, RenderStats, MAX_LIGHTS};
 use crate::error::{Error, Result};
@@ -14,7 +17,8 @@ use crate::gpu::GpuDevice;
 use crate::scene::Light;
 use bytemuck::{Pod, Zeroable};
 use glam::{Mat4, Vec3};
-use std::sync::Arc;
+use std::hash::Hasher;
+use std::sync::{Arc, Mutex};
 use std::time::Instant;
 use wgpu::util::DeviceExt;
 
@@ -39,6 +43,20 @@ pub struct GpuRenderer {
     main: wgpu::RenderPipeline,
     shadow: wgpu::RenderPipeline,
     sampler: wgpu::Sampler,
+    /// The last frame's shadow maps and a hash of what they depend on
+    /// (shadow matrices and size, positions, triangles): a frame where only
+    /// the camera, the view or the indirect light changed reuses them.
+    shadow_cache: Mutex<Option<(u64, wgpu::Texture)>>,
+}
+
+/// Hash of everything the shadow maps depend on.
+fn shadow_key(mats: &[[f32; 16]], size: u32, frame: &Frame) -> u64 {
+    let mut h = std::collections::hash_map::DefaultHasher::new();
+    h.write(bytemuck::cast_slice(mats));
+    h.write_u32(size);
+    h.write(bytemuck::cast_slice(frame.positions));
+    h.write(bytemuck::cast_slice(frame.triangles));
+    h.finish()
 }
 
 fn vertex_layout(attributes: &[wgpu::VertexAttribute]) -> wgpu::VertexBufferLayout<'_> {
@@ -120,7 +138,7 @@ impl GpuRenderer {
         if let Some(e) = pollster::block_on(scope.pop()) {
             return Err(Error::Gpu(format!("render pipelines: {e}")));
         }
-        Ok(GpuRenderer { dev, main, shadow, sampler })
+        Ok(GpuRenderer { dev, main, shadow, sampler, shadow_cache: Mutex::new(None) })
     }
 
     /// Records the shadow passes and the main pass of `frame` into a new
@@ -227,16 +245,25 @@ impl GpuRenderer {
         // Shadow maps: only the layers needed (one placeholder layer when there are none).
         let layers = mats.len().max(1) as u32;
         let size = if mats.is_empty() { 1 } else { shadow_size };
-        let shadow_tex = d.create_texture(&wgpu::TextureDescriptor {
-            label: Some(if mats.is_empty() { "shadow map placeholder" } else { "shadow maps" }),
-            size: wgpu::Extent3d { width: size, height: size, depth_or_array_layers: layers },
-            mip_level_count: 1,
-            sample_count: 1,
-            dimension: wgpu::TextureDimension::D2,
-            format: DEPTH_FORMAT,
-            usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING,
-            view_formats: &[],
-        });
+        let key = shadow_key(&mat_data[..mats.len()], size, frame);
+        let mut cache = self.shadow_cache.lock().unwrap_or_else(|p| p.into_inner());
+        let reuse = matches!(&*cache, Some((k, _)) if *k == key);
+        let shadow_tex = match &*cache {
+            Some((_, tex)) if reuse => tex.clone(),
+            _ => d.create_texture(&wgpu::TextureDescriptor {
+                label: Some(if mats.is_empty() { "shadow map placeholder" } else { "shadow maps" }),
+                size: wgpu::Extent3d { width: size, height: size, depth_or_array_layers: layers },
+                mip_level_count: 1,
+                sample_count: 1,
+                dimension: wgpu::TextureDimension::D2,
+                format: DEPTH_FORMAT,
+                usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING,
+                view_formats: &[],
+            }),
+        };
+        *cache = Some((key, shadow_tex.clone()));
+        drop(cache);
+        stats.shadow_maps_reused = reuse;
         let shadow_array = shadow_tex.create_view(&wgpu::TextureViewDescriptor {
             label: Some("shadow maps array view"),
             dimension: Some(wgpu::TextureViewDimension::D2Array),
@@ -287,7 +314,8 @@ impl GpuRenderer {
             depth.create_view(&wgpu::TextureViewDescriptor { label: Some("depth buffer view"), ..Default::default() });
 
         let mut enc = d.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("render frame") });
-        for layer in 0..mats.len() as u32 {
+        let drawn_layers = if reuse { 0 } else { mats.len() as u32 };
+        for layer in 0..drawn_layers {
             let layer_view = shadow_tex.create_view(&wgpu::TextureViewDescriptor {
                 label: Some("shadow layer view"),
                 dimension: Some(wgpu::TextureViewDimension::D2),

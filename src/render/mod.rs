@@ -185,6 +185,9 @@ pub struct RenderStats {
     pub shadow_maps_2d: u32,
     /// Shadow-map layers allocated (0 when the frame has no lights).
     pub shadow_layers: u32,
+    /// The previous frame's shadow maps were reused (same lights, geometry
+    /// and shadow size; GPU renderer only).
+    pub shadow_maps_reused: bool,
     /// Time from call to read-back, ms.
     pub ms: f64,
 }
