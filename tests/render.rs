@@ -350,7 +350,9 @@ fn shadow_maps_are_reused_only_while_lights_and_geometry_stand_still() {
     assert_eq!(reused, expect, "reused shadow maps gave another image");
     // A moved light or moved geometry redraws them.
     let light = [match c.solver.scene.lights[0] {
-        Light::Point { position, intensity } => Light::Point { position: position + Vec3::new(0.3, 0.0, 0.0), intensity },
+        Light::Point { position, intensity } => {
+            Light::Point { position: position + Vec3::new(0.3, 0.0, 0.0), intensity }
+        }
         l => l,
     }];
     let mut moved_light = frame;

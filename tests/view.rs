@@ -258,7 +258,10 @@ wait $pid
     let out = child.wait_with_output().unwrap();
     let stdout = std::fs::read_to_string(dir.join("stdout.txt")).unwrap_or_default();
     let stderr = std::fs::read_to_string(dir.join("stderr.txt")).unwrap_or_default();
-    eprintln!("driver stderr:\n{}\nviewer stdout:\n{stdout}\nviewer stderr:\n{stderr}", String::from_utf8_lossy(&out.stderr));
+    eprintln!(
+        "driver stderr:\n{}\nviewer stdout:\n{stdout}\nviewer stderr:\n{stderr}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     assert!(status.success(), "viewer or driver failed: {status}");
 
     let load = |name: &str| {
@@ -271,7 +274,12 @@ wait $pid
     // The panel: where the window shot differs from the scene shot, but for the light's ring.
     let near_ring = |x: u32, y: u32| (x as f32 - lx).abs() < 14.0 && (y as f32 - ly).abs() < 14.0;
     let ring_diff: u32 = (0..28 * 28)
-        .map(|i| ((lx as i32 - 14 + i % 28).clamp(0, MW as i32 - 1) as u32, (ly as i32 - 14 + i / 28).clamp(0, MH as i32 - 1) as u32))
+        .map(|i| {
+            (
+                (lx as i32 - 14 + i % 28).clamp(0, MW as i32 - 1) as u32,
+                (ly as i32 - 14 + i / 28).clamp(0, MH as i32 - 1) as u32,
+            )
+        })
         .map(|(x, y)| (0..3).map(|k| aw.get_pixel(x, y)[k].abs_diff(a.get_pixel(x, y)[k]) as u32).sum::<u32>())
         .sum();
     assert!(ring_diff > 28 * 28 * 10, "no marker ring over the light at ({lx}, {ly})");
@@ -340,7 +348,8 @@ fn wait_gi_catches_up_while_deforming() {
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).unwrap();
     let script = dir.join("script.txt");
-    std::fs::write(&script, "0 deform on\n0.5 wait_gi\n0 screenshot a.png\n1.5 wait_gi\n0 screenshot b.png\n0 quit\n").unwrap();
+    std::fs::write(&script, "0 deform on\n0.5 wait_gi\n0 screenshot a.png\n1.5 wait_gi\n0 screenshot b.png\n0 quit\n")
+        .unwrap();
     let out = Command::new("timeout")
         .arg("400")
         .args(["xvfb-run", "-a", env!("CARGO_BIN_EXE_linkgi"), "view", "torso", "--rays", "16", "--size", "160x120"])

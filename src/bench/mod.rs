@@ -10,6 +10,7 @@
 //! to ours), [`Stat`] does the statistics; all are free of I/O so they can
 //! be tested on synthetic data.
 
+pub mod memory;
 pub mod paper;
 pub mod report;
 
@@ -144,6 +145,8 @@ pub struct BenchRow {
     pub render_fps: f64,
     /// The renderer used ("gpu: <adapter>" or "cpu fallback").
     pub renderer: String,
+    /// Peak resident memory of the measured runs, MB (NaN where the OS does not tell).
+    pub peak_mb: f64,
 }
 
 impl BenchRow {
@@ -172,6 +175,7 @@ impl BenchRow {
             first_solution_ms: st(|r| r.first_solution_ms),
             render_fps: f64::NAN,
             renderer: String::new(),
+            peak_mb: f64::NAN,
         }
     }
 }
@@ -220,7 +224,9 @@ pub fn run_once(
     Ok((times, sizes, solution.e_indirect))
 }
 
-/// Frames per second of `frames` offscreen renders of `scene` with `e_indirect`.
+/// Frames per second of `frames` offscreen renders (with read-back) of
+/// `scene` with `e_indirect`, lights standing still: after the warm-up
+/// frame the shadow maps are reused, as while orbiting in the viewer.
 fn render_fps(
     desc: &SceneDesc,
     scene: &prep::PreparedScene,
@@ -255,6 +261,7 @@ pub fn run_scene(
         run_once(&scene, &solve_params, compute)?;
         progress();
     }
+    let peak_resets = memory::reset_peak();
     let mut runs = Vec::new();
     let mut sizes = Sizes::default();
     let mut e_indirect = Vec::new();
@@ -265,7 +272,9 @@ pub fn run_scene(
         e_indirect = e;
         progress();
     }
+    let peak = memory::peak_bytes().filter(|_| peak_resets);
     let mut row = BenchRow::from_runs(&desc.name, &sizes, params.rays_per_vertex, &runs);
+    row.peak_mb = peak.map_or(f64::NAN, |b| b as f64 / 1e6);
     row.backend = label.clone();
     row.device = compute.describe();
     if params.render_frames > 0 {

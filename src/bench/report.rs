@@ -20,7 +20,14 @@ pub fn markdown(rows: &[BenchRow]) -> String {
         "| scene | source | vertices | kd nodes | links raw (M) | links merged (M) | MB raw | MB merged |"
     );
     let _ = writeln!(out, "|---|---|---|---|---|---|---|---|");
+    // Sizes are the same for every backend (the links are identical): one row a scene.
+    let mut scenes: Vec<&str> = Vec::new();
     for r in rows {
+        if !scenes.contains(&r.scene.as_str()) {
+            scenes.push(&r.scene);
+        }
+    }
+    for r in scenes.iter().filter_map(|s| rows.iter().find(|r| r.scene == *s)) {
         let _ = writeln!(
             out,
             "| {} | linkgi | {} | {} | {:.2} | {:.2} | {:.1} | {:.1} |",
@@ -47,35 +54,38 @@ pub fn markdown(rows: &[BenchRow]) -> String {
     let _ = writeln!(out, "\n### Times (median [min, max] of {runs} runs, 3 bounces)\n");
     let _ = writeln!(
         out,
-        "| scene | source | kd ms | links ms | k rays/s | light links ms | k shadow rays/s | bounces ms | first solution s | fps |"
+        "| scene | source | kd ms | links ms | k rays/s | light links ms | k shadow rays/s | bounces ms | first solution s | fps | peak MB |"
     );
-    let _ = writeln!(out, "|---|---|---|---|---|---|---|---|---|---|");
-    for r in rows {
-        let _ = writeln!(
-            out,
-            "| {} | linkgi {} | {} | {} | {} | {} | {} | {} | {} | {} |",
-            r.scene,
-            r.backend,
-            stat(&r.kd_ms, 1),
-            stat(&r.links_ms, 0),
-            stat(&r.k_rays_per_s, 0),
-            stat(&r.light_links_ms, 1),
-            stat(&r.k_shadow_rays_per_s, 0),
-            stat(&r.bounces_ms, 1),
-            stat(
-                &Stat {
-                    median: r.first_solution_ms.median / 1e3,
-                    min: r.first_solution_ms.min / 1e3,
-                    max: r.first_solution_ms.max / 1e3
-                },
-                2
-            ),
-            if r.render_fps.is_finite() { format!("{:.1}", r.render_fps) } else { String::new() },
-        );
-        for p in paper_rows(&r.scene) {
+    let _ = writeln!(out, "|---|---|---|---|---|---|---|---|---|---|---|");
+    for scene in &scenes {
+        for r in rows.iter().filter(|r| r.scene == *scene) {
             let _ = writeln!(
                 out,
-                "| {} | paper, {} GPU{} | {:.0} | {:.0} | {:.0} | {:.0} | | {:.0} | {:.1} | {:.1} |",
+                "| {} | linkgi {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |",
+                r.scene,
+                r.backend,
+                stat(&r.kd_ms, 1),
+                stat(&r.links_ms, 0),
+                stat(&r.k_rays_per_s, 0),
+                stat(&r.light_links_ms, 1),
+                stat(&r.k_shadow_rays_per_s, 0),
+                stat(&r.bounces_ms, 1),
+                stat(
+                    &Stat {
+                        median: r.first_solution_ms.median / 1e3,
+                        min: r.first_solution_ms.min / 1e3,
+                        max: r.first_solution_ms.max / 1e3
+                    },
+                    2
+                ),
+                if r.render_fps.is_finite() { format!("{:.1}", r.render_fps) } else { String::new() },
+                if r.peak_mb.is_finite() { format!("{:.0}", r.peak_mb) } else { String::new() },
+            );
+        }
+        for p in paper_rows(scene) {
+            let _ = writeln!(
+                out,
+                "| {} | paper, {} GPU{} | {:.0} | {:.0} | {:.0} | {:.0} | | {:.0} | {:.1} | {:.1} | |",
                 p.name,
                 p.gpus,
                 if p.gpus > 1 { "s" } else { "" },
@@ -162,6 +172,22 @@ mod tests {
         assert!(lines[c + 2].starts_with("| IPHI | paper, 2 GPUs | 47 |"));
         assert!(md.contains("| tearoom | linkgi | 11900 | 14000 | 3.00 | 1.00 | 24.0 | 6.0 |"));
         assert!(md.contains("first solution s") && md.contains("2.00 [1.00, 3.00]"));
+    }
+
+    #[test]
+    fn backends_of_one_scene_share_sizes_and_paper_rows() {
+        let mut gpu = synthetic("tearoom");
+        gpu.backend = "GPU".into();
+        gpu.peak_mb = 123.4;
+        let md = markdown(&[synthetic("tearoom"), gpu]);
+        let count = |prefix: &str| md.lines().filter(|l| l.starts_with(prefix)).count();
+        assert_eq!(count("| tearoom | linkgi |"), 1, "{md}");
+        assert_eq!(count("| TEAROOM | paper |"), 1, "{md}");
+        assert_eq!(count("| TEAROOM | paper, 1 GPU |"), 1, "{md}");
+        let lines: Vec<&str> = md.lines().collect();
+        let cpu = lines.iter().position(|l| l.starts_with("| tearoom | linkgi CPU")).unwrap();
+        assert!(lines[cpu + 1].starts_with("| tearoom | linkgi GPU") && lines[cpu + 1].ends_with("| 123 |"));
+        assert!(lines[cpu + 2].starts_with("| TEAROOM | paper, 1 GPU"));
     }
 
     #[test]

@@ -126,6 +126,9 @@ pub fn run(args: SolveArgs) -> Result<()> {
     );
     println!("smoothing ms     {:.1}", s.smooth_ms);
     println!("total ms         {:.1}", t0.elapsed().as_secs_f64() * 1e3);
+    if let Some(b) = linkgi::bench::memory::peak_bytes() {
+        println!("peak memory MB   {:.0}", b as f64 / 1e6);
+    }
     if let Some(dir) = export {
         linkgi::export::export(&dir, &solver.scene, &solution, &stats)?;
         println!("wrote            {} and {}", dir.join("mesh.ply").display(), dir.join("scene.json").display());

@@ -75,11 +75,7 @@ impl ToneMapPass {
         exposure: f32,
     ) {
         let d = &dev.device;
-        let uniforms = ToneMapUniforms {
-            exposure,
-            encode_srgb: (!self.format.is_srgb()) as u32,
-            ..Default::default()
-        };
+        let uniforms = ToneMapUniforms { exposure, encode_srgb: (!self.format.is_srgb()) as u32, ..Default::default() };
         let ubuf = uniform_init(d, "tone map uniforms", &uniforms);
         let hdr_view =
             hdr.create_view(&wgpu::TextureViewDescriptor { label: Some("tone map input view"), ..Default::default() });

@@ -100,9 +100,9 @@ impl SurfaceDisplay {
         // A linear 8-bit format when there is one: the display pass encodes sRGB
         // itself and egui expects a non-sRGB target.
         let caps = surface.get_capabilities(&adapter);
-        if let Some(f) = caps.formats.iter().find(|f| {
-            matches!(f, wgpu::TextureFormat::Bgra8Unorm | wgpu::TextureFormat::Rgba8Unorm)
-        }) {
+        if let Some(f) =
+            caps.formats.iter().find(|f| matches!(f, wgpu::TextureFormat::Bgra8Unorm | wgpu::TextureFormat::Rgba8Unorm))
+        {
             config.format = *f;
         }
         config.present_mode = if vsync { wgpu::PresentMode::AutoVsync } else { wgpu::PresentMode::AutoNoVsync };
@@ -122,7 +122,13 @@ impl SurfaceDisplay {
             Some(dev.limits.max_texture_dimension_2d as usize),
         );
         let egui_renderer = egui_wgpu::Renderer::new(&dev.device, config.format, egui_wgpu::RendererOptions::default());
-        Ok(SurfaceDisplay { surface, config, renderer, tonemap, egui: EguiLayer { ctx, state, renderer: egui_renderer } })
+        Ok(SurfaceDisplay {
+            surface,
+            config,
+            renderer,
+            tonemap,
+            egui: EguiLayer { ctx, state, renderer: egui_renderer },
+        })
     }
 
     fn draw(
@@ -179,16 +185,16 @@ impl SurfaceDisplay {
         dev.queue.submit(cmds);
 
         // Targets: the window, then the screenshots asked for.
-        let view = texture.texture.create_view(&wgpu::TextureViewDescriptor {
-            label: Some("window image view"),
-            ..Default::default()
-        });
+        let view = texture
+            .texture
+            .create_view(&wgpu::TextureViewDescriptor { label: Some("window image view"), ..Default::default() });
         let shots: Vec<(bool, wgpu::Texture)> = [(capture.scene, false), (capture.window, true)]
             .into_iter()
             .filter(|(want, _)| *want)
             .map(|(_, with_panel)| (with_panel, offscreen_target(&dev, w, h, self.tonemap.format())))
             .collect();
-        let shot_views: Vec<wgpu::TextureView> = shots.iter().map(|(_, t)| t.create_view(&Default::default())).collect();
+        let shot_views: Vec<wgpu::TextureView> =
+            shots.iter().map(|(_, t)| t.create_view(&Default::default())).collect();
         let mut targets = vec![&view];
         targets.extend(shot_views.iter());
         let mut panel_on = vec![true];
@@ -242,12 +248,14 @@ impl Display {
         if backend != Backend::Cpu && !blit {
             match SurfaceDisplay::open(window, vsync) {
                 Ok(d) => return Ok(Display::Surface(Box::new(d))),
-                Err(e) => eprintln!("note: {e:#}; drawing through an offscreen renderer, no panel (figures in the title)"),
+                Err(e) => {
+                    eprintln!("note: {e:#}; drawing through an offscreen renderer, no panel (figures in the title)")
+                }
             }
         }
         let renderer = Renderer::open(backend);
-        let context = softbuffer::Context::new(window.clone())
-            .map_err(|e| anyhow!("window presentation (softbuffer): {e}"))?;
+        let context =
+            softbuffer::Context::new(window.clone()).map_err(|e| anyhow!("window presentation (softbuffer): {e}"))?;
         let surface = softbuffer::Surface::new(&context, window.clone())
             .map_err(|e| anyhow!("window surface (softbuffer): {e}"))?;
         Ok(Display::Blit(Box::new(BlitDisplay { renderer, surface })))

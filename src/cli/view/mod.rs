@@ -85,7 +85,6 @@ pub struct ViewArgs {
     pub blit: bool,
 }
 
-
 fn view_name(v: View) -> &'static str {
     match v {
         View::Combined => "combined",
@@ -117,7 +116,9 @@ fn with_strength(light: Light, value: f32) -> Light {
     };
     match light {
         Light::Point { position, intensity } => Light::Point { position, intensity: rescale(intensity) },
-        Light::Directional { direction, irradiance } => Light::Directional { direction, irradiance: rescale(irradiance) },
+        Light::Directional { direction, irradiance } => {
+            Light::Directional { direction, irradiance: rescale(irradiance) }
+        }
     }
 }
 
@@ -295,7 +296,10 @@ impl Viewer {
                     let since = *self.wait_file_since.get_or_insert_with(Instant::now);
                     if !self.shot_dir.join(&name).exists() {
                         if since.elapsed() > Duration::from_secs(300) {
-                            bail!("{here}: wait_file: {} did not appear within 300 s", self.shot_dir.join(&name).display());
+                            bail!(
+                                "{here}: wait_file: {} did not appear within 300 s",
+                                self.shot_dir.join(&name).display()
+                            );
                         }
                         return Ok(());
                     }
@@ -316,7 +320,10 @@ impl Viewer {
         let c = self.engine.counters();
         if w.need.is_none() && c.changes >= w.target && (c.published > 0 || c.errors > 0) {
             if c.published == 0 {
-                bail!("{here}: wait_gi: the GI engine published no result: {}", self.engine.last_error().unwrap_or_default());
+                bail!(
+                    "{here}: wait_gi: the GI engine published no result: {}",
+                    self.engine.last_error().unwrap_or_default()
+                );
             }
             w.need = Some(c.published);
         }
@@ -562,11 +569,14 @@ impl Viewer {
                         Drag::Orbit => self.orbit.rotate(dx, dy),
                         Drag::Pan => self.orbit.pan(dx, dy),
                         Drag::Light(i) => {
-                            if let (Some(Light::Point { position: p, .. }), Some(w)) = (self.lights.get(i), &self.window) {
+                            if let (Some(Light::Point { position: p, .. }), Some(w)) =
+                                (self.lights.get(i), &self.window)
+                            {
                                 let size = w.inner_size();
                                 let cam = self.orbit.camera();
                                 let (x, y) = (position.x as f32, position.y as f32);
-                                if let Some(to) = cursor_on_plane(&cam, size.width, size.height, self.extent, x, y, p.y) {
+                                if let Some(to) = cursor_on_plane(&cam, size.width, size.height, self.extent, x, y, p.y)
+                                {
                                     let delta = to - *p;
                                     self.move_light(i, delta)?;
                                 }
@@ -800,4 +810,3 @@ pub fn run(args: ViewArgs) -> Result<()> {
     }
     Ok(())
 }
-

@@ -76,7 +76,15 @@ pub fn project(camera: &Camera, width: u32, height: u32, extent: f32, p: Vec3) -
 
 /// Where the ray through pixel `(x, y)` meets the horizontal plane at
 /// height `y_plane`, or `None` when it runs (nearly) parallel or away.
-pub fn cursor_on_plane(camera: &Camera, width: u32, height: u32, extent: f32, x: f32, y: f32, y_plane: f32) -> Option<Vec3> {
+pub fn cursor_on_plane(
+    camera: &Camera,
+    width: u32,
+    height: u32,
+    extent: f32,
+    x: f32,
+    y: f32,
+    y_plane: f32,
+) -> Option<Vec3> {
     let (px, py) = (x.clamp(0.0, width as f32 - 1.0) as u32, y.clamp(0.0, height as f32 - 1.0) as u32);
     let ray = pixel_ray(camera, width, height, extent, px, py);
     let (o, d) = (ray.origin, ray.dir);

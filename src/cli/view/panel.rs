@@ -105,7 +105,12 @@ pub fn panel(ctx: &egui::Context, m: &PanelModel) -> Vec<UiAction> {
                 if m.busy { " · updating" } else { "" }
             ));
             ui.label(match m.gi_age_ms {
-                Some(a) => format!("GI v{} age {a:.0} ms · {:.2} M links · {} bounces", m.gi_version, m.links as f64 * 1e-6, m.bounces),
+                Some(a) => format!(
+                    "GI v{} age {a:.0} ms · {:.2} M links · {} bounces",
+                    m.gi_version,
+                    m.links as f64 * 1e-6,
+                    m.bounces
+                ),
                 None => "waiting for the first GI solve".into(),
             });
             ui.label(format!(
@@ -117,7 +122,8 @@ pub fn panel(ctx: &egui::Context, m: &PanelModel) -> Vec<UiAction> {
             }
             ui.separator();
             ui.horizontal(|ui| {
-                for (v, name) in [(View::Combined, "combined"), (View::Direct, "direct"), (View::Indirect, "indirect")] {
+                for (v, name) in [(View::Combined, "combined"), (View::Direct, "direct"), (View::Indirect, "indirect")]
+                {
                     if ui.selectable_label(m.view == v, name).clicked() && m.view != v {
                         out.push(UiAction::View(v));
                     }
@@ -129,30 +135,27 @@ pub fn panel(ctx: &egui::Context, m: &PanelModel) -> Vec<UiAction> {
             }
             if !m.lights.is_empty() {
                 let sel = m.selected.min(m.lights.len() - 1);
-                egui::ComboBox::from_label("light")
-                    .selected_text(light_name(sel, &m.lights[sel]))
-                    .show_ui(ui, |ui| {
-                        for (i, l) in m.lights.iter().enumerate() {
-                            if ui.selectable_label(i == sel, light_name(i, l)).clicked() && i != sel {
-                                out.push(UiAction::Select(i));
-                            }
+                egui::ComboBox::from_label("light").selected_text(light_name(sel, &m.lights[sel])).show_ui(ui, |ui| {
+                    for (i, l) in m.lights.iter().enumerate() {
+                        if ui.selectable_label(i == sel, light_name(i, l)).clicked() && i != sel {
+                            out.push(UiAction::Select(i));
                         }
-                    });
+                    }
+                });
                 let (lo, hi) = m.intensity_range[sel];
                 let mut value = strength(&m.lights[sel]);
-                let unit = if matches!(m.lights[sel], Light::Point { .. }) { "intensity W/sr" } else { "irradiance W/m²" };
+                let unit =
+                    if matches!(m.lights[sel], Light::Point { .. }) { "intensity W/sr" } else { "irradiance W/m²" };
                 if ui.add(egui::Slider::new(&mut value, lo..=hi).logarithmic(true).text(unit)).changed() {
                     out.push(UiAction::Intensity(value));
                 }
             }
             // Rays per vertex: k x k; a new solve only when the drag ends.
             let mut k = m.rays_k;
-            let r = ui.add(
-                egui::Slider::new(&mut k, 1..=32).text("√ rays/vertex").custom_formatter(|v, _| {
-                    let k = v.round() as u32;
-                    format!("{k} ({} rays)", k * k)
-                }),
-            );
+            let r = ui.add(egui::Slider::new(&mut k, 1..=32).text("√ rays/vertex").custom_formatter(|v, _| {
+                let k = v.round() as u32;
+                format!("{k} ({} rays)", k * k)
+            }));
             if r.changed() {
                 out.push(UiAction::RaysSlider(k));
             }
@@ -169,7 +172,9 @@ pub fn panel(ctx: &egui::Context, m: &PanelModel) -> Vec<UiAction> {
                     out.push(UiAction::Screenshot);
                 }
             });
-            ui.small("drag: orbit · right-drag: pan · wheel: zoom · drag a light's ring: move it · PgUp/PgDn: light height");
+            ui.small(
+                "drag: orbit · right-drag: pan · wheel: zoom · drag a light's ring: move it · PgUp/PgDn: light height",
+            );
         });
     out
 }

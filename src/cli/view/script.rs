@@ -82,7 +82,10 @@ pub fn parse_script(text: &str, file: &Path) -> Result<Vec<ScriptLine>> {
             Ok(())
         };
         let number = |a: &str| -> Result<f32> {
-            a.parse().ok().filter(|v: &f32| v.is_finite()).with_context(|| format!("{}: {name}: '{a}' is not a number", here()))
+            a.parse()
+                .ok()
+                .filter(|v: &f32| v.is_finite())
+                .with_context(|| format!("{}: {name}: '{a}' is not a number", here()))
         };
         let index = |a: &str| -> Result<usize> {
             a.parse().with_context(|| format!("{}: {name}: '{a}' is not a light index", here()))
@@ -103,7 +106,8 @@ pub fn parse_script(text: &str, file: &Path) -> Result<Vec<ScriptLine>> {
             }
             "set_rays" => {
                 want(1)?;
-                let n: u32 = args[0].parse().with_context(|| format!("{}: set_rays: '{}' is not a count", here(), args[0]))?;
+                let n: u32 =
+                    args[0].parse().with_context(|| format!("{}: set_rays: '{}' is not a count", here(), args[0]))?;
                 let k = (n as f64).sqrt().round() as u32;
                 if n == 0 || k * k != n {
                     bail!("{}: set_rays: {n} is not a positive square number (1, 4, 9, 16, ...)", here());
