@@ -61,6 +61,13 @@ fn scripted_view_writes_screenshots_that_follow_the_script() {
          0 view indirect\n\
          0 screenshot c.png\n\
          0 screenshot c2.png\n\
+         0 view combined\n\
+         0 remove_light 0\n\
+         0 wait_gi\n\
+         0 screenshot e.png\n\
+         0 add_light\n\
+         0 wait_gi\n\
+         0 screenshot f.png\n\
          0 quit\n",
     )
     .unwrap();
@@ -101,6 +108,11 @@ fn scripted_view_writes_screenshots_that_follow_the_script() {
     // Two screenshots in a row both run, of the same unchanged view.
     let c2 = load(&shots.join("c2.png"));
     assert!(mean_abs_diff(&c, &c2) < 1.0, "c2.png differs from c.png");
+    // Without lights the room is black; a light added in front of the camera lights it again.
+    let mean = |i: &image::RgbImage| i.as_raw().iter().map(|&v| v as f64).sum::<f64>() / i.as_raw().len() as f64;
+    let (e, f) = (load(&shots.join("e.png")), load(&shots.join("f.png")));
+    assert!(mean(&e) < 1.0, "no lights, yet the picture has mean {:.2}", mean(&e));
+    assert!(mean(&f) > 20.0, "the added light lights nothing: mean {:.2}", mean(&f));
     // Not a black or blank window: the shown image has contrast.
     let (lo, hi) = a.as_raw().iter().fold((255u8, 0u8), |(l, h), &v| (l.min(v), h.max(v)));
     assert!(hi as i32 - lo as i32 > 100, "screenshot a has no contrast ({lo}..{hi})");

@@ -35,6 +35,7 @@ use display::{Capture, Display};
 use glam::{Vec2, Vec3};
 use linkgi::engine::{Change, Engine, EngineParams, GiResult};
 use linkgi::gpu::Backend;
+use linkgi::kdtree::{KdBuildParams, KdTree, Ray};
 use linkgi::render::{Frame, RenderParams, View};
 use linkgi::scene::deform::{deform_scene, has_deformers};
 use linkgi::scene::prep::PreparedScene;
@@ -225,6 +226,37 @@ impl Viewer {
         Ok(())
     }
 
+    /// A point light halfway between the camera and the surface at the
+    /// centre of the view (so in free space and in sight), as strong as the
+    /// selected light (or 1 W/sr).
+    fn add_light(&mut self) -> Result<()> {
+        if self.lights.len() >= linkgi::render::MAX_LIGHTS {
+            bail!("the renderer draws at most {} lights", linkgi::render::MAX_LIGHTS);
+        }
+        let cam = self.orbit.camera();
+        let dir = (cam.target - cam.position).normalize_or_zero();
+        let kd = KdTree::build(&self.positions, &self.prepared.triangles, &KdBuildParams::default());
+        let t = kd.intersect(&Ray::new(cam.position, dir)).map_or(self.orbit.distance, |h| h.t);
+        let i = self.lights.get(self.selected).map_or(1.0, strength).max(1e-6);
+        let light = Light::Point { position: cam.position + dir * (0.5 * t), intensity: Vec3::splat(i) };
+        self.lights.push(light);
+        self.intensity_range.push((i * 1e-2, i * 1e2));
+        self.selected = self.lights.len() - 1;
+        self.engine.send(Change::AddLight(light));
+        Ok(())
+    }
+
+    fn remove_light(&mut self, index: usize) -> Result<()> {
+        if index >= self.lights.len() {
+            bail!("light {index} does not exist (the scene has {})", self.lights.len());
+        }
+        self.lights.remove(index);
+        self.intensity_range.remove(index);
+        self.selected = self.selected.min(self.lights.len().saturating_sub(1));
+        self.engine.send(Change::RemoveLight(index));
+        Ok(())
+    }
+
     fn set_rays(&mut self, rays: u32) {
         self.rays_k = (rays as f64).sqrt().round() as u32;
         if rays != self.settings.rays_per_vertex {
@@ -259,6 +291,8 @@ impl Viewer {
             UiAction::Rays(n) => self.set_rays(n),
             UiAction::Exposure(e) => self.exposure = e.clamp(1e-4, 1e4),
             UiAction::Screenshot => self.pending.scene = Some(self.screenshot_path(None)),
+            UiAction::AddLight => self.add_light()?,
+            UiAction::RemoveLight => self.remove_light(self.selected)?,
         }
         Ok(())
     }
@@ -278,6 +312,8 @@ impl Viewer {
                     self.set_intensity(index, value).with_context(|| here.clone())?
                 }
                 Action::SetRays(n) => self.set_rays(n),
+                Action::AddLight => self.add_light().with_context(|| here.clone())?,
+                Action::RemoveLight(i) => self.remove_light(i).with_context(|| here.clone())?,
                 Action::Deform(on) => {
                     if on && !self.deforms {
                         eprintln!("note: {here}: the scene has no deformers");

@@ -60,6 +60,10 @@ pub enum UiAction {
     Rays(u32),
     Exposure(f32),
     Screenshot,
+    /// A new point light in front of the camera.
+    AddLight,
+    /// Removes the selected light.
+    RemoveLight,
 }
 
 /// Strongest channel of a light.
@@ -133,6 +137,15 @@ pub fn panel(ctx: &egui::Context, m: &PanelModel) -> Vec<UiAction> {
             if ui.add(egui::Slider::new(&mut exposure, 0.01..=100.0).logarithmic(true).text("exposure")).changed() {
                 out.push(UiAction::Exposure(exposure));
             }
+            ui.horizontal(|ui| {
+                let can_add = m.lights.len() < linkgi::render::MAX_LIGHTS;
+                if ui.add_enabled(can_add, egui::Button::new("add light")).clicked() {
+                    out.push(UiAction::AddLight);
+                }
+                if ui.add_enabled(!m.lights.is_empty(), egui::Button::new("remove light")).clicked() {
+                    out.push(UiAction::RemoveLight);
+                }
+            });
             if !m.lights.is_empty() {
                 let sel = m.selected.min(m.lights.len() - 1);
                 egui::ComboBox::from_label("light").selected_text(light_name(sel, &m.lights[sel])).show_ui(ui, |ui| {

@@ -9,6 +9,9 @@
 //! - `set_intensity <i> <value>`: the light's strongest channel becomes
 //!   `value` (W/sr or W/m^2), colour kept (what the panel's slider does);
 //! - `set_rays <n>`: rays per vertex, a square number (the panel's slider);
+//! - `add_light`: a point light halfway from the camera to the surface at
+//!   the centre of the view (the panel's button);
+//! - `remove_light <i>`;
 //! - `deform on|off`; `view combined|direct|indirect`;
 //! - `wait_gi`: until every change sent before it is in a published result
 //!   and that result has been drawn (also while deformation plays); prints
@@ -35,6 +38,8 @@ pub enum Action {
     MoveLight { index: usize, delta: Vec3 },
     SetIntensity { index: usize, value: f32 },
     SetRays(u32),
+    AddLight,
+    RemoveLight(usize),
     Deform(bool),
     View(View),
     WaitGi,
@@ -52,8 +57,8 @@ pub struct ScriptLine {
     pub line: usize,
 }
 
-const ACTIONS: &str =
-    "move_light, set_intensity, set_rays, deform, view, wait_gi, screenshot, window_shot, wait_file, quit";
+const ACTIONS: &str = "move_light, set_intensity, set_rays, add_light, remove_light, deform, view, wait_gi, \
+                       screenshot, window_shot, wait_file, quit";
 
 /// Parses a script; errors name `file` and the line.
 pub fn parse_script(text: &str, file: &Path) -> Result<Vec<ScriptLine>> {
@@ -114,6 +119,14 @@ pub fn parse_script(text: &str, file: &Path) -> Result<Vec<ScriptLine>> {
                 }
                 Action::SetRays(n)
             }
+            "add_light" => {
+                want(0)?;
+                Action::AddLight
+            }
+            "remove_light" => {
+                want(1)?;
+                Action::RemoveLight(index(args[0])?)
+            }
             "deform" => {
                 want(1)?;
                 match args[0] {
@@ -167,11 +180,13 @@ mod tests {
         let f = Path::new("s.txt");
         let s = parse_script(
             "# c\n0 wait_gi\n0.5 move_light 0 0.1 0 -0.2\n1 view indirect # x\n1 set_intensity 0 2.5\n\
-             1 set_rays 16\n1 window_shot w.png\n1 wait_file go\n2 quit\n",
+             1 set_rays 16\n1 window_shot w.png\n1 wait_file go\n1 add_light\n1 remove_light 1\n2 quit\n",
             f,
         )
         .unwrap();
-        assert_eq!(s.len(), 8);
+        assert_eq!(s.len(), 10);
+        assert_eq!(s[7].action, Action::AddLight);
+        assert_eq!(s[8].action, Action::RemoveLight(1));
         assert_eq!(s[1].action, Action::MoveLight { index: 0, delta: Vec3::new(0.1, 0.0, -0.2) });
         assert_eq!(s[1].line, 3);
         assert_eq!(s[2].action, Action::View(View::Indirect));
