@@ -1,7 +1,8 @@
 //! Criterion benchmarks of the CPU stages on built-in scenes: kd-tree build,
 //! ray shooting (link generation, reported as rays/s), one gather bounce
-//! (reported as links/s; multiply by 6 bytes + 12 bytes of gathered RGB for
-//! an upper bound on memory traffic).
+//! (reported as bytes/s moved, [`linkgi::bench::bandwidth::gather_bytes`]),
+//! beside the machine's read bandwidth (a parallel sum over 512 MB), the
+//! yardstick of the gather's target (>= 50%).
 //!
 //! Run: `cargo bench --bench solver` (all), or with a filter, e.g.
 //! `cargo bench --bench solver -- conference`.
@@ -28,11 +29,23 @@ fn stages(c: &mut Criterion) {
         let links = shoot_links(&scene, &kd, &params, &|_, _| {});
         let b0 = vec![glam::Vec3::splat(0.1); scene.vertex_count()];
         let mut out = vec![glam::Vec3::ZERO; scene.vertex_count()];
-        g.throughput(Throughput::Elements(links.targets.len() as u64));
+        g.throughput(Throughput::Bytes(linkgi::bench::bandwidth::gather_bytes(&links)));
         g.bench_function("gather_bounce", |b| b.iter(|| gather_bounce(&links, &b0, &mut out)));
         g.finish();
     }
 }
 
-criterion_group!(benches, stages);
+fn memory(c: &mut Criterion) {
+    let data = vec![1u64; 64 << 20];
+    let mut g = c.benchmark_group("memory");
+    g.sample_size(20);
+    g.throughput(Throughput::Bytes((data.len() * 8) as u64));
+    g.bench_function("parallel_read_512MB", |b| {
+        use rayon::prelude::*;
+        b.iter(|| data.par_chunks(1 << 16).map(|c| c.iter().fold(0u64, |a, &x| a.wrapping_add(x))).sum::<u64>())
+    });
+    g.finish();
+}
+
+criterion_group!(benches, memory, stages);
 criterion_main!(benches);

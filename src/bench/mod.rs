@@ -10,6 +10,7 @@
 //! to ours), [`Stat`] does the statistics; all are free of I/O so they can
 //! be tested on synthetic data.
 
+pub mod bandwidth;
 pub mod memory;
 pub mod paper;
 pub mod report;
@@ -147,6 +148,12 @@ pub struct BenchRow {
     pub renderer: String,
     /// Peak resident memory of the measured runs, MB (NaN where the OS does not tell).
     pub peak_mb: f64,
+    /// Bounces per run (`bounces_ms` covers all of them).
+    pub bounces: u32,
+    /// Bytes one gather bounce moves at least ([`bandwidth::gather_bytes`]).
+    pub gather_bytes: u64,
+    /// This machine's read bandwidth ([`bandwidth::read_bandwidth_gbps`]), GB/s; NaN: not measured.
+    pub read_gbps: f64,
 }
 
 impl BenchRow {
@@ -176,6 +183,9 @@ impl BenchRow {
             render_fps: f64::NAN,
             renderer: String::new(),
             peak_mb: f64::NAN,
+            bounces: 3,
+            gather_bytes: sizes.gather_bytes,
+            read_gbps: f64::NAN,
         }
     }
 }
@@ -190,6 +200,8 @@ pub struct Sizes {
     pub links_merged: u64,
     pub bytes_raw: u64,
     pub bytes_merged: u64,
+    /// Bytes one gather bounce moves at least.
+    pub gather_bytes: u64,
 }
 
 /// One complete build and solve of `scene`, timed.
@@ -220,6 +232,7 @@ pub fn run_once(
         links_merged: l.merged_links,
         bytes_raw: l.raw_bytes,
         bytes_merged: l.merged_bytes,
+        gather_bytes: bandwidth::gather_bytes(&solver.links),
     };
     Ok((times, sizes, solution.e_indirect))
 }
@@ -275,6 +288,7 @@ pub fn run_scene(
     let peak = memory::peak_bytes().filter(|_| peak_resets);
     let mut row = BenchRow::from_runs(&desc.name, &sizes, params.rays_per_vertex, &runs);
     row.peak_mb = peak.map_or(f64::NAN, |b| b as f64 / 1e6);
+    row.bounces = params.bounces;
     row.backend = label.clone();
     row.device = compute.describe();
     if params.render_frames > 0 {

@@ -99,6 +99,29 @@ pub fn markdown(rows: &[BenchRow]) -> String {
             );
         }
     }
+    let cpu: Vec<&BenchRow> = rows.iter().filter(|r| r.backend == "CPU" && r.read_gbps.is_finite()).collect();
+    if let Some(first) = cpu.first() {
+        let _ = writeln!(
+            out,
+            "\n### Gather bandwidth (CPU; machine read bandwidth {:.1} GB/s, parallel sum over 512 MB)\n",
+            first.read_gbps
+        );
+        let _ = writeln!(out, "| scene | MB per bounce | ms per bounce | GB/s | % of read bandwidth |");
+        let _ = writeln!(out, "|---|---|---|---|---|");
+        for r in cpu {
+            let ms = r.bounces_ms.median / r.bounces.max(1) as f64;
+            let gbps = r.gather_bytes as f64 / (ms * 1e-3) / 1e9;
+            let _ = writeln!(
+                out,
+                "| {} | {:.1} | {:.2} | {:.1} | {:.0}% |",
+                r.scene,
+                r.gather_bytes as f64 / 1e6,
+                ms,
+                gbps,
+                100.0 * gbps / r.read_gbps
+            );
+        }
+    }
     out
 }
 
@@ -139,6 +162,7 @@ mod tests {
             links_merged: 1_000_000,
             bytes_raw: 24_000_000,
             bytes_merged: 6_000_000,
+            gather_bytes: 6_500_000,
         };
         BenchRow::from_runs(scene, &sizes, 256, &runs)
     }
@@ -172,6 +196,13 @@ mod tests {
         assert!(lines[c + 2].starts_with("| IPHI | paper, 2 GPUs | 47 |"));
         assert!(md.contains("| tearoom | linkgi | 11900 | 14000 | 3.00 | 1.00 | 24.0 | 6.0 |"));
         assert!(md.contains("first solution s") && md.contains("2.00 [1.00, 3.00]"));
+        // No bandwidth measured: no bandwidth table.
+        assert!(!md.contains("Gather bandwidth"));
+        let mut r = synthetic("tearoom");
+        r.read_gbps = 10.0;
+        // 6.5 MB a bounce, 4 ms (median) for 3 bounces: 4.9 GB/s, 49% of 10 GB/s.
+        let md = markdown(&[r]);
+        assert!(md.contains("| tearoom | 6.5 | 1.33 | 4.9 | 49% |"), "{md}");
     }
 
     #[test]

@@ -36,11 +36,19 @@ pub fn run(args: Args) -> Result<()> {
             .expect("valid template")
             .progress_chars("=> "),
     );
+    // The machine's read bandwidth, the yardstick of the CPU gather.
+    let read_gbps = if computes.iter().any(|c| c.0 == "CPU") {
+        bench::bandwidth::read_bandwidth_gbps(512 << 20, 5)
+    } else {
+        f64::NAN
+    };
     let mut rows = Vec::new();
     for d in &descs {
         for c in &computes {
             bar.set_message(format!("{} {}", d.name, c.0));
-            rows.push(bench::run_scene(d, &params, c, &|| bar.inc(1))?);
+            let mut row = bench::run_scene(d, &params, c, &|| bar.inc(1))?;
+            row.read_gbps = read_gbps;
+            rows.push(row);
         }
     }
     bar.finish_and_clear();
