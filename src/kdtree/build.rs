@@ -20,6 +20,7 @@
 
 use super::{ropes, Aabb, KdBuildParams, KdLeaf, KdNode, KdStats, KdTree, KdTriangle, LEAF, NO_ROPE};
 use glam::Vec3;
+use rayon::prelude::*;
 use std::time::Instant;
 
 /// Event kinds, ordered so that at equal positions ends come first, then
@@ -145,23 +146,38 @@ fn find_split(ctx: &Ctx, node: &Aabb, lists: [&[u64]; 3], n: usize) -> Option<Sp
     best
 }
 
-/// Merges the events of `src` whose triangle is on side `want` with the
-/// sorted events `fresh` into `dst` (exactly as long as both together).
-fn merge_side(src: &[u64], side: &[u8], want: u8, fresh: &[u64], dst: &mut [u64]) {
-    let (mut j, mut o) = (0, 0);
+/// Splits the events of `src` by the side of their triangle, merging the
+/// sorted fresh events `fl` and `fr` in; returns the lengths written to
+/// `dl` and `dr`.
+fn split_list(src: &[u64], side: &[u8], fl: &[u64], fr: &[u64], dl: &mut [u64], dr: &mut [u64]) -> (usize, usize) {
+    let (mut jl, mut jr, mut ol, mut or) = (0, 0, 0, 0);
     for &k in src {
-        if side[ev_tri(k)] != want {
-            continue;
+        match side[ev_tri(k)] {
+            LEFT => {
+                while jl < fl.len() && fl[jl] < k {
+                    dl[ol] = fl[jl];
+                    ol += 1;
+                    jl += 1;
+                }
+                dl[ol] = k;
+                ol += 1;
+            }
+            RIGHT => {
+                while jr < fr.len() && fr[jr] < k {
+                    dr[or] = fr[jr];
+                    or += 1;
+                    jr += 1;
+                }
+                dr[or] = k;
+                or += 1;
+            }
+            _ => {}
         }
-        while j < fresh.len() && fresh[j] < k {
-            dst[o] = fresh[j];
-            o += 1;
-            j += 1;
-        }
-        dst[o] = k;
-        o += 1;
     }
-    dst[o..].copy_from_slice(&fresh[j..]);
+    let (tl, tr) = (fl.len() - jl, fr.len() - jr);
+    dl[ol..ol + tl].copy_from_slice(&fl[jl..]);
+    dr[or..or + tr].copy_from_slice(&fr[jr..]);
+    (ol + tl, or + tr)
 }
 
 /// Stable LSD radix sort of event keys on position and kind (the bits above
@@ -257,9 +273,9 @@ impl Sweep<'_> {
         self.out.leaf(bx, list.iter().filter(|&&k| ev_kind(k) != END).map(|&k| ev_tri(k) as u32))
     }
 
-    fn node(&mut self, bx: Aabb, r: Lists, depth: u32) -> u32 {
+    /// Builds the subtree of box `bx` over `n` triangles with event lists `r`.
+    fn node(&mut self, bx: Aabb, r: Lists, n: usize, depth: u32) -> u32 {
         let ctx = self.ctx;
-        let n = self.list(r[0]).iter().filter(|&&k| ev_kind(k) != END).count();
         if n == 0 || depth >= ctx.max_depth || bx.area() <= 0.0 {
             return self.leaf(&bx, r[0]);
         }
@@ -271,19 +287,20 @@ impl Sweep<'_> {
         }
         let (lbox, rbox) = bx.split(split.axis, split.pos);
         let base = self.arena.len();
-        let child = self.split_lists(&r, &split, &lbox, &rbox);
+        let (child, counts) = self.split_lists(&r, &split, &lbox, &rbox);
         let idx = self.out.nodes.len();
         self.out.nodes.push(KdNode::default());
-        let l = self.node(lbox, child[0], depth + 1);
-        let rr = self.node(rbox, child[1], depth + 1);
+        let l = self.node(lbox, child[0], counts[0], depth + 1);
+        let rr = self.node(rbox, child[1], counts[1], depth + 1);
         self.out.nodes[idx] = KdNode { split: split.pos, kind: split.axis as u32, a: l, b: rr };
         self.arena.truncate(base);
         idx as u32
     }
 
     /// Classifies the node's triangles for `split` and appends the two
-    /// children's event lists to the arena; returns their ranges.
-    fn split_lists(&mut self, r: &Lists, split: &Split, lbox: &Aabb, rbox: &Aabb) -> [Lists; 2] {
+    /// children's event lists to the arena; returns their ranges and
+    /// triangle counts.
+    fn split_lists(&mut self, r: &Lists, split: &Split, lbox: &Aabb, rbox: &Aabb) -> ([Lists; 2], [usize; 2]) {
         // Classify.
         let Sweep { ctx, side, arena, fresh, .. } = self;
         let list0 = &arena[r[0].0..r[0].0 + r[0].1];
@@ -309,9 +326,14 @@ impl Sweep<'_> {
         for f in fresh.iter_mut() {
             f.clear();
         }
+        let mut counts = [0usize; 3];
         for &k in list0 {
             let t = ev_tri(k);
-            if ev_kind(k) != END && side[t] == BOTH {
+            if ev_kind(k) == END {
+                continue;
+            }
+            counts[side[t] as usize] += 1;
+            if side[t] == BOTH {
                 let tb = &ctx.bounds[t];
                 push_events(&mut fresh[0..3], t as u32, tb, lbox);
                 push_events(&mut fresh[3..6], t as u32, tb, rbox);
@@ -320,34 +342,22 @@ impl Sweep<'_> {
         for f in fresh.iter_mut() {
             f.sort_unstable();
         }
-        // Child lists: the parent's, filtered by side, merged with the fresh ones.
-        let mut len = [[0usize; 3]; 2];
-        for a in 0..3 {
-            for &k in &arena[r[a].0..r[a].0 + r[a].1] {
-                match side[ev_tri(k)] {
-                    LEFT => len[0][a] += 1,
-                    RIGHT => len[1][a] += 1,
-                    _ => {}
-                }
-            }
-            len[0][a] += fresh[a].len();
-            len[1][a] += fresh[3 + a].len();
-        }
+        // Child lists: the parent's, filtered by side, merged with the fresh
+        // ones, each in a slot of the arena sized for its upper bound.
         let base = arena.len();
-        let total: usize = len.iter().flatten().sum();
-        arena.resize(base + total, 0);
+        let cap: [usize; 3] = std::array::from_fn(|a| r[a].1 + fresh[a].len().max(fresh[3 + a].len()));
+        arena.resize(base + 2 * cap.iter().sum::<usize>(), 0);
         let (old, new) = arena.split_at_mut(base);
         let mut child: [Lists; 2] = Default::default();
         let mut off = 0;
-        for (s, want) in [LEFT, RIGHT].into_iter().enumerate() {
-            for a in 0..3 {
-                let l = len[s][a];
-                merge_side(&old[r[a].0..r[a].0 + r[a].1], side, want, &fresh[3 * s + a], &mut new[off..off + l]);
-                child[s][a] = (base + off, l);
-                off += l;
-            }
+        for a in 0..3 {
+            let (dl, rest) = new[off..off + 2 * cap[a]].split_at_mut(cap[a]);
+            let (nl, nr) = split_list(&old[r[a].0..r[a].0 + r[a].1], side, &fresh[a], &fresh[3 + a], dl, rest);
+            child[0][a] = (base + off, nl);
+            child[1][a] = (base + off + cap[a], nr);
+            off += 2 * cap[a];
         }
-        child
+        (child, [counts[LEFT as usize] + counts[BOTH as usize], counts[RIGHT as usize] + counts[BOTH as usize]])
     }
 }
 
@@ -378,7 +388,7 @@ fn sah_subtree(ctx: &Ctx, node: Aabb, tris: &[u32], depth: u32) -> Part {
         fresh: Default::default(),
         out: Part::default(),
     };
-    sweep.node(node, r, depth);
+    sweep.node(node, r, tris.len(), depth);
     sweep.out
 }
 
@@ -445,7 +455,7 @@ pub fn build(positions: &[Vec3], triangles: &[[u32; 3]], params: &KdBuildParams)
     let start = Instant::now();
     assert!((triangles.len() as u64) <= TRI_MASK, "kd-tree: at most 2^30 triangles");
     let bounds: Vec<Aabb> =
-        triangles.iter().map(|t| Aabb::of_points(&[0, 1, 2].map(|k| positions[t[k] as usize]))).collect();
+        triangles.par_iter().map(|t| Aabb::of_points(&[0, 1, 2].map(|k| positions[t[k] as usize]))).collect();
     let root = bounds.iter().fold(Aabb::EMPTY, |b, t| Aabb { min: b.min.min(t.min), max: b.max.max(t.max) });
     let root = if triangles.is_empty() { Aabb { min: Vec3::ZERO, max: Vec3::ZERO } } else { root };
     let n = triangles.len().max(1) as f32;
@@ -455,18 +465,23 @@ pub fn build(positions: &[Vec3], triangles: &[[u32; 3]], params: &KdBuildParams)
         .unwrap_or_else(|| (rayon::current_num_threads().max(1) as f32).log2().ceil() as u32)
         .min(max_depth);
     let ctx = Ctx { bounds: &bounds, p: params, max_depth };
-    let part = build_top(&ctx, root, (0..triangles.len() as u32).collect(), 0, levels);
+    let (part, kd_triangles) = rayon::join(
+        || build_top(&ctx, root, (0..triangles.len() as u32).collect(), 0, levels),
+        || {
+            triangles
+                .iter()
+                .map(|t| {
+                    let [a, b, c] = t.map(|i| positions[i as usize]);
+                    KdTriangle { v0: a.into(), ia: t[0], v1: b.into(), ib: t[1], v2: c.into(), ic: t[2] }
+                })
+                .collect()
+        },
+    );
     let mut kd = KdTree {
         nodes: part.nodes,
         leaves: part.leaves,
         leaf_triangles: part.leaf_triangles,
-        triangles: triangles
-            .iter()
-            .map(|t| {
-                let [a, b, c] = t.map(|i| positions[i as usize]);
-                KdTriangle { v0: a.into(), ia: t[0], v1: b.into(), ib: t[1], v2: c.into(), ic: t[2] }
-            })
-            .collect(),
+        triangles: kd_triangles,
         min: root.min,
         max: root.max,
         params: *params,
