@@ -18,7 +18,8 @@
 //!   flattened preorder layout; the parallel subtrees are concatenated with
 //!   their indices shifted.
 
-use super::{ropes, Aabb, KdBuildParams, KdLeaf, KdNode, KdStats, KdTree, KdTriangle, LEAF, NO_ROPE};
+use super::{ropes, Aabb, CpuAccel, KdBuildParams, KdLeaf, KdNode, KdStats, KdTree, KdTriangle, LEAF, NO_ROPE};
+use super::accel::ROPE_LEAF;
 use glam::Vec3;
 use rayon::prelude::*;
 use std::time::Instant;
@@ -482,12 +483,15 @@ pub fn build(positions: &[Vec3], triangles: &[[u32; 3]], params: &KdBuildParams)
         leaves: part.leaves,
         leaf_triangles: part.leaf_triangles,
         triangles: kd_triangles,
+        accel: CpuAccel::default(),
         min: root.min,
         max: root.max,
         params: *params,
         stats: KdStats::default(),
     };
+    assert!(kd.nodes.len() < ROPE_LEAF as usize, "kd-tree: at most 2^31 nodes");
     ropes::build_ropes(&mut kd);
+    kd.accel = CpuAccel::new(&kd.nodes, &kd.leaves, &kd.leaf_triangles, &kd.triangles);
     let (mut stats, mut sah) = (KdStats::default(), 0.0f64);
     tree_stats(&kd, 0, root, 0, root.area(), &mut stats, &mut sah);
     let non_empty = kd.leaves.iter().filter(|l| l.count > 0).count();
