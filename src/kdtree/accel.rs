@@ -11,9 +11,9 @@
 //!   four ([`Tri4`], structure of arrays, tested four at a time by
 //!   [`intersect4`](super::triangle::intersect4)); a leaf's blocks are
 //!   contiguous, so testing it reads one run instead of an index list plus
-//!   scattered triangles. Corner vertex ids and triangle ids sit in a
-//!   separate array, read only for lanes that hit. This costs 160 bytes per
-//!   started block of four references.
+//!   scattered triangles. Corner vertex ids and triangle ids follow the
+//!   corners in the block (read only for lanes that hit). This costs 208
+//!   bytes per started block of four references.
 
 use super::triangle::Tri4;
 use super::{KdLeaf, KdNode, KdTriangle, LEAF, NO_ROPE};
@@ -40,10 +40,16 @@ pub struct CpuLeaf {
 pub struct CpuAccel {
     pub leaves: Vec<CpuLeaf>,
     /// Leaf triangles, four per block, leaf after leaf in leaf order.
-    pub blocks: Vec<Tri4>,
-    /// Per block lane (`4 * block + lane`): corner vertex ids `ia, ib, ic`
-    /// and the triangle id.
-    pub lanes: Vec<[u32; 4]>,
+    pub blocks: Vec<CpuBlock>,
+}
+
+/// Four triangle references of a leaf: corners, and per lane the corner
+/// vertex ids `ia, ib, ic` and the triangle id (read only for lanes that hit).
+#[repr(C, align(16))]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct CpuBlock {
+    pub tri: Tri4,
+    pub lanes: [[u32; 4]; 4],
 }
 
 impl CpuAccel {
@@ -81,8 +87,7 @@ impl CpuAccel {
                     }
                     lanes[lane] = [t.ia, t.ib, t.ic, id];
                 }
-                out.blocks.push(block);
-                out.lanes.extend(lanes);
+                out.blocks.push(CpuBlock { tri: block, lanes });
             }
         }
         out
@@ -90,8 +95,6 @@ impl CpuAccel {
 
     /// Bytes of the layout.
     pub fn bytes(&self) -> usize {
-        std::mem::size_of_val(self.leaves.as_slice())
-            + std::mem::size_of_val(self.blocks.as_slice())
-            + std::mem::size_of_val(self.lanes.as_slice())
+        std::mem::size_of_val(self.leaves.as_slice()) + std::mem::size_of_val(self.blocks.as_slice())
     }
 }

@@ -123,12 +123,13 @@ impl KdTree {
         let mut block = leaf.first as usize;
         while left > 0 {
             let lanes = if left >= 4 { 0b1111 } else { (1 << left) - 1 };
-            let h = intersect4(&self.accel.blocks[block], lanes, ray.origin, shear, ray.tmin, tmax);
+            let blk = &self.accel.blocks[block];
+            let h = intersect4(&blk.tri, lanes, ray.origin, shear, ray.tmin, tmax);
             let mut m = h.mask;
             while m != 0 {
                 let i = m.trailing_zeros() as usize;
                 m &= m - 1;
-                let [ia, ib, ic, id] = self.accel.lanes[4 * block + i];
+                let [ia, ib, ic, id] = blk.lanes[i];
                 if ia == ray.skip || ib == ray.skip || ic == ray.skip {
                     continue;
                 }
