@@ -18,8 +18,8 @@
 //!   flattened preorder layout; the parallel subtrees are concatenated with
 //!   their indices shifted.
 
-use super::{ropes, Aabb, CpuAccel, KdBuildParams, KdLeaf, KdNode, KdStats, KdTree, KdTriangle, LEAF, NO_ROPE};
 use super::accel::ROPE_LEAF;
+use super::{ropes, Aabb, CpuAccel, KdBuildParams, KdLeaf, KdNode, KdStats, KdTree, KdTriangle, LEAF, NO_ROPE};
 use glam::Vec3;
 use rayon::prelude::*;
 use std::time::Instant;
@@ -382,13 +382,8 @@ fn sah_subtree(ctx: &Ctx, node: Aabb, tris: &[u32], depth: u32) -> Part {
         arena.extend_from_slice(l);
     }
     drop(lists);
-    let mut sweep = Sweep {
-        ctx,
-        side: vec![BOTH; ctx.bounds.len()],
-        arena,
-        fresh: Default::default(),
-        out: Part::default(),
-    };
+    let mut sweep =
+        Sweep { ctx, side: vec![BOTH; ctx.bounds.len()], arena, fresh: Default::default(), out: Part::default() };
     sweep.node(node, r, tris.len(), depth);
     sweep.out
 }

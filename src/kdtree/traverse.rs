@@ -117,7 +117,13 @@ impl KdTree {
     /// nearest hit (or stopping at any hit). Lanes are taken in leaf order
     /// with the leaf's starting `tmax`, as [`KdTree::test_leaf`] does.
     #[inline(always)]
-    fn test_cpu_leaf<const ANY: bool>(&self, leaf: &CpuLeaf, ray: &Ray, shear: &RayShear, best: &mut Option<Hit>) -> bool {
+    fn test_cpu_leaf<const ANY: bool>(
+        &self,
+        leaf: &CpuLeaf,
+        ray: &Ray,
+        shear: &RayShear,
+        best: &mut Option<Hit>,
+    ) -> bool {
         let tmax = best.map_or(ray.tmax, |b| b.t);
         let mut left = leaf.count;
         let mut block = leaf.first as usize;

@@ -156,13 +156,7 @@ pub fn intersect4(tri: &Tri4, lanes: u32, o: Vec3, s: &RayShear, tmin: f32, tmax
     let t = t_scaled * inv;
     let in_range = (t.cmpge(Vec4::splat(tmin)) & t.cmple(Vec4::splat(tmax))).bitmask();
     let mask = lanes & !(neg & pos) & !det.cmpeq(z).bitmask() & in_range;
-    Hits4 {
-        mask,
-        t: t.to_array(),
-        u: (v * inv).to_array(),
-        v: (w * inv).to_array(),
-        front: det.cmpgt(z).bitmask(),
-    }
+    Hits4 { mask, t: t.to_array(), u: (v * inv).to_array(), v: (w * inv).to_array(), front: det.cmpgt(z).bitmask() }
 }
 
 #[cfg(test)]
