@@ -171,7 +171,7 @@ impl KdTree {
         let leaf_id = match start {
             // At t = 0 the entry point is the origin itself, shared by the
             // rays of a start cache; the leaf depends only on the signs.
-            Some(cache) if t_enter == 0.0 => cache.leaf(self, ray),
+            Some(cache) if t_enter == 0.0 && ray.origin == cache.origin => cache.leaf(self, ray),
             _ => self.locate(0, ray.origin + ray.dir * t_enter, ray.dir),
         };
         // Each step moves to a leaf further along the ray; the bound only guards
@@ -257,9 +257,9 @@ impl KdTree {
     /// As [`KdTree::intersect`], for one of many rays leaving the same
     /// origin: `start` (made for that origin) remembers the leaf the rays
     /// start in, so the walk from the root is done once per direction
-    /// octant instead of once per ray. Same hits as `intersect`.
+    /// octant instead of once per ray. Same hits as `intersect` (a ray from
+    /// another origin just does not use the cache).
     pub fn intersect_from(&self, ray: &Ray, start: &mut StartLeaves) -> Option<Hit> {
-        debug_assert_eq!(ray.origin, start.origin);
         self.walk_ropes::<false>(ray, Some(start))
     }
 
