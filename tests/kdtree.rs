@@ -246,3 +246,37 @@ fn builtin_scene_tree_is_valid() {
         .collect();
     assert!(check_agreement(&kd, &rays) > 2900);
 }
+
+#[test]
+fn shared_origin_start_leaves_match_single_rays() {
+    // Origins on split planes of an axis-aligned grid (the start leaf then
+    // depends on the direction's signs) and random soup origins; rays in
+    // every octant, some with zero direction components.
+    use linkgi::kdtree::traverse::StartLeaves;
+    let mut rng = Pcg32::seed_from_u64(16);
+    let (pos, tris) = axis_aligned(8);
+    let (sp, st) = soup(&mut rng, 2000, 0.05);
+    for (pos, tris) in [(pos, tris), (sp, st)] {
+        let kd = KdTree::build(&pos, &tris, &KdBuildParams::default());
+        kd.validate().unwrap();
+        for i in 0..200 {
+            let origin = if i % 2 == 0 {
+                (rvec(&mut rng, 0.0, 1.0) * 8.0).round() / 8.0
+            } else {
+                pos[rng.random_range(0..pos.len())]
+            };
+            let mut start = StartLeaves::new(origin);
+            for j in 0..64 {
+                let mut d = rvec(&mut rng, -1.0, 1.0);
+                if j % 8 == 0 {
+                    d[j % 3] = 0.0;
+                }
+                let mut ray = Ray::new(origin, d.normalize());
+                if i % 3 == 0 {
+                    ray.skip = rng.random_range(0..pos.len() as u32);
+                }
+                assert_eq!(kd.intersect_from(&ray, &mut start), kd.intersect(&ray), "{ray:?}");
+            }
+        }
+    }
+}

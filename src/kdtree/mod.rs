@@ -27,15 +27,19 @@
 //! Traversal ([`traverse`]) walks leaf to leaf along ropes with no stack.
 //!
 //! The flattened layout ([`KdNode`], [`KdLeaf`], [`KdTriangle`]) is
-//! `#[repr(C)]` `bytemuck::Pod` data shared with the WGSL shader. Lengths are
+//! `#[repr(C)]` `bytemuck::Pod` data shared with the WGSL shader. The CPU
+//! walk reads the leaves from a CPU-only copy ([`accel`]) laid out for its
+//! caches; it holds the same numbers. Lengths are
 //! metres (world space); costs are unitless SAH weights.
 
+pub mod accel;
 pub mod build;
 pub mod ropes;
 pub mod traverse;
 pub mod triangle;
 pub mod validate;
 
+pub use accel::CpuAccel;
 use bytemuck::{Pod, Zeroable};
 use glam::Vec3;
 
@@ -136,6 +140,9 @@ pub struct KdTree {
     /// Triangle ids referenced by leaves.
     pub leaf_triangles: Vec<u32>,
     pub triangles: Vec<KdTriangle>,
+    /// CPU-only copy of the leaves and their triangles for the rope walk
+    /// (derived from the fields above; see [`accel`]).
+    pub accel: CpuAccel,
     /// Scene bounds (the root's box).
     pub min: Vec3,
     pub max: Vec3,
@@ -201,7 +208,9 @@ impl KdTree {
         boxes
     }
 
-    /// Bytes of the flattened structure (nodes, leaves, index list, triangles).
+    /// Bytes of the flattened structure (nodes, leaves, index list,
+    /// triangles) as the GPU holds it; the CPU-only copy adds
+    /// `accel.bytes()`.
     pub fn bytes(&self) -> usize {
         std::mem::size_of_val(self.nodes.as_slice())
             + std::mem::size_of_val(self.leaves.as_slice())

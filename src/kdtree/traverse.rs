@@ -2,13 +2,19 @@
 //! by the WGSL shader), a classic stack traversal and brute force (both test
 //! oracles).
 //!
+//! The rope walk reads leaves and their triangles from the CPU-only copy
+//! ([`super::accel`]); the oracles read the shared layout, so the tests
+//! compare the two. Rays sharing an origin (a vertex's rays) can share the
+//! walk from the root to their start leaf ([`StartLeaves`]).
+//!
 //! Rays carry a `skip` vertex: triangles with that solver vertex as a corner
 //! are ignored (a ray leaving a smooth surface at vertex `p` cannot meet
 //! them anywhere but at `p`; DESIGN.md §3). Distances are metres along a unit
 //! direction; hits with equal `t` are ordered by triangle id so every path
 //! returns the same hit.
 
-use super::triangle::{intersect, Hit, RayShear};
+use super::accel::{CpuLeaf, ROPE_LEAF};
+use super::triangle::{intersect, intersect4, Hit, RayShear};
 use super::{KdTree, LEAF, NO_ROPE};
 use glam::Vec3;
 
@@ -30,6 +36,33 @@ pub struct Ray {
 impl Ray {
     pub fn new(origin: Vec3, dir: Vec3) -> Ray {
         Ray { origin, dir, tmin: 0.0, tmax: f32::INFINITY, skip: NO_SKIP }
+    }
+}
+
+/// The start leaves of rays leaving one origin, by direction octant
+/// (the leaf holding the origin depends on the direction only where the
+/// origin lies on a split plane, and there only on the direction's signs).
+#[derive(Clone, Copy, Debug)]
+pub struct StartLeaves {
+    origin: Vec3,
+    leaves: [u32; 8],
+}
+
+impl StartLeaves {
+    const UNKNOWN: u32 = u32::MAX;
+
+    pub fn new(origin: Vec3) -> StartLeaves {
+        StartLeaves { origin, leaves: [Self::UNKNOWN; 8] }
+    }
+
+    #[inline(always)]
+    fn leaf(&mut self, kd: &KdTree, ray: &Ray) -> u32 {
+        let d = ray.dir;
+        let octant = (d.x <= 0.0) as usize | ((d.y <= 0.0) as usize) << 1 | ((d.z <= 0.0) as usize) << 2;
+        if self.leaves[octant] == Self::UNKNOWN {
+            self.leaves[octant] = kd.locate(0, self.origin, d);
+        }
+        self.leaves[octant]
     }
 }
 
@@ -61,9 +94,9 @@ impl KdTree {
         (t0 <= t1 && !self.nodes.is_empty()).then_some((t0, t1))
     }
 
-    /// Tests a leaf's triangles, keeping the nearest hit (or stopping at any hit).
+    /// Tests a leaf's triangles (shared layout), keeping the nearest hit.
     #[inline(always)]
-    fn test_leaf<const ANY: bool>(&self, leaf: u32, ray: &Ray, shear: &RayShear, best: &mut Option<Hit>) -> bool {
+    fn test_leaf(&self, leaf: u32, ray: &Ray, shear: &RayShear, best: &mut Option<Hit>) {
         let l = &self.leaves[leaf as usize];
         let ids = &self.leaf_triangles[l.first as usize..(l.first + l.count) as usize];
         let tmax = best.map_or(ray.tmax, |b| b.t);
@@ -75,29 +108,76 @@ impl KdTree {
             if let Some((t, u, v, front)) = intersect(tri, ray.origin, shear, ray.tmin, tmax) {
                 if closer(t, id, best) {
                     *best = Some(Hit { tri: id, u, v, t, front });
+                }
+            }
+        }
+    }
+
+    /// Tests a leaf's triangles (CPU copy, four at a time), keeping the
+    /// nearest hit (or stopping at any hit). Lanes are taken in leaf order
+    /// with the leaf's starting `tmax`, as [`KdTree::test_leaf`] does.
+    #[inline(always)]
+    fn test_cpu_leaf<const ANY: bool>(
+        &self,
+        leaf: &CpuLeaf,
+        ray: &Ray,
+        shear: &RayShear,
+        best: &mut Option<Hit>,
+    ) -> bool {
+        let tmax = best.map_or(ray.tmax, |b| b.t);
+        let mut left = leaf.count;
+        let mut block = leaf.first as usize;
+        while left > 0 {
+            let lanes = if left >= 4 { 0b1111 } else { (1 << left) - 1 };
+            let blk = &self.accel.blocks[block];
+            let h = intersect4(&blk.tri, lanes, ray.origin, shear, ray.tmin, tmax);
+            let mut m = h.mask;
+            while m != 0 {
+                let i = m.trailing_zeros() as usize;
+                m &= m - 1;
+                let [ia, ib, ic, id] = blk.lanes[i];
+                if ia == ray.skip || ib == ray.skip || ic == ray.skip {
+                    continue;
+                }
+                if closer(h.t[i], id, best) {
+                    *best = Some(Hit { tri: id, u: h.u[i], v: h.v[i], t: h.t[i], front: h.front >> i & 1 == 1 });
                     if ANY {
                         return true;
                     }
                 }
             }
+            left = left.saturating_sub(4);
+            block += 1;
         }
         false
     }
 
-    fn walk_ropes<const ANY: bool>(&self, ray: &Ray) -> Option<Hit> {
+    /// The leaf a CPU rope leads to for a ray at `t` (a rope to an inner
+    /// node descends from it).
+    #[inline(always)]
+    fn enter(&self, rope: u32, ray: &Ray, t: f32) -> u32 {
+        if rope & ROPE_LEAF != 0 {
+            rope & !ROPE_LEAF
+        } else {
+            self.locate(rope, ray.origin + ray.dir * t, ray.dir)
+        }
+    }
+
+    fn walk_ropes<const ANY: bool>(&self, ray: &Ray, start: Option<&mut StartLeaves>) -> Option<Hit> {
         let inv = ray.dir.recip();
         let (mut t_enter, t_exit_root) = self.clip_root(ray, inv)?;
         let shear = RayShear::new(ray.dir);
         let mut best: Option<Hit> = None;
-        let mut node = 0u32;
+        let leaf_id = match start {
+            // At t = 0 the entry point is the origin itself, shared by the
+            // rays of a start cache; the leaf depends only on the signs.
+            Some(cache) if t_enter == 0.0 && ray.origin == cache.origin => cache.leaf(self, ray),
+            _ => self.locate(0, ray.origin + ray.dir * t_enter, ray.dir),
+        };
         // Each step moves to a leaf further along the ray; the bound only guards
         // against a malformed tree.
+        let mut leaf = self.accel.leaves[leaf_id as usize];
         for _ in 0..=self.leaves.len() {
-            let leaf_id = self.locate(node, ray.origin + ray.dir * t_enter, ray.dir);
-            if self.test_leaf::<ANY>(leaf_id, ray, &shear, &mut best) {
-                return best;
-            }
-            let leaf = &self.leaves[leaf_id as usize];
             let (mut t_exit, mut exit_face) = (f32::INFINITY, usize::MAX);
             let mut t_face = [f32::INFINITY; 3];
             for a in 0..3 {
@@ -115,6 +195,17 @@ impl KdTree {
                     exit_face = f;
                 }
             }
+            // The next leaf is found before this one's triangles are tested,
+            // so its loads overlap the tests (the order of the tests does not
+            // change the nearest hit).
+            let next = if t_exit >= t_exit_root || exit_face == usize::MAX || leaf.ropes[exit_face] == NO_ROPE {
+                None
+            } else {
+                Some(self.accel.leaves[self.enter(leaf.ropes[exit_face], ray, t_enter.max(t_exit)) as usize])
+            };
+            if self.test_cpu_leaf::<ANY>(&leaf, ray, &shear, &mut best) {
+                return best;
+            }
             // Leaving through a leaf edge or corner: also test the leaves
             // across the other tied faces (see the module doc of kdtree).
             if t_exit < t_exit_root {
@@ -125,8 +216,8 @@ impl KdTree {
                     }
                     let rope = leaf.ropes[f];
                     if rope != NO_ROPE {
-                        let side = self.locate(rope, ray.origin + ray.dir * t_exit, ray.dir);
-                        if self.test_leaf::<ANY>(side, ray, &shear, &mut best) {
+                        let side = &self.accel.leaves[self.enter(rope, ray, t_exit) as usize];
+                        if self.test_cpu_leaf::<ANY>(side, ray, &shear, &mut best) {
                             return best;
                         }
                     }
@@ -137,15 +228,11 @@ impl KdTree {
                     return best;
                 }
             }
-            if t_exit >= t_exit_root || exit_face == usize::MAX {
+            let Some(n) = next else {
                 return best;
-            }
-            let rope = leaf.ropes[exit_face];
-            if rope == NO_ROPE {
-                return best;
-            }
-            node = rope;
+            };
             t_enter = t_enter.max(t_exit);
+            leaf = n;
         }
         best
     }
@@ -164,12 +251,21 @@ impl KdTree {
 
     /// Nearest hit along the ray by walking leaf ropes (no stack).
     pub fn intersect(&self, ray: &Ray) -> Option<Hit> {
-        self.walk_ropes::<false>(ray)
+        self.walk_ropes::<false>(ray, None)
+    }
+
+    /// As [`KdTree::intersect`], for one of many rays leaving the same
+    /// origin: `start` (made for that origin) remembers the leaf the rays
+    /// start in, so the walk from the root is done once per direction
+    /// octant instead of once per ray. Same hits as `intersect` (a ray from
+    /// another origin just does not use the cache).
+    pub fn intersect_from(&self, ray: &Ray, start: &mut StartLeaves) -> Option<Hit> {
+        self.walk_ropes::<false>(ray, Some(start))
     }
 
     /// True if anything (front or back face) lies on the ray segment.
     pub fn occluded(&self, ray: &Ray) -> bool {
-        self.walk_ropes::<true>(ray).is_some()
+        self.walk_ropes::<true>(ray, None).is_some()
     }
 
     /// Nearest hit by front-to-back traversal with an explicit stack (test oracle).
@@ -186,7 +282,7 @@ impl KdTree {
             loop {
                 let n = self.nodes[node as usize];
                 if n.kind == LEAF {
-                    self.test_leaf::<false>(n.a, ray, &shear, &mut best);
+                    self.test_leaf(n.a, ray, &shear, &mut best);
                     break;
                 }
                 let a = n.kind as usize;

@@ -9,7 +9,7 @@ impl KdTree {
     /// splits; triangle ids in range; every triangle reachable (a point
     /// inside it lies in a leaf that lists it); ropes point at a node whose
     /// box touches the face and covers it, or leave the scene exactly when
-    /// the face lies on the scene bounds.
+    /// the face lies on the scene bounds; the CPU-only copy matches.
     pub fn validate(&self) -> Result<(), String> {
         if self.nodes.is_empty() {
             return Err("tree has no nodes".into());
@@ -57,6 +57,9 @@ impl KdTree {
         }
         if let Some(&bad) = self.leaf_triangles.iter().find(|&&t| t as usize >= self.triangles.len()) {
             return Err(format!("leaf references triangle {bad} of {}", self.triangles.len()));
+        }
+        if self.accel != super::CpuAccel::new(&self.nodes, &self.leaves, &self.leaf_triangles, &self.triangles) {
+            return Err("the CPU leaf copy (accel) differs from the shared layout".into());
         }
         self.validate_reachable()?;
         self.validate_ropes(&boxes)

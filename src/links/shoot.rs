@@ -19,7 +19,8 @@
 
 use super::merge::{merge_vertex, HitRecord, HIT_BACK, HIT_MISS};
 use super::{LinkStats, Links};
-use crate::kdtree::{traverse::Ray, KdTree};
+use crate::kdtree::traverse::{Ray, StartLeaves};
+use crate::kdtree::KdTree;
 use crate::sampling::{vertex_frame, vertex_rotations, DirectionSet};
 use crate::scene::prep::PreparedScene;
 use glam::Vec3;
@@ -139,13 +140,14 @@ impl RaySetup {
         out.clear();
         let origin = self.origins[v];
         let wedges = self.wedges(v);
+        let mut start = StartLeaves::new(origin);
         for dir in self.world_directions(v) {
             if let Some(w) = wedges.iter().find(|w| w.dives_under(dir)) {
                 out.push(w.self_hit());
                 continue;
             }
             let ray = Ray { origin, dir, tmin: 0.0, tmax: f32::INFINITY, skip: v as u32 };
-            out.push(match kd.intersect(&ray) {
+            out.push(match kd.intersect_from(&ray, &mut start) {
                 None => HitRecord { tri: HIT_MISS, u: 0.0, v: 0.0, t: f32::INFINITY },
                 Some(h) => HitRecord { tri: if h.front { h.tri } else { h.tri | HIT_BACK }, u: h.u, v: h.v, t: h.t },
             });
