@@ -81,8 +81,8 @@ impl CpuAccel {
                 for (lane, &id) in ids.iter().enumerate() {
                     let t = &triangles[id as usize];
                     for (c, v) in [t.v0, t.v1, t.v2].into_iter().enumerate() {
-                        for k in 0..3 {
-                            block.v[c][k][lane] = v[k];
+                        for (k, x) in v.into_iter().enumerate() {
+                            block.v[c][k][lane] = x;
                         }
                     }
                     lanes[lane] = [t.ia, t.ib, t.ic, id];

@@ -192,7 +192,7 @@ fn radix_sort(keys: &mut Vec<u64>, tmp: &mut Vec<u64>, count: &mut Vec<usize>) {
         for &k in keys.iter() {
             count[((k >> shift) & mask) as usize] += 1;
         }
-        if count.iter().any(|&c| c == keys.len()) {
+        if count.contains(&keys.len()) {
             continue;
         }
         let mut sum = 0;

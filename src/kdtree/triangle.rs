@@ -206,8 +206,8 @@ mod tests {
             let mut t4 = Tri4::default();
             for (l, t) in tris.iter().enumerate() {
                 for (c, v) in [t.v0, t.v1, t.v2].into_iter().enumerate() {
-                    for k in 0..3 {
-                        t4.v[c][k][l] = v[k];
+                    for (k, x) in v.into_iter().enumerate() {
+                        t4.v[c][k][l] = x;
                     }
                 }
             }
