@@ -11,7 +11,7 @@
 
 use super::{camera_matrices, up_for, Frame, HdrImage, RenderParams, RenderStats, MAX_LIGHTS};
 use crate::error::{Error, Result};
-use crate::gpu::buffers::uniform_init;
+use crate::gpu::buffers::{map_staging, uniform_init};
 use crate::gpu::layout::{FrameUniforms, LightGpu, RENDER_WGSL};
 use crate::gpu::GpuDevice;
 use crate::scene::Light;
@@ -406,15 +406,7 @@ impl GpuRenderer {
         if let Some(e) = pollster::block_on(scope.pop()) {
             return Err(Error::Gpu(format!("render: {e}")));
         }
-        let (tx, rx) = crossbeam_channel::bounded(1);
-        staging.map_async(wgpu::MapMode::Read, .., move |r| {
-            let _ = tx.send(r);
-        });
-        self.dev.wait()?;
-        rx.recv()
-            .map_err(|_| Error::Gpu("render read-back: mapping never completed".into()))?
-            .map_err(|e| Error::Gpu(format!("render read-back: {e}")))?;
-        let data = staging.get_mapped_range(..).map_err(|e| Error::Gpu(format!("render read-back: {e}")))?;
+        let data = map_staging(&self.dev, &staging, "render read-back")?;
         let mut pixels = Vec::with_capacity((w * h) as usize);
         for y in 0..h as usize {
             let r = &data[y * row as usize..y * row as usize + w as usize * 8];
@@ -423,8 +415,6 @@ impl GpuRenderer {
                 pixels.push(Vec3::new(c[0].to_f32(), c[1].to_f32(), c[2].to_f32()));
             }
         }
-        drop(data);
-        staging.unmap();
         stats.ms = t0.elapsed().as_secs_f64() * 1e3;
         Ok((HdrImage { width: w, height: h, pixels }, stats))
     }

@@ -12,7 +12,7 @@
 use super::gpu::GpuRenderer;
 use super::{Frame, RenderParams, RenderStats};
 use crate::error::{Error, Result};
-use crate::gpu::buffers::uniform_init;
+use crate::gpu::buffers::{map_staging, uniform_init};
 use crate::gpu::layout::{ToneMapUniforms, TONEMAP_WGSL};
 use crate::gpu::GpuDevice;
 use std::time::Instant;
@@ -180,15 +180,7 @@ pub fn read_back_rgb8(dev: &GpuDevice, tex: &wgpu::Texture) -> Result<image::Rgb
         wgpu::Extent3d { width: w, height: h, depth_or_array_layers: 1 },
     );
     dev.queue.submit([enc.finish()]);
-    let (tx, rx) = crossbeam_channel::bounded(1);
-    staging.map_async(wgpu::MapMode::Read, .., move |r| {
-        let _ = tx.send(r);
-    });
-    dev.wait()?;
-    rx.recv()
-        .map_err(|_| Error::Gpu("display read-back: mapping never completed".into()))?
-        .map_err(|e| Error::Gpu(format!("display read-back: {e}")))?;
-    let data = staging.get_mapped_range(..).map_err(|e| Error::Gpu(format!("display read-back: {e}")))?;
+    let data = map_staging(dev, &staging, "display read-back")?;
     let mut out = image::RgbImage::new(w, h);
     for y in 0..h {
         let r = &data[(y as u64 * row) as usize..];
@@ -198,7 +190,5 @@ pub fn read_back_rgb8(dev: &GpuDevice, tex: &wgpu::Texture) -> Result<image::Rgb
             out.put_pixel(x, y, image::Rgb(rgb));
         }
     }
-    drop(data);
-    staging.unmap();
     Ok(out)
 }
