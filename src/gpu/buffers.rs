@@ -51,13 +51,18 @@ pub fn read_back<T: Pod>(
     });
     enc.copy_buffer_to_buffer(src, 0, &staging, 0, size);
     dev.queue.submit([enc.finish()]);
-    let bytes = map_staging(dev, &staging, label)?;
-    Ok(bytemuck::pod_collect_to_vec::<u8, T>(&bytes))
+    map_staging(dev, &staging, label, |bytes| bytemuck::pod_collect_to_vec::<u8, T>(bytes))
 }
 
 /// Maps a `MAP_READ` buffer whose copies are already submitted, waits for
-/// the device and returns its bytes (the buffer is unmapped again).
-pub fn map_staging(dev: &GpuDevice, staging: &wgpu::Buffer, label: &str) -> Result<Vec<u8>> {
+/// the device and hands its bytes to `read` (no intermediate copy); the
+/// buffer is unmapped again.
+pub fn map_staging<R>(
+    dev: &GpuDevice,
+    staging: &wgpu::Buffer,
+    label: &str,
+    read: impl FnOnce(&[u8]) -> R,
+) -> Result<R> {
     let (tx, rx) = crossbeam_channel::bounded(1);
     staging.map_async(wgpu::MapMode::Read, .., move |r| {
         let _ = tx.send(r);
@@ -67,7 +72,7 @@ pub fn map_staging(dev: &GpuDevice, staging: &wgpu::Buffer, label: &str) -> Resu
         .map_err(|_| Error::Gpu(format!("{label}: mapping never completed")))?
         .map_err(|e| Error::Gpu(format!("{label}: mapping failed: {e}")))?;
     let view = staging.get_mapped_range(..).map_err(|e| Error::Gpu(format!("{label}: {e}")))?;
-    let out = view.to_vec();
+    let out = read(&view);
     drop(view);
     staging.unmap();
     Ok(out)

@@ -406,15 +406,17 @@ impl GpuRenderer {
         if let Some(e) = pollster::block_on(scope.pop()) {
             return Err(Error::Gpu(format!("render: {e}")));
         }
-        let data = map_staging(&self.dev, &staging, "render read-back")?;
-        let mut pixels = Vec::with_capacity((w * h) as usize);
-        for y in 0..h as usize {
-            let r = &data[y * row as usize..y * row as usize + w as usize * 8];
-            for px in r.chunks_exact(8) {
-                let c: [half::f16; 4] = bytemuck::pod_read_unaligned(px);
-                pixels.push(Vec3::new(c[0].to_f32(), c[1].to_f32(), c[2].to_f32()));
+        let pixels = map_staging(&self.dev, &staging, "render read-back", |data| {
+            let mut pixels = Vec::with_capacity((w * h) as usize);
+            for y in 0..h as usize {
+                let r = &data[y * row as usize..y * row as usize + w as usize * 8];
+                for px in r.chunks_exact(8) {
+                    let c: [half::f16; 4] = bytemuck::pod_read_unaligned(px);
+                    pixels.push(Vec3::new(c[0].to_f32(), c[1].to_f32(), c[2].to_f32()));
+                }
             }
-        }
+            pixels
+        })?;
         stats.ms = t0.elapsed().as_secs_f64() * 1e3;
         Ok((HdrImage { width: w, height: h, pixels }, stats))
     }

@@ -180,15 +180,16 @@ pub fn read_back_rgb8(dev: &GpuDevice, tex: &wgpu::Texture) -> Result<image::Rgb
         wgpu::Extent3d { width: w, height: h, depth_or_array_layers: 1 },
     );
     dev.queue.submit([enc.finish()]);
-    let data = map_staging(dev, &staging, "display read-back")?;
-    let mut out = image::RgbImage::new(w, h);
-    for y in 0..h {
-        let r = &data[(y as u64 * row) as usize..];
-        for x in 0..w {
-            let p = &r[x as usize * 4..x as usize * 4 + 4];
-            let rgb = if bgra { [p[2], p[1], p[0]] } else { [p[0], p[1], p[2]] };
-            out.put_pixel(x, y, image::Rgb(rgb));
+    map_staging(dev, &staging, "display read-back", |data| {
+        let mut out = image::RgbImage::new(w, h);
+        for y in 0..h {
+            let r = &data[(y as u64 * row) as usize..];
+            for x in 0..w {
+                let p = &r[x as usize * 4..x as usize * 4 + 4];
+                let rgb = if bgra { [p[2], p[1], p[0]] } else { [p[0], p[1], p[2]] };
+                out.put_pixel(x, y, image::Rgb(rgb));
+            }
         }
-    }
-    Ok(out)
+        out
+    })
 }
