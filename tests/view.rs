@@ -3,8 +3,8 @@
 //! the indirect view, screenshot, quit) and must exit cleanly with three PNGs
 //! of the window's size that differ where the script changed something.
 //!
-//! Needs `xvfb-run`: without it the test panics when `CI` is set and is
-//! skipped (with a message) otherwise.
+//! Needs `xvfb-run` (and `xdotool` for the mouse test): without them the
+//! tests panic when `CI` is set and are skipped (with a message) otherwise.
 
 use std::path::Path;
 use std::process::{Command, Stdio};
@@ -19,6 +19,29 @@ fn have(cmd: &str) -> bool {
         .stdout(Stdio::null())
         .status()
         .is_ok_and(|s| s.success())
+}
+
+/// True when every tool is on PATH; otherwise panics under `CI` and returns
+/// false (the caller skips) with a message elsewhere.
+fn tools_present(test: &str, tools: &[&str]) -> bool {
+    for tool in tools {
+        if !have(tool) {
+            if std::env::var_os("CI").is_some() {
+                panic!("{tool} is missing (apt-get install xvfb xdotool); {test} cannot run in CI without it");
+            }
+            eprintln!("SKIPPED {test}: {tool} not found (apt-get install xvfb xdotool)");
+            return false;
+        }
+    }
+    true
+}
+
+/// An empty folder under the test target dir.
+fn fresh_dir(name: &str) -> std::path::PathBuf {
+    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join(name);
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
 }
 
 /// Mean absolute difference per channel, 0..255.
@@ -36,16 +59,10 @@ fn load(path: &Path) -> image::RgbImage {
 
 #[test]
 fn scripted_view_writes_screenshots_that_follow_the_script() {
-    if !have("xvfb-run") {
-        if std::env::var_os("CI").is_some() {
-            panic!("xvfb-run is missing (install xvfb); the viewer smoke test cannot run in CI without it");
-        }
-        eprintln!("SKIPPED scripted_view_writes_screenshots_that_follow_the_script: xvfb-run not found (apt-get install xvfb)");
+    if !tools_present("scripted_view_writes_screenshots_that_follow_the_script", &["xvfb-run"]) {
         return;
     }
-    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("view_smoke");
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = fresh_dir("view_smoke");
     let shots = dir.join("shots");
     let script = dir.join("script.txt");
     // The cornell light hangs under the ceiling; moving it down, sideways and
@@ -165,20 +182,12 @@ fn gi_lines(stdout: &str) -> Vec<(u64, u64, u32, glam::Vec3, f32)> {
 /// intensity brightens the picture and the GI, and fewer rays give fewer links.
 #[test]
 fn mouse_drags_light_and_orbits_panel_shows() {
-    for tool in ["xvfb-run", "xdotool"] {
-        if !have(tool) {
-            if std::env::var_os("CI").is_some() {
-                panic!("{tool} is missing (apt-get install xvfb xdotool); the viewer mouse test cannot run in CI");
-            }
-            eprintln!("SKIPPED mouse_drags_light_and_orbits_panel_shows: {tool} not found");
-            return;
-        }
+    if !tools_present("mouse_drags_light_and_orbits_panel_shows", &["xvfb-run", "xdotool"]) {
+        return;
     }
     const MW: u32 = 640;
     const MH: u32 = 480;
-    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("view_mouse");
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = fresh_dir("view_mouse");
 
     // Cornell's geometry with a camera that looks up at the light, which hangs off-centre.
     let scenes = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes");
@@ -349,16 +358,10 @@ wait $pid
 /// has been drawn. Two waits 1 s apart give newer GI for a moved mesh.
 #[test]
 fn wait_gi_catches_up_while_deforming() {
-    if !have("xvfb-run") {
-        if std::env::var_os("CI").is_some() {
-            panic!("xvfb-run is missing (install xvfb)");
-        }
-        eprintln!("SKIPPED wait_gi_catches_up_while_deforming: xvfb-run not found");
+    if !tools_present("wait_gi_catches_up_while_deforming", &["xvfb-run"]) {
         return;
     }
-    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("view_deform");
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = fresh_dir("view_deform");
     let script = dir.join("script.txt");
     std::fs::write(&script, "0 deform on\n0.5 wait_gi\n0 screenshot a.png\n1.5 wait_gi\n0 screenshot b.png\n0 quit\n")
         .unwrap();
