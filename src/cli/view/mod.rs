@@ -207,18 +207,21 @@ impl Viewer {
         self.engine.send(Change::MoveLight { index, light });
     }
 
+    fn light(&self, index: usize) -> Result<Light> {
+        match self.lights.get(index) {
+            Some(l) => Ok(*l),
+            None => bail!("light {index} does not exist (the scene has {})", self.lights.len()),
+        }
+    }
+
     fn move_light(&mut self, index: usize, delta: Vec3) -> Result<()> {
-        let Some(l) = self.lights.get(index).copied() else {
-            bail!("light {index} does not exist (the scene has {})", self.lights.len());
-        };
+        let l = self.light(index)?;
         self.set_light(index, moved(l, delta));
         Ok(())
     }
 
     fn set_intensity(&mut self, index: usize, value: f32) -> Result<()> {
-        let Some(l) = self.lights.get(index).copied() else {
-            bail!("light {index} does not exist (the scene has {})", self.lights.len());
-        };
+        let l = self.light(index)?;
         if !(value.is_finite() && value >= 0.0) {
             bail!("light intensity {value} must be finite and >= 0");
         }
@@ -247,9 +250,7 @@ impl Viewer {
     }
 
     fn remove_light(&mut self, index: usize) -> Result<()> {
-        if index >= self.lights.len() {
-            bail!("light {index} does not exist (the scene has {})", self.lights.len());
-        }
+        self.light(index)?;
         self.lights.remove(index);
         self.intensity_range.remove(index);
         self.selected = self.selected.min(self.lights.len().saturating_sub(1));
