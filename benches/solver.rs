@@ -8,7 +8,7 @@
 //! `cargo bench --bench solver -- conference`.
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
-use linkgi::exchange::gather::gather_bounce;
+use linkgi::exchange::gather::gather_bounce_padded;
 use linkgi::kdtree::{KdBuildParams, KdTree};
 use linkgi::links::{shoot_links, LinkParams};
 use linkgi::scene::{builtin, prep};
@@ -27,10 +27,10 @@ fn stages(c: &mut Criterion) {
         g.throughput(Throughput::Elements(scene.vertex_count() as u64 * params.rays_per_vertex as u64));
         g.bench_function("shoot_256_rays_per_vertex", |b| b.iter(|| shoot_links(&scene, &kd, &params, &|_, _| {})));
         let links = shoot_links(&scene, &kd, &params, &|_, _| {});
-        let b0 = vec![glam::Vec3::splat(0.1); scene.vertex_count()];
+        let b0 = vec![glam::Vec4::new(0.1, 0.1, 0.1, 0.0); scene.vertex_count()];
         let mut out = vec![glam::Vec3::ZERO; scene.vertex_count()];
         g.throughput(Throughput::Bytes(linkgi::bench::bandwidth::gather_bytes(&links)));
-        g.bench_function("gather_bounce", |b| b.iter(|| gather_bounce(&links, &b0, &mut out)));
+        g.bench_function("gather_bounce", |b| b.iter(|| gather_bounce_padded(&links, &b0, &mut out)));
         g.finish();
     }
 }

@@ -1,11 +1,11 @@
 //! Memory traffic of a gather bounce against the machine's read bandwidth
 //! (the target: one bounce at >= 50% of it).
 //!
-//! A CPU bounce ([`crate::exchange::gather::gather_bounce`]) streams every
-//! link once (4-byte target + 2-byte f16 weight), the CSR offsets (4 bytes
-//! a vertex), reads the source radiosity (12 bytes a vertex, counted once:
-//! a lower bound, repeated reads hit the cache) and writes the result
-//! (12 bytes a vertex). The reference is a parallel (rayon) sum over a
+//! A CPU bounce ([`crate::exchange::gather::gather_bounce_padded`]) streams
+//! every link once (4-byte target + 2-byte f16 weight), the CSR offsets (4
+//! bytes a vertex), reads the source radiosity (16 bytes a vertex, padded,
+//! counted once: a lower bound, repeated reads hit the cache) and writes the
+//! result (12 bytes a vertex). The reference is a parallel (rayon) sum over a
 //! buffer far larger than the caches: the read bandwidth a streaming
 //! kernel can reach on this machine. Units: bytes and GB/s (1e9 bytes/s).
 
@@ -16,7 +16,7 @@ use std::time::Instant;
 /// Bytes one gather bounce moves at least.
 pub fn gather_bytes(links: &Links) -> u64 {
     let v = links.vertex_count() as u64;
-    links.targets.len() as u64 * 6 + (v + 1) * 4 + v * 24
+    links.targets.len() as u64 * 6 + (v + 1) * 4 + v * (16 + 12)
 }
 
 /// Read bandwidth of a parallel sum over `bytes` (best of `repeats`), GB/s.
@@ -45,7 +45,7 @@ mod tests {
             weights: vec![half::f16::ONE; 3],
             stats: Default::default(),
         };
-        assert_eq!(gather_bytes(&links), 3 * 6 + 3 * 4 + 2 * 24);
+        assert_eq!(gather_bytes(&links), 3 * 6 + 3 * 4 + 2 * 28);
     }
 
     #[test]
