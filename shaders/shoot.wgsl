@@ -235,8 +235,17 @@ fn trace(o: vec3<f32>, d: vec3<f32>, tmin: f32, tmax: f32, skip: u32, any_hit: b
     }
     let s = make_shear(d);
     var node = 0u;
+    // After the first step the entry point lies on the plane of the face
+    // just left: that coordinate is the plane's own (as in the CPU walk), so
+    // a leaf an ulp thick is entered, not stepped over.
+    var entry_axis = 3u;
+    var entry_plane = 0.0;
     for (var step = 0u; step <= params.leaf_count; step++) {
-        let leaf_id = locate(node, o + d * t_enter, d);
+        var p = o + d * t_enter;
+        if entry_axis < 3u {
+            p[entry_axis] = entry_plane;
+        }
+        let leaf_id = locate(node, p, d);
         if test_leaf(leaf_id, o, s, tmin, tmax, skip, any_hit, &best) {
             return best;
         }
@@ -272,7 +281,9 @@ fn trace(o: vec3<f32>, d: vec3<f32>, tmin: f32, tmax: f32, skip: u32, any_hit: b
                 }
                 let rope = leaf.ropes[f];
                 if rope != NO_ROPE {
-                    let side = locate(rope, o + d * t_exit, d);
+                    var q = o + d * t_exit;
+                    q[a] = select(leaf.min[a], leaf.max[a], d[a] > 0.0);
+                    let side = locate(rope, q, d);
                     if test_leaf(side, o, s, tmin, tmax, skip, any_hit, &best) {
                         return best;
                     }
@@ -290,6 +301,8 @@ fn trace(o: vec3<f32>, d: vec3<f32>, tmin: f32, tmax: f32, skip: u32, any_hit: b
             return best;
         }
         node = rope;
+        entry_axis = exit_face / 2u;
+        entry_plane = select(leaf.min[entry_axis], leaf.max[entry_axis], exit_face % 2u == 1u);
         t_enter = max(t_enter, t_exit);
     }
     return best;

@@ -280,3 +280,45 @@ fn shared_origin_start_leaves_match_single_rays() {
         }
     }
 }
+
+/// A nearly flat patch (corners one ulp apart in z) sits in a leaf one ulp
+/// thick. Rays crossing it obliquely from afar reach its plane at a point
+/// whose rounded z can fall outside that slab; the walk must still enter
+/// the slab (it takes the exit plane's own coordinate) and find the nearest
+/// hit, as brute force does.
+#[test]
+fn one_ulp_slab_leaves_are_entered() {
+    let mut rng = Pcg32::seed_from_u64(21);
+    let (mut pos, mut tris) = soup(&mut rng, 400, 0.05);
+    let c = 0.013314792f32;
+    let below = f32::from_bits(c.to_bits() - 1);
+    let n = 12u32;
+    let base = pos.len() as u32;
+    for i in 0..=n {
+        for j in 0..=n {
+            let z = if (i + j) % 3 == 0 { below } else { c };
+            pos.push(Vec3::new(0.2 + 0.6 * i as f32 / n as f32, 0.2 + 0.6 * j as f32 / n as f32, z));
+        }
+    }
+    for i in 0..n {
+        for j in 0..n {
+            let v = |a: u32, b: u32| base + a * (n + 1) + b;
+            tris.push([v(i, j), v(i + 1, j), v(i + 1, j + 1)]);
+            tris.push([v(i, j), v(i + 1, j + 1), v(i, j + 1)]);
+        }
+    }
+    let kd = KdTree::build(&pos, &tris, &KdBuildParams::default());
+    kd.validate().expect("valid tree");
+    assert!(kd.leaves.iter().any(|l| l.count > 0 && l.max[2] - l.min[2] <= 2.0 * (c - below)), "no slab leaf");
+    let mut patch_hits = 0;
+    for _ in 0..20000 {
+        let target = Vec3::new(rng.random_range(0.2..0.8), rng.random_range(0.2..0.8), c);
+        let origin = target + rvec(&mut rng, -0.6, 0.6).with_z(rng.random_range(0.3..1.2));
+        let r = Ray::new(origin, (target - origin).normalize());
+        let bf = brute_force(&kd, &r);
+        assert_eq!(kd.intersect(&r), bf, "rope vs brute force for {r:?}");
+        assert_eq!(kd.occluded(&r), bf.is_some());
+        patch_hits += bf.is_some_and(|h| h.tri >= 400) as usize;
+    }
+    assert!(patch_hits > 5000, "{patch_hits}");
+}

@@ -8,7 +8,18 @@
 //! only the triangles that straddle a split get new, clipped events.
 //! Deviations: straddling triangles are clipped by their bounding box, not
 //! by the exact polygon ("perfect splits"), which gives slightly looser
-//! leaves.
+//! leaves. The cost of a leaf counts blocks of four triangles, not
+//! triangles, because the CPU walk tests four at once
+//! ([`triangle::intersect4`]): `ceil(n / 4)` tests. On `conference`, against
+//! counting triangles with the old defaults (traversal 1, test 1.5), this
+//! gave 57% fewer leaves, a 19% faster build and 21% more rays/s; counting
+//! triangles with a traversal cost of 4 did about as well.
+//!
+//! Entering a leaf: the rope walk locates the entry point with the exit
+//! plane's own coordinate on that axis, never the rounded `o + t d`, which
+//! can land beyond a leaf one ulp thick (the slab of a flat triangle) and
+//! skip it. Before this, 9 of 89,717 `tearoom` rays returned a farther hit
+//! than brute force.
 //!
 //! Crack-free traversal: a triangle touching a split plane only with an
 //! edge or vertex is kept on its own side (as in pbrt), so a ray leaving a
@@ -98,9 +109,11 @@ pub struct KdTriangle {
 /// Build parameters of the SAH kd-tree.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct KdBuildParams {
-    /// Cost of one traversal step, relative to `intersect_cost`.
+    /// Cost of one traversal step (leaf to leaf along a rope, or one node
+    /// down), in the units of `intersect_cost`.
     pub traversal_cost: f32,
-    /// Cost of one ray-triangle test.
+    /// Cost of testing one block of up to four triangles (a leaf of `n`
+    /// triangles costs `intersect_cost * ceil(n / 4)`).
     pub intersect_cost: f32,
     /// Fraction of the cost waived for splits that cut off empty space, in [0, 1).
     pub empty_bonus: f32,
@@ -112,7 +125,7 @@ pub struct KdBuildParams {
 
 impl Default for KdBuildParams {
     fn default() -> Self {
-        Self { traversal_cost: 1.0, intersect_cost: 1.5, empty_bonus: 0.2, max_depth: None, parallel_levels: None }
+        Self { traversal_cost: 1.5, intersect_cost: 1.5, empty_bonus: 0.2, max_depth: None, parallel_levels: None }
     }
 }
 

@@ -152,17 +152,23 @@ impl KdTree {
         false
     }
 
-    /// The leaf a CPU rope leads to for a ray at `t` (a rope to an inner
-    /// node descends from it).
+    /// The leaf a CPU rope leads to for a ray at `t`, leaving the current
+    /// leaf through `face` (a rope to an inner node descends from it). The
+    /// entry point lies on the face's plane: that coordinate is the plane's
+    /// own, not `origin + t * dir` rounded off it, so a leaf only an ulp or
+    /// two thick (a flat triangle's slab) is entered, not stepped over.
     #[inline(always)]
-    fn enter(&self, rope: u32, ray: &Ray, t: f32) -> u32 {
+    fn enter(&self, rope: u32, ray: &Ray, t: f32, face: usize, leaf: &CpuLeaf) -> u32 {
         if rope & ROPE_LEAF != 0 {
             rope & !ROPE_LEAF
         } else {
-            self.locate(rope, ray.origin + ray.dir * t, ray.dir)
+            let mut p = ray.origin + ray.dir * t;
+            p[face / 2] = if face % 2 == 1 { leaf.max[face / 2] } else { leaf.min[face / 2] };
+            self.locate(rope, p, ray.dir)
         }
     }
 
+    #[inline(always)]
     fn walk_ropes<const ANY: bool>(&self, ray: &Ray, start: Option<&mut StartLeaves>) -> Option<Hit> {
         let inv = ray.dir.recip();
         let (mut t_enter, t_exit_root) = self.clip_root(ray, inv)?;
@@ -201,7 +207,7 @@ impl KdTree {
             let next = if t_exit >= t_exit_root || exit_face == usize::MAX || leaf.ropes[exit_face] == NO_ROPE {
                 None
             } else {
-                Some(self.accel.leaves[self.enter(leaf.ropes[exit_face], ray, t_enter.max(t_exit)) as usize])
+                Some(self.accel.leaves[self.enter(leaf.ropes[exit_face], ray, t_enter.max(t_exit), exit_face, &leaf) as usize])
             };
             if self.test_cpu_leaf::<ANY>(&leaf, ray, &shear, &mut best) {
                 return best;
@@ -216,7 +222,7 @@ impl KdTree {
                     }
                     let rope = leaf.ropes[f];
                     if rope != NO_ROPE {
-                        let side = &self.accel.leaves[self.enter(rope, ray, t_exit) as usize];
+                        let side = &self.accel.leaves[self.enter(rope, ray, t_exit, f, &leaf) as usize];
                         if self.test_cpu_leaf::<ANY>(side, ray, &shear, &mut best) {
                             return best;
                         }
@@ -259,6 +265,7 @@ impl KdTree {
     /// start in, so the walk from the root is done once per direction
     /// octant instead of once per ray. Same hits as `intersect` (a ray from
     /// another origin just does not use the cache).
+    #[inline(always)]
     pub fn intersect_from(&self, ray: &Ray, start: &mut StartLeaves) -> Option<Hit> {
         self.walk_ropes::<false>(ray, Some(start))
     }

@@ -136,7 +136,27 @@ impl RaySetup {
     }
 
     /// Traces all rays of vertex `v` on the CPU into `out` (one record per ray).
+    /// Runs a build of the walk for AVX2 where the CPU has it (the same
+    /// arithmetic, so the same hits: Rust never fuses a multiply and an add).
     pub fn trace_vertex(&self, kd: &KdTree, v: usize, out: &mut Vec<HitRecord>) {
+        #[cfg(target_arch = "x86_64")]
+        if std::arch::is_x86_feature_detected!("avx2") {
+            // SAFETY: the CPU supports AVX2 (checked just above).
+            unsafe { self.trace_vertex_avx2(kd, v, out) };
+            return;
+        }
+        self.trace_vertex_portable(kd, v, out)
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    fn trace_vertex_avx2(&self, kd: &KdTree, v: usize, out: &mut Vec<HitRecord>) {
+        self.trace_vertex_portable(kd, v, out)
+    }
+
+    /// [`RaySetup::trace_vertex`] for any CPU.
+    #[inline(always)]
+    pub fn trace_vertex_portable(&self, kd: &KdTree, v: usize, out: &mut Vec<HitRecord>) {
         out.clear();
         let origin = self.origins[v];
         let wedges = self.wedges(v);
