@@ -281,6 +281,45 @@ fn shared_origin_start_leaves_match_single_rays() {
     }
 }
 
+#[test]
+fn leaf_hint_runs_match_single_rays() {
+    // Runs of shadow-ray-like segments from points near each other (some on
+    // the grid's split planes, where the start leaf depends on direction),
+    // with `tmin > 0` so the entry point is off the origin.
+    use linkgi::kdtree::traverse::LeafHint;
+    let mut rng = Pcg32::seed_from_u64(17);
+    let (pos, tris) = axis_aligned(8);
+    let (sp, st) = soup(&mut rng, 2000, 0.05);
+    for (pos, tris) in [(pos, tris), (sp, st)] {
+        let kd = KdTree::build(&pos, &tris, &KdBuildParams::default());
+        kd.validate().unwrap();
+        let (mut hinted, mut blocked) = (0, 0);
+        for i in 0..300 {
+            let centre = rvec(&mut rng, 0.0, 1.0);
+            let mut hint = LeafHint::default();
+            for j in 0..16 {
+                let origin = if j % 4 == 0 {
+                    (centre * 8.0).round() / 8.0
+                } else {
+                    centre + rvec(&mut rng, -0.01, 0.01)
+                };
+                let target = rvec(&mut rng, -0.2, 1.2);
+                let mut ray = Ray::new(origin, (target - origin).normalize());
+                ray.tmin = if i % 2 == 0 { 1e-4 } else { 0.0 };
+                ray.tmax = (target - origin).length();
+                if j % 5 == 0 {
+                    ray.skip = rng.random_range(0..pos.len() as u32);
+                }
+                let want = kd.occluded(&ray);
+                assert_eq!(kd.occluded_near(&ray, &mut hint), want, "{ray:?}");
+                hinted += 1;
+                blocked += want as usize;
+            }
+        }
+        assert!(blocked > hinted / 10 && blocked < hinted, "{blocked} of {hinted}");
+    }
+}
+
 /// A nearly flat patch (corners one ulp apart in z) sits in a leaf one ulp
 /// thick. Rays crossing it obliquely from afar reach its plane at a point
 /// whose rounded z can fall outside that slab; the walk must still enter

@@ -20,7 +20,8 @@
 //! (`cos = 0`) and lights that vertex not at all; one just above it gives
 //! at most `I / (min_distance * l)^2`.
 
-use crate::kdtree::{traverse::Ray, KdTree};
+use crate::kdtree::traverse::{LeafHint, Ray};
+use crate::kdtree::KdTree;
 use crate::links::shoot::ray_origin;
 use crate::scene::{prep::PreparedScene, Light};
 use glam::Vec3;
@@ -97,8 +98,16 @@ pub trait ShadowTracer: Sync {
 }
 
 impl ShadowTracer for KdTree {
+    /// Runs of consecutive rays (one vertex's oversampling points lie close
+    /// together) share a start-leaf hint, which spares most walks from the root.
     fn visible(&self, rays: &[Ray]) -> crate::Result<Vec<bool>> {
-        Ok(rays.par_iter().map(|r| !self.occluded(r)).collect())
+        Ok(rays
+            .par_chunks(64)
+            .flat_map_iter(|run| {
+                let mut hint = LeafHint::default();
+                run.iter().map(move |r| !self.occluded_near(r, &mut hint))
+            })
+            .collect())
     }
 }
 

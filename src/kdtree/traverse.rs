@@ -66,6 +66,41 @@ impl StartLeaves {
     }
 }
 
+/// The start leaf of the previous ray of a run of nearby rays (shadow rays
+/// from one vertex's oversampling points). A ray whose entry point lies
+/// strictly inside that leaf's box starts there: the walk from the root
+/// would end in the same leaf, since the point is off every split plane on
+/// the way down. Other rays walk from the root and replace the hint.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct LeafHint {
+    leaf: Option<u32>,
+}
+
+impl LeafHint {
+    #[inline(always)]
+    fn leaf(&mut self, kd: &KdTree, p: Vec3, dir: Vec3) -> u32 {
+        if let Some(l) = self.leaf {
+            let b = &kd.accel.leaves[l as usize];
+            if p.cmpgt(Vec3::from(b.min)).all() && p.cmplt(Vec3::from(b.max)).all() {
+                return l;
+            }
+        }
+        let l = kd.locate(0, p, dir);
+        self.leaf = Some(l);
+        l
+    }
+}
+
+/// Where a walk finds its first leaf.
+enum Start<'a> {
+    /// From the root.
+    Root,
+    /// Rays of one origin ([`StartLeaves`]).
+    Shared(&'a mut StartLeaves),
+    /// Near the previous ray's start ([`LeafHint`]).
+    Near(&'a mut LeafHint),
+}
+
 #[inline(always)]
 fn closer(t: f32, tri: u32, best: &Option<Hit>) -> bool {
     match best {
@@ -169,7 +204,7 @@ impl KdTree {
     }
 
     #[inline(always)]
-    fn walk_ropes<const ANY: bool>(&self, ray: &Ray, start: Option<&mut StartLeaves>) -> Option<Hit> {
+    fn walk_ropes<const ANY: bool>(&self, ray: &Ray, start: Start) -> Option<Hit> {
         let inv = ray.dir.recip();
         let (mut t_enter, t_exit_root) = self.clip_root(ray, inv)?;
         let shear = RayShear::new(ray.dir);
@@ -177,7 +212,8 @@ impl KdTree {
         let leaf_id = match start {
             // At t = 0 the entry point is the origin itself, shared by the
             // rays of a start cache; the leaf depends only on the signs.
-            Some(cache) if t_enter == 0.0 && ray.origin == cache.origin => cache.leaf(self, ray),
+            Start::Shared(cache) if t_enter == 0.0 && ray.origin == cache.origin => cache.leaf(self, ray),
+            Start::Near(hint) => hint.leaf(self, ray.origin + ray.dir * t_enter, ray.dir),
             _ => self.locate(0, ray.origin + ray.dir * t_enter, ray.dir),
         };
         // Each step moves to a leaf further along the ray; the bound only guards
@@ -257,7 +293,7 @@ impl KdTree {
 
     /// Nearest hit along the ray by walking leaf ropes (no stack).
     pub fn intersect(&self, ray: &Ray) -> Option<Hit> {
-        self.walk_ropes::<false>(ray, None)
+        self.walk_ropes::<false>(ray, Start::Root)
     }
 
     /// As [`KdTree::intersect`], for one of many rays leaving the same
@@ -267,12 +303,18 @@ impl KdTree {
     /// another origin just does not use the cache).
     #[inline(always)]
     pub fn intersect_from(&self, ray: &Ray, start: &mut StartLeaves) -> Option<Hit> {
-        self.walk_ropes::<false>(ray, Some(start))
+        self.walk_ropes::<false>(ray, Start::Shared(start))
     }
 
     /// True if anything (front or back face) lies on the ray segment.
     pub fn occluded(&self, ray: &Ray) -> bool {
-        self.walk_ropes::<true>(ray, None).is_some()
+        self.walk_ropes::<true>(ray, Start::Root).is_some()
+    }
+
+    /// As [`KdTree::occluded`], for one of a run of rays starting near each
+    /// other: `hint` carries the start leaf from ray to ray. Same answers.
+    pub fn occluded_near(&self, ray: &Ray, hint: &mut LeafHint) -> bool {
+        self.walk_ropes::<true>(ray, Start::Near(hint)).is_some()
     }
 
     /// Nearest hit by front-to-back traversal with an explicit stack (test oracle).
