@@ -199,18 +199,17 @@ impl Solver {
         Ok(Solver { scene, params, kd, links, light_links, gpu: Some(gpu), compute: compute.clone() })
     }
 
-    /// Recomputes the light links (after lights moved).
+    /// Brings the light links up to date with `scene.lights` (after lights
+    /// moved, were added or removed, or changed power): only lights at a new
+    /// position or direction are traced ([`LightLinks::update_with`]).
     pub fn update_lights(&mut self) {
         if let Some(g) = &self.gpu {
-            match LightLinks::compute_with(&self.scene, &g.tracer, &self.params.light) {
-                Ok(l) => {
-                    self.light_links = l;
-                    return;
-                }
+            match self.light_links.update_with(&self.scene, &g.tracer, &self.params.light) {
+                Ok(_) => return,
                 Err(e) => eprintln!("warning: {e}; computing light links on the CPU"),
             }
         }
-        self.light_links = LightLinks::compute(&self.scene, &self.kd, &self.params.light);
+        self.light_links.update_with(&self.scene, &self.kd, &self.params.light).expect("the CPU tracer cannot fail");
     }
 
     /// Gathers the bounces and smooths.

@@ -142,3 +142,47 @@ fn light_on_a_vertex_and_behind_surfaces_stay_finite() {
     // plane has cos = 0 everywhere.
     assert!(e.iter().all(|x| *x == Vec3::ZERO), "{:?}", e.iter().find(|x| **x != Vec3::ZERO));
 }
+
+/// Updating the light links after light edits traces only the lights at a
+/// new position or direction; every column equals a fresh computation bit
+/// for bit. A changed intensity or a removed light traces nothing.
+#[test]
+fn light_updates_trace_only_moved_lights() {
+    let point = |p: Vec3, i: f32| Light::Point { position: p, intensity: Vec3::splat(i) };
+    let sun = Light::Directional { direction: Vec3::new(0.3, -1.0, 0.2).normalize(), irradiance: Vec3::ONE };
+    let mut scene = floor_scene(true, vec![point(Vec3::new(0.2, 1.0, 0.1), 3.0), sun, point(Vec3::new(-0.4, 0.8, 0.3), 1.0)]);
+    let kd = KdTree::build(&scene.positions, &scene.triangles, &KdBuildParams::default());
+    kd.validate().unwrap();
+    let params = LightLinkParams::default();
+    let mut links = LightLinks::compute(&scene, &kd, &params);
+    let one = |scene: &prep::PreparedScene, l: &Light| LightLinks::compute_light(scene, &kd, l, &params).unwrap();
+    let bits = |c: &[f32]| c.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+    let check_fresh = |scene: &prep::PreparedScene, links: &LightLinks| {
+        let fresh = LightLinks::compute(scene, &kd, &params);
+        assert_eq!(links.factors.len(), fresh.factors.len());
+        for (a, b) in links.factors.iter().zip(&fresh.factors) {
+            assert_eq!(bits(a), bits(b));
+        }
+    };
+    let before = links.factors.clone();
+
+    // Move the last light: only it is traced.
+    scene.lights[2] = point(Vec3::new(0.5, 0.7, -0.2), 1.0);
+    let rays = links.update_with(&scene, &kd, &params).unwrap();
+    assert_eq!(rays, one(&scene, &scene.lights[2]).1);
+    assert!(rays > 0);
+    assert_eq!((bits(&links.factors[0]), bits(&links.factors[1])), (bits(&before[0]), bits(&before[1])));
+    assert_ne!(bits(&links.factors[2]), bits(&before[2]));
+    check_fresh(&scene, &links);
+
+    // A new intensity, then a removed light: no rays, columns follow their lights.
+    scene.lights[0] = point(Vec3::new(0.2, 1.0, 0.1), 6.0);
+    assert_eq!(links.update_with(&scene, &kd, &params).unwrap(), 0);
+    let e = links.direct(&scene.lights, scene.vertex_count());
+    scene.lights.remove(0);
+    assert_eq!(links.update_with(&scene, &kd, &params).unwrap(), 0);
+    assert_eq!(bits(&links.factors[0]), bits(&before[1]));
+    check_fresh(&scene, &links);
+    let lit = e.iter().filter(|e| e.x > 0.0).count();
+    assert!(lit > 100, "{lit} vertices lit");
+}

@@ -9,7 +9,8 @@
 //!
 //! | change | redone |
 //! |---|---|
-//! | light moved / added / removed | light links + gather |
+//! | light moved / added / removed | light links of the lights at a new position or direction + gather |
+//! | light intensity changed | gather (its light links are kept) |
 //! | mesh deformed (new positions; static meshes must not move) | kd-tree + links + light links + gather |
 //! | settings: rays or seed | kd-tree + links + light links + gather |
 //! | settings: bounces or smoothing | gather |

@@ -52,8 +52,23 @@ impl Default for LightLinkParams {
 pub struct LightLinks {
     /// `factors[l][v]`: 1/m^2 for point lights, unitless for directional.
     pub factors: Vec<Vec<f32>>,
+    /// The lights the columns were computed for (their positions or
+    /// directions matter; intensities do not enter the factors).
+    pub lights: Vec<Light>,
+    /// Shadow rays traced by the last computation or update.
     pub shadow_rays: u64,
+    /// Time of the last computation or update.
     pub ms: f64,
+}
+
+/// True if two lights give the same light-link column: same kind and the
+/// same position (point) or direction (directional), whatever their power.
+pub fn same_column(a: &Light, b: &Light) -> bool {
+    match (a, b) {
+        (Light::Point { position: p, .. }, Light::Point { position: q, .. }) => p == q,
+        (Light::Directional { direction: d, .. }, Light::Directional { direction: e, .. }) => d == e,
+        _ => false,
+    }
 }
 
 /// The oversampling points of vertex `v` (the first is the vertex's own origin).
@@ -123,15 +138,48 @@ impl LightLinks {
         tracer: &dyn ShadowTracer,
         params: &LightLinkParams,
     ) -> crate::Result<LightLinks> {
-        let start = Instant::now();
         let mut out = LightLinks::default();
-        for light in &scene.lights {
-            let (f, rays) = Self::compute_light(scene, tracer, light, params)?;
-            out.factors.push(f);
-            out.shadow_rays += rays;
-        }
-        out.ms = start.elapsed().as_secs_f64() * 1e3;
+        out.update_with(scene, tracer, params)?;
         Ok(out)
+    }
+
+    /// Brings the columns up to date with `scene.lights`: a light whose
+    /// position (or direction) matches one already computed keeps that
+    /// column, with no rays (a changed intensity, a light added or removed
+    /// elsewhere in the list); only the others are traced. Returns the
+    /// shadow rays traced. The mesh must be the one the columns were
+    /// computed on.
+    pub fn update_with(
+        &mut self,
+        scene: &PreparedScene,
+        tracer: &dyn ShadowTracer,
+        params: &LightLinkParams,
+    ) -> crate::Result<u64> {
+        let start = Instant::now();
+        // Built aside and swapped in at the end, so a failed trace leaves
+        // the columns as they were.
+        let mut used = vec![false; self.lights.len()];
+        let mut factors = Vec::with_capacity(scene.lights.len());
+        let mut traced = 0;
+        for light in &scene.lights {
+            let kept = (0..self.lights.len()).find(|&i| !used[i] && same_column(&self.lights[i], light));
+            factors.push(match kept {
+                Some(i) => {
+                    used[i] = true;
+                    self.factors[i].clone()
+                }
+                None => {
+                    let (f, rays) = Self::compute_light(scene, tracer, light, params)?;
+                    traced += rays;
+                    f
+                }
+            });
+        }
+        self.factors = factors;
+        self.lights = scene.lights.clone();
+        self.shadow_rays = traced;
+        self.ms = start.elapsed().as_secs_f64() * 1e3;
+        Ok(traced)
     }
 
     /// One light's column: `(G * V_avg per vertex, shadow rays traced)`.
