@@ -145,7 +145,8 @@ fn light_on_a_vertex_and_behind_surfaces_stay_finite() {
 
 /// Updating the light links after light edits traces only the lights at a
 /// new position or direction; every column equals a fresh computation bit
-/// for bit. A changed intensity or a removed light traces nothing.
+/// for bit. A changed intensity or a removed light traces nothing; new
+/// parameters or moved vertices retrace every light.
 #[test]
 fn light_updates_trace_only_moved_lights() {
     let point = |p: Vec3, i: f32| Light::Point { position: p, intensity: Vec3::splat(i) };
@@ -185,4 +186,12 @@ fn light_updates_trace_only_moved_lights() {
     check_fresh(&scene, &links);
     let lit = e.iter().filter(|e| e.x > 0.0).count();
     assert!(lit > 100, "{lit} vertices lit");
+
+    // Other parameters, or moved vertices, void every column.
+    let coarse = LightLinkParams { oversample: false, ..params };
+    let rays = links.update_with(&scene, &kd, &coarse).unwrap();
+    assert_eq!(rays, LightLinks::compute(&scene, &kd, &coarse).shadow_rays);
+    assert!(rays > 0);
+    scene.positions[5].y += 1e-3;
+    assert_eq!(links.update_with(&scene, &kd, &coarse).unwrap(), rays);
 }

@@ -55,6 +55,10 @@ pub struct LightLinks {
     /// The lights the columns were computed for (their positions or
     /// directions matter; intensities do not enter the factors).
     pub lights: Vec<Light>,
+    /// The parameters and vertex positions the columns were computed with;
+    /// an update that finds either changed recomputes every column.
+    pub params: Option<LightLinkParams>,
+    pub positions: Vec<Vec3>,
     /// Shadow rays traced by the last computation or update.
     pub shadow_rays: u64,
     /// Time of the last computation or update.
@@ -146,9 +150,10 @@ impl LightLinks {
     /// Brings the columns up to date with `scene.lights`: a light whose
     /// position (or direction) matches one already computed keeps that
     /// column, with no rays (a changed intensity, a light added or removed
-    /// elsewhere in the list); only the others are traced. Returns the
-    /// shadow rays traced. The mesh must be the one the columns were
-    /// computed on.
+    /// elsewhere in the list); only the others are traced. Different
+    /// `params` or moved vertices void every column. Returns the shadow
+    /// rays traced. The mesh's topology must be the one the columns were
+    /// computed on (a solver builds new light links with a new mesh).
     pub fn update_with(
         &mut self,
         scene: &PreparedScene,
@@ -158,7 +163,8 @@ impl LightLinks {
         let start = Instant::now();
         // Built aside and swapped in at the end, so a failed trace leaves
         // the columns as they were.
-        let mut used = vec![false; self.lights.len()];
+        let valid = self.params == Some(*params) && self.positions == scene.positions;
+        let mut used = vec![!valid; self.lights.len()];
         let mut factors = Vec::with_capacity(scene.lights.len());
         let mut traced = 0;
         for light in &scene.lights {
@@ -177,6 +183,10 @@ impl LightLinks {
         }
         self.factors = factors;
         self.lights = scene.lights.clone();
+        if !valid {
+            self.params = Some(*params);
+            self.positions = scene.positions.clone();
+        }
         self.shadow_rays = traced;
         self.ms = start.elapsed().as_secs_f64() * 1e3;
         Ok(traced)
