@@ -86,14 +86,31 @@ pub struct GpuState {
 }
 
 /// All stage parameters, defaults from DESIGN.md.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SolveParams {
+    /// kd-tree for the CPU walk.
     pub kd: KdBuildParams,
+    /// kd-tree for the GPU path, whose shader tests one triangle per step
+    /// ([`KdBuildParams::for_gpu`]); the hits are the same.
+    pub kd_gpu: KdBuildParams,
     pub links: LinkParams,
     pub light: LightLinkParams,
     pub gather: GatherParams,
     /// Feature angle of smoothing, degrees; 0: off.
     pub smoothing_angle_deg: f32,
+}
+
+impl Default for SolveParams {
+    fn default() -> Self {
+        SolveParams {
+            kd: KdBuildParams::default(),
+            kd_gpu: KdBuildParams::for_gpu(),
+            links: LinkParams::default(),
+            light: LightLinkParams::default(),
+            gather: GatherParams::default(),
+            smoothing_angle_deg: 0.0,
+        }
+    }
 }
 
 impl SolveParams {
@@ -165,7 +182,8 @@ impl Solver {
         Solver { scene, params, kd, links, light_links, gpu: None, compute: Compute::Cpu }
     }
 
-    /// Builds everything on `compute`: the kd-tree on the CPU, then links,
+    /// Builds everything on `compute`: the kd-tree on the CPU (with
+    /// `params.kd_gpu` for a GPU), then links,
     /// light links (and later the bounces) on the GPU when it is one.
     pub fn new_on(
         scene: PreparedScene,
@@ -177,7 +195,7 @@ impl Solver {
             Compute::Cpu => return Ok(Solver::new(scene, params, progress)),
             Compute::Gpu(g) => g,
         };
-        let kd = KdTree::build(&scene.positions, &scene.triangles, &params.kd);
+        let kd = KdTree::build(&scene.positions, &scene.triangles, &params.kd_gpu);
         let mut logical = Vec::new();
         for dev in &g.devices {
             for i in 0..g.logical_per_device {

@@ -92,7 +92,8 @@ fn agree_on(name: &str) {
     let desc = scene::load(name).expect("built-in");
     let scene = prep::prepare(&desc).expect("prepares");
     let params = SolveParams::from_settings(&scene.settings);
-    let cpu = Solver::new(scene.clone(), params, &|_, _| {});
+    // The CPU solver builds the tree the GPU path uses, so both walk one tree.
+    let cpu = Solver::new(scene.clone(), SolveParams { kd: params.kd_gpu, ..params }, &|_, _| {});
     let gpu = Solver::new_on(scene.clone(), params, &gpu_compute(&dev, 1), &|_, _| {}).expect("GPU solver");
     gpu.kd.validate().expect("kd valid");
     gpu.links.validate().expect("GPU links valid");

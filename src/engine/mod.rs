@@ -310,6 +310,7 @@ impl Worker {
                     dirty.gather = true;
                     self.params = SolveParams {
                         kd: self.params.kd,
+                        kd_gpu: self.params.kd_gpu,
                         light: self.params.light,
                         ..SolveParams::from_settings(&scene.settings)
                     };

@@ -105,7 +105,7 @@ fn sah_cost(ctx: &Ctx, node: &Aabb, axis: usize, pos: f32, nl: usize, nr: usize)
     let inv = 1.0 / node.area();
     let (pl, pr) = (l.area() * inv, r.area() * inv);
     let bonus = if nl == 0 || nr == 0 { 1.0 - ctx.p.empty_bonus } else { 1.0 };
-    bonus * (ctx.p.traversal_cost + ctx.p.intersect_cost * (pl * nl.div_ceil(4) as f32 + pr * nr.div_ceil(4) as f32))
+    bonus * (ctx.p.traversal_cost + ctx.p.intersect_cost * (pl * ctx.p.blocks(nl) + pr * ctx.p.blocks(nr)))
 }
 
 /// Full SAH sweep over the sorted events of all three axes.
@@ -283,7 +283,7 @@ impl Sweep<'_> {
         let Some(split) = find_split(ctx, &bx, r.map(|r| self.list(r)), n) else {
             return self.leaf(&bx, r[0]);
         };
-        if split.cost >= ctx.p.intersect_cost * n.div_ceil(4) as f32 {
+        if split.cost >= ctx.p.intersect_cost * ctx.p.blocks(n) {
             return self.leaf(&bx, r[0]);
         }
         let (lbox, rbox) = bx.split(split.axis, split.pos);
@@ -437,7 +437,7 @@ fn tree_stats(kd: &KdTree, node: u32, bx: Aabb, depth: u32, root_area: f32, stat
     let rel = if root_area > 0.0 { (bx.area() / root_area) as f64 } else { 1.0 };
     let n = kd.nodes[node as usize];
     if n.kind == LEAF {
-        *sah += rel * kd.params.intersect_cost as f64 * kd.leaves[n.a as usize].count.div_ceil(4) as f64;
+        *sah += rel * kd.params.intersect_cost as f64 * kd.params.blocks(kd.leaves[n.a as usize].count as usize) as f64;
     } else {
         *sah += rel * kd.params.traversal_cost as f64;
         let (lb, rb) = bx.split(n.kind as usize, n.split);
