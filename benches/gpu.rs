@@ -24,7 +24,7 @@ fn stages(c: &mut Criterion) {
         let scene = prep::prepare(&builtin::builtin(name).unwrap()).unwrap();
         let mut g = c.benchmark_group(format!("gpu/{name}"));
         g.sample_size(10).measurement_time(Duration::from_secs(20)).warm_up_time(Duration::from_secs(2));
-        let kd = KdTree::build(&scene.positions, &scene.triangles, &KdBuildParams::default());
+        let kd = KdTree::build(&scene.positions, &scene.triangles, &KdBuildParams::for_gpu());
         let params = LinkParams::default();
         let setup = RaySetup::new(&scene, &params);
         let verts = schedule::ray_vertices(&setup);
