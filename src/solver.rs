@@ -219,15 +219,35 @@ impl Solver {
 
     /// Brings the light links up to date with `scene.lights` (after lights
     /// moved, were added or removed, or changed power): only lights at a new
-    /// position or direction are traced ([`LightLinks::update_with`]).
+    /// position or direction are traced ([`LightLinks::update_with`]),
+    /// and preview columns are replaced by full ones.
     pub fn update_lights(&mut self) {
+        self.refresh_lights(false);
+    }
+
+    /// As [`Solver::update_lights`], but lights that need tracing get quick
+    /// preview columns ([`LightLinks::preview_with`]). Returns true if any
+    /// column is a preview (then [`Solver::update_lights`] refines them).
+    pub fn preview_lights(&mut self) -> bool {
+        self.refresh_lights(true);
+        self.light_links.coarse.iter().any(|&c| c)
+    }
+
+    fn refresh_lights(&mut self, preview: bool) {
+        let update = |l: &mut LightLinks, scene: &PreparedScene, tracer: &dyn exchange::light_links::ShadowTracer| {
+            if preview {
+                l.preview_with(scene, tracer, &self.params.light)
+            } else {
+                l.update_with(scene, tracer, &self.params.light)
+            }
+        };
         if let Some(g) = &self.gpu {
-            match self.light_links.update_with(&self.scene, &g.tracer, &self.params.light) {
+            match update(&mut self.light_links, &self.scene, &g.tracer) {
                 Ok(_) => return,
                 Err(e) => eprintln!("warning: {e}; computing light links on the CPU"),
             }
         }
-        self.light_links.update_with(&self.scene, &self.kd, &self.params.light).expect("the CPU tracer cannot fail");
+        update(&mut self.light_links, &self.scene, &self.kd).expect("the CPU tracer cannot fail");
     }
 
     /// Gathers the bounces and smooths.

@@ -195,3 +195,36 @@ fn light_updates_trace_only_moved_lights() {
     scene.positions[5].y += 1e-3;
     assert_eq!(links.update_with(&scene, &kd, &coarse).unwrap(), rays);
 }
+
+/// A preview traces one shadow ray per lit vertex (no oversampling): where
+/// the full result sees the light from the whole one-ring or from none of
+/// it, the preview gives the same factor (to rounding); the next full update replaces the
+/// preview columns and equals a fresh computation bit for bit.
+#[test]
+fn light_preview_is_exact_outside_penumbrae_and_refines() {
+    let point = |p: Vec3| Light::Point { position: p, intensity: Vec3::ONE };
+    let mut scene = floor_scene(true, vec![point(Vec3::new(0.05, 1.2, -0.03))]);
+    let kd = KdTree::build(&scene.positions, &scene.triangles, &KdBuildParams::default());
+    kd.validate().unwrap();
+    let params = LightLinkParams::default();
+    let mut links = LightLinks::compute(&scene, &kd, &params);
+    scene.lights[0] = point(Vec3::new(-0.1, 1.0, 0.12));
+    let preview_rays = links.preview_with(&scene, &kd, &params).unwrap();
+    assert_eq!(links.coarse, vec![true]);
+    let full = LightLinks::compute(&scene, &kd, &params);
+    assert!(preview_rays > 0 && preview_rays * 5 < full.shadow_rays, "{preview_rays} vs {}", full.shadow_rays);
+    let g = |v: usize| linkgi::exchange::light_links::geometry(&scene.lights[0], scene.positions[v], scene.normals[v], 1e-6);
+    let (mut lit, mut dark) = (0, 0);
+    for v in 0..441 {
+        let (f, p) = (full.factors[0][v], links.factors[0][v]);
+        assert!(p.is_finite() && p >= 0.0 && p <= g(v) * 1.0001);
+        if f == 0.0 || (f - g(v)).abs() <= 1e-6 * g(v) {
+            assert!((p - f).abs() <= 1e-6 * f, "vertex {v}: preview {p}, full {f}");
+            if f == 0.0 { dark += 1 } else { lit += 1 }
+        }
+    }
+    assert!(lit > 100 && dark > 10, "{lit} lit, {dark} in umbra");
+    let rays = links.update_with(&scene, &kd, &params).unwrap();
+    assert_eq!((rays, links.coarse.clone()), (full.shadow_rays, vec![false]));
+    assert_eq!(links.factors, full.factors);
+}

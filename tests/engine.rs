@@ -15,7 +15,7 @@ fn start(name: &str, rays: u32, delay_ms: u64) -> (Engine, prep::PreparedScene) 
     desc.settings.rays_per_vertex = rays;
     let scene = prep::prepare(&desc).unwrap();
     let params = SolveParams::from_settings(&scene.settings);
-    let opts = EngineParams { delay: Duration::from_millis(delay_ms) };
+    let opts = EngineParams { delay: Duration::from_millis(delay_ms), ..Default::default() };
     (Engine::start(scene.clone(), params, Compute::Cpu, opts), scene)
 }
 
@@ -145,4 +145,45 @@ fn failures_keep_the_last_good_result() {
     e.send(Change::MoveLight { index: 0, light: Light::Point { position: p + Vec3::X * 0.1, intensity: i } });
     assert!(e.wait_idle(WAIT));
     assert_eq!(e.latest().unwrap().version, good.version + 1);
+}
+
+/// With `light_preview`, a light move publishes a preview and then the full
+/// result, which is bit for bit the result of an engine without previews;
+/// moves sent back to back end in one full result that counts them all.
+#[test]
+fn light_preview_is_followed_by_the_full_result() {
+    let mut desc = builtin::builtin("cornell").unwrap();
+    desc.settings.rays_per_vertex = 16;
+    let scene = prep::prepare(&desc).unwrap();
+    let params = SolveParams::from_settings(&scene.settings);
+    let start = |preview: bool| {
+        let opts = EngineParams { light_preview: preview, ..Default::default() };
+        Engine::start(scene.clone(), params, Compute::Cpu, opts)
+    };
+    let (mut plain, mut quick) = (start(false), start(true));
+    let (p, i) = first_point(&scene);
+    let moved = |k: f32| Change::MoveLight { index: 0, light: Light::Point { position: p - Vec3::X * 0.1 * k, intensity: i } };
+    for e in [&mut plain, &mut quick] {
+        assert!(e.wait_idle(WAIT));
+        e.send(moved(1.0));
+        assert!(e.wait_idle(WAIT));
+    }
+    let c = quick.counters();
+    assert_eq!((c.published, c.previews, c.light_link_updates, c.changes), (3, 1, 3, 1));
+    assert_eq!(plain.counters().previews, 0);
+    let (a, b) = (plain.latest().unwrap(), quick.latest().unwrap());
+    assert!(!b.preview);
+    assert_eq!(a.e_direct, b.e_direct);
+    assert_eq!(a.e_indirect, b.e_indirect);
+
+    for k in 2..=4 {
+        quick.send(moved(k as f32));
+    }
+    assert!(quick.wait_idle(WAIT));
+    let c = quick.counters();
+    let last = quick.latest().unwrap();
+    assert!(!last.preview && c.changes == 4 && c.previews >= 2, "{c:?}");
+    plain.send(moved(4.0));
+    assert!(plain.wait_idle(WAIT));
+    assert_eq!(plain.latest().unwrap().e_direct, last.e_direct);
 }

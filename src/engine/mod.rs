@@ -11,6 +11,11 @@
 //! |---|---|
 //! | light moved / added / removed | light links of the lights at a new position or direction + gather |
 //! | light intensity changed | gather (its light links are kept) |
+//!
+//! With [`EngineParams::light_preview`] (the viewer's choice), a light edit
+//! that needs tracing publishes a preview first (new light links from the
+//! vertices alone, [`GiResult::preview`]), then the full result unless more
+//! changes are already queued; the next batch then refines the preview.
 //! | mesh deformed (new positions; static meshes must not move) | kd-tree + links + light links + gather |
 //! | settings: rays or seed | kd-tree + links + light links + gather |
 //! | settings: bounces or smoothing | gather |
@@ -76,6 +81,9 @@ pub struct GiResult {
     pub links: u64,
     /// Bounces the gather ran.
     pub bounces: u32,
+    /// True for a preview ([`EngineParams::light_preview`]): some light
+    /// links lack their one-ring oversampling; a full result follows.
+    pub preview: bool,
 }
 
 /// What the worker has done so far and the stage times of its last update.
@@ -87,6 +95,8 @@ pub struct Counters {
     pub gathers: u64,
     /// Results published (the version of the newest result).
     pub published: u64,
+    /// Of those, previews ([`GiResult::preview`]).
+    pub previews: u64,
     /// Changes received.
     pub changes: u64,
     /// Batches of changes handled (fewer than `changes` when they coalesce).
@@ -108,6 +118,13 @@ pub struct Counters {
 pub struct EngineParams {
     /// Extra sleep before each update (tests and demos of a slow solve). Default 0.
     pub delay: Duration,
+    /// Light edits first publish a preview: lights that need tracing get
+    /// light links from their vertices alone (no one-ring oversampling,
+    /// about 1/13 of the shadow rays), then, unless more changes are
+    /// already queued, the full result follows. The changes count as
+    /// handled ([`Counters::changes`]) only with the full result. Default
+    /// off; the viewer turns it on.
+    pub light_preview: bool,
 }
 
 struct Shared {
@@ -133,6 +150,48 @@ fn lock<T>(m: &Mutex<T>) -> std::sync::MutexGuard<'_, T> {
     m.lock().unwrap_or_else(|p| p.into_inner())
 }
 
+/// Gathers on `s`, publishes the result as the next version and adds this
+/// run's counts `c` to the totals (then clears them, so a second publish of
+/// the same batch does not count them twice). `changes` are the changes
+/// the result completes; `batch_done` counts the batch as handled.
+fn publish(shared: &Shared, s: &Solver, c: &mut Counters, t0: Instant, preview: bool, changes: u64, batch_done: bool) {
+    let t = Instant::now();
+    let sol = s.solve();
+    c.gather_ms = t.elapsed().as_secs_f64() * 1e3;
+    let update_ms = t0.elapsed().as_secs_f64() * 1e3;
+    let mut total = lock(&shared.counters);
+    let version = total.published + 1;
+    let result = Arc::new(GiResult {
+        version,
+        links: s.links.stats.merged_links,
+        bounces: sol.gather.bounces,
+        e_indirect: sol.e_indirect,
+        e_direct: sol.e_direct,
+        lights: s.scene.lights.clone(),
+        published: Instant::now(),
+        update_ms,
+        preview,
+    });
+    *lock(&shared.latest) = Some(result);
+    total.kd_builds += c.kd_builds;
+    total.link_builds += c.link_builds;
+    total.light_link_updates += c.light_link_updates;
+    total.gathers += 1;
+    total.published = version;
+    total.previews += preview as u64;
+    total.changes += changes;
+    total.batches += batch_done as u64;
+    if c.kd_builds > 0 {
+        total.rebuild_ms = c.rebuild_ms;
+    }
+    if c.light_link_updates > 0 {
+        total.light_links_ms = c.light_links_ms;
+    }
+    total.gather_ms = c.gather_ms;
+    total.update_ms = update_ms;
+    *c = Counters::default();
+}
+
 impl Engine {
     /// Starts the worker; it builds the solver and publishes version 1.
     pub fn start(scene: PreparedScene, params: SolveParams, compute: Compute, options: EngineParams) -> Engine {
@@ -145,7 +204,7 @@ impl Engine {
         let sh = shared.clone();
         let handle = std::thread::Builder::new()
             .name("linkgi-gi".into())
-            .spawn(move || Worker { shared: sh, compute, options, params, solver: None, good: scene }.run(rx))
+            .spawn(move || Worker { shared: sh, compute, options, params, solver: None, good: scene, pending: 0 }.run(rx))
             .expect("spawn GI worker");
         Engine { tx, shared, sent: 0, handle: Some(handle) }
     }
@@ -226,13 +285,15 @@ struct Worker {
     solver: Option<Solver>,
     /// The scene of the last good solve (rebuild source after a panic).
     good: PreparedScene,
+    /// Changes shown so far only in a preview (counted with the next full result).
+    pending: u64,
 }
 
 impl Worker {
     fn run(mut self, rx: Receiver<Msg>) {
         // First solve: everything.
         let scene = self.good.clone();
-        self.update(scene, Dirty { geometry: true, lights: true, gather: true, panic: false }, 0);
+        self.update(scene, Dirty { geometry: true, lights: true, gather: true, panic: false }, 0, &|| false);
         while let Ok(first) = rx.recv() {
             let mut msgs = vec![first];
             msgs.extend(rx.try_iter());
@@ -247,7 +308,7 @@ impl Worker {
             if !changes.is_empty() {
                 let n = changes.len() as u64;
                 match self.coalesce(changes) {
-                    Ok((scene, dirty)) => self.update(scene, dirty, n),
+                    Ok((scene, dirty)) => self.update(scene, dirty, n, &|| !rx.is_empty()),
                     Err(e) => self.fail(e, n),
                 }
             }
@@ -327,7 +388,14 @@ impl Worker {
         Ok((scene, dirty))
     }
 
-    fn update(&mut self, scene: PreparedScene, dirty: Dirty, changes: u64) {
+    /// Handles one coalesced batch of `changes`; `more_waiting` tells
+    /// whether further changes are already queued (then a light preview is
+    /// not refined now: the next batch refines it).
+    fn update(&mut self, scene: PreparedScene, mut dirty: Dirty, changes: u64, more_waiting: &dyn Fn() -> bool) {
+        // Preview columns left by the last batch are refined by this one.
+        if self.solver.as_ref().is_some_and(|s| s.light_links.coarse.contains(&true)) {
+            dirty.lights = true;
+        }
         if !(dirty.geometry || dirty.lights || dirty.gather || dirty.panic) {
             let mut c = lock(&self.shared.counters);
             c.changes += changes;
@@ -342,7 +410,9 @@ impl Worker {
         let params = self.params;
         let compute = self.compute.clone();
         let shared = self.shared.clone();
-        let outcome = std::panic::catch_unwind(AssertUnwindSafe(|| -> Result<Solver, String> {
+        let light_preview = self.options.light_preview;
+        let pending = self.pending;
+        let outcome = std::panic::catch_unwind(AssertUnwindSafe(|| -> Result<(Solver, bool), String> {
             if dirty.panic {
                 panic!("injected panic (Change::Panic)");
             }
@@ -364,48 +434,29 @@ impl Worker {
             s.scene.settings = scene.settings;
             if dirty.lights && c.light_link_updates == 0 {
                 s.scene.lights = scene.lights.clone();
+                if light_preview {
+                    let t = Instant::now();
+                    if s.preview_lights() {
+                        c.light_links_ms = t.elapsed().as_secs_f64() * 1e3;
+                        c.light_link_updates += 1;
+                        let waiting = more_waiting();
+                        publish(&shared, &s, &mut c, t0, true, 0, waiting);
+                        if waiting {
+                            return Ok((s, false));
+                        }
+                    }
+                }
                 let t = Instant::now();
                 s.update_lights();
                 c.light_links_ms = t.elapsed().as_secs_f64() * 1e3;
                 c.light_link_updates += 1;
             }
-            let t = Instant::now();
-            let sol = s.solve();
-            c.gather_ms = t.elapsed().as_secs_f64() * 1e3;
-            c.gathers += 1;
-            let update_ms = t0.elapsed().as_secs_f64() * 1e3;
-            let mut total = lock(&shared.counters);
-            let version = total.published + 1;
-            let result = Arc::new(GiResult {
-                version,
-                links: s.links.stats.merged_links,
-                bounces: sol.gather.bounces,
-                e_indirect: sol.e_indirect,
-                e_direct: sol.e_direct,
-                lights: s.scene.lights.clone(),
-                published: Instant::now(),
-                update_ms,
-            });
-            *lock(&shared.latest) = Some(result);
-            total.kd_builds += c.kd_builds;
-            total.link_builds += c.link_builds;
-            total.light_link_updates += c.light_link_updates;
-            total.gathers += 1;
-            total.published = version;
-            total.changes += changes;
-            total.batches += 1;
-            if c.kd_builds > 0 {
-                total.rebuild_ms = c.rebuild_ms;
-            }
-            if c.light_link_updates > 0 {
-                total.light_links_ms = c.light_links_ms;
-            }
-            total.gather_ms = c.gather_ms;
-            total.update_ms = update_ms;
-            Ok(s)
+            publish(&shared, &s, &mut c, t0, false, changes + pending, true);
+            Ok((s, true))
         }));
         match outcome {
-            Ok(Ok(s)) => {
+            Ok(Ok((s, full))) => {
+                self.pending = if full { 0 } else { pending + changes };
                 self.good = s.scene.clone();
                 self.solver = Some(s);
             }

@@ -503,6 +503,7 @@ impl Viewer {
                 gi_updates_per_s: self.gi_ups,
                 gi_age_ms: gi.as_ref().map(|g| g.published.elapsed().as_secs_f64() * 1e3),
                 gi_version: gi.as_ref().map_or(0, |g| g.version),
+                gi_preview: gi.as_ref().is_some_and(|g| g.preview),
                 links: gi.as_ref().map_or(0, |g| g.links),
                 bounces: gi.as_ref().map_or(0, |g| g.bounces),
                 stage_ms: [counters.rebuild_ms, counters.light_links_ms, counters.gather_ms],
@@ -768,7 +769,8 @@ pub fn run(args: ViewArgs) -> Result<()> {
         prepared.clone(),
         SolveParams::from_settings(&prepared.settings),
         compute,
-        EngineParams::default(),
+        // Moving a light shows a quick preview first (see EngineParams).
+        EngineParams { light_preview: true, ..Default::default() },
     );
     let n = prepared.positions.len();
     let intensity_range = prepared

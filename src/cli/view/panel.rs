@@ -23,6 +23,8 @@ pub struct PanelModel<'a> {
     /// Age of the drawn GI, ms (`None` before the first result).
     pub gi_age_ms: Option<f64>,
     pub gi_version: u64,
+    /// The drawn GI is a light preview (a full result follows).
+    pub gi_preview: bool,
     pub links: u64,
     pub bounces: u32,
     /// Last update's stage times, ms: rebuild (kd-tree + links), light links, gather.
@@ -110,8 +112,9 @@ pub fn panel(ctx: &egui::Context, m: &PanelModel) -> Vec<UiAction> {
             ));
             ui.label(match m.gi_age_ms {
                 Some(a) => format!(
-                    "GI v{} age {a:.0} ms · {:.2} M links · {} bounces",
+                    "GI v{}{} age {a:.0} ms · {:.2} M links · {} bounces",
                     m.gi_version,
+                    if m.gi_preview { " (preview)" } else { "" },
                     m.links as f64 * 1e-6,
                     m.bounces
                 ),
