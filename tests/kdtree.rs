@@ -322,9 +322,9 @@ fn leaf_hint_runs_match_single_rays() {
 
 /// The rays the solver shoots (from vertices, origins nudged at creases,
 /// skipping incident triangles) on `tearoom`, whose tabletop and bowls have
-/// nearly flat triangles in one-ulp slab leaves: three trees built with
-/// different costs must give the same nearest hit on every ray, and where
-/// they differ brute force decides (before leaves were entered at the exit
+/// nearly flat triangles in one-ulp slab leaves: rope walks in three trees
+/// built with different costs must give the same nearest hit on every ray,
+/// and where they differ brute force decides (before leaves were entered at the exit
 /// plane's own coordinate, 9 in 90,000 such rays returned a farther hit).
 #[test]
 fn solver_rays_on_tearoom_agree_across_trees() {
@@ -399,6 +399,7 @@ fn one_ulp_slab_leaves_are_entered() {
         let r = Ray::new(origin, (target - origin).normalize());
         let bf = brute_force(&kd, &r);
         assert_eq!(kd.intersect(&r), bf, "rope vs brute force for {r:?}");
+        assert_eq!(kd.intersect_stack(&r), bf, "stack vs brute force for {r:?}");
         assert_eq!(kd.occluded(&r), bf.is_some());
         patch_hits += bf.is_some_and(|h| h.tri >= 400) as usize;
     }

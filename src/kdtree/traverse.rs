@@ -317,7 +317,9 @@ impl KdTree {
         self.walk_ropes::<true>(ray, Start::Near(hint)).is_some()
     }
 
-    /// Nearest hit by front-to-back traversal with an explicit stack (test oracle).
+    /// Nearest hit by front-to-back traversal with an explicit stack (test
+    /// oracle; splits within a relative 1e-6 of an interval's end visit
+    /// both children).
     pub fn intersect_stack(&self, ray: &Ray) -> Option<Hit> {
         let inv = ray.dir.recip();
         let (t0, t1) = self.clip_root(ray, inv)?;
@@ -338,9 +340,13 @@ impl KdTree {
                 let below_first = ray.origin[a] < n.split || (ray.origin[a] == n.split && ray.dir[a] <= 0.0);
                 let (first, second) = if below_first { (n.a, n.b) } else { (n.b, n.a) };
                 let t_split = (n.split - ray.origin[a]) * inv[a];
-                if ray.dir[a] == 0.0 || t_split > tmax || t_split < 0.0 {
+                // A relative margin: an interval one ulp-thick leaf wide can
+                // round to nothing, so a split that close to either end
+                // sends the ray into both children.
+                let (lo, hi) = (tmin - 1e-6 * tmin.abs(), tmax + 1e-6 * tmax.abs());
+                if ray.dir[a] == 0.0 || t_split > hi || t_split <= 0.0 {
                     node = first;
-                } else if t_split < tmin {
+                } else if t_split < lo {
                     node = second;
                 } else {
                     stack.push((second, t_split, tmax));
