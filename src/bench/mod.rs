@@ -116,6 +116,13 @@ pub struct RunTimes {
     pub bounces_ms: f64,
     /// From the prepared scene to smoothed `E_i`: kd + links + light links + bounces + smoothing.
     pub first_solution_ms: f64,
+    /// Light 0 moved by 5 cm (directional: turned by about 3 degrees): a
+    /// preview of its light links plus bounces and smoothing
+    /// ([`Solver::preview_lights`]); NaN without lights.
+    pub light_preview_ms: f64,
+    /// The same move, full: that light's light links plus bounces and
+    /// smoothing ([`Solver::update_lights`]); NaN without lights.
+    pub light_move_ms: f64,
 }
 
 /// One scene's figures (sizes from the last run; times over all measured runs).
@@ -142,6 +149,8 @@ pub struct BenchRow {
     pub k_shadow_rays_per_s: Stat,
     pub bounces_ms: Stat,
     pub first_solution_ms: Stat,
+    pub light_preview_ms: Stat,
+    pub light_move_ms: Stat,
     /// Offscreen frames per second of the renderer with the solved GI (NaN: not measured).
     pub render_fps: f64,
     /// The renderer used ("gpu: <adapter>" or "cpu fallback").
@@ -180,6 +189,8 @@ impl BenchRow {
             k_shadow_rays_per_s: st(|r| r.shadow_rays_per_s / 1e3),
             bounces_ms: st(|r| r.bounces_ms),
             first_solution_ms: st(|r| r.first_solution_ms),
+            light_preview_ms: st(|r| r.light_preview_ms),
+            light_move_ms: st(|r| r.light_move_ms),
             render_fps: f64::NAN,
             renderer: String::new(),
             peak_mb: f64::NAN,
@@ -204,6 +215,28 @@ pub struct Sizes {
     pub gather_bytes: u64,
 }
 
+/// Moves light 0 a little and times the preview and the full update, each
+/// with its gather and smoothing, ms; NaN without lights.
+fn time_light_move(solver: &mut Solver) -> (f64, f64) {
+    let Some(light) = solver.scene.lights.first_mut() else {
+        return (f64::NAN, f64::NAN);
+    };
+    match light {
+        crate::scene::Light::Point { position, .. } => *position += glam::Vec3::new(0.05, 0.0, 0.0),
+        crate::scene::Light::Directional { direction, .. } => {
+            *direction = (*direction + direction.any_orthonormal_vector() * 0.05).normalize()
+        }
+    }
+    let t = Instant::now();
+    solver.preview_lights();
+    let _ = solver.solve();
+    let preview = t.elapsed().as_secs_f64() * 1e3;
+    let t = Instant::now();
+    solver.update_lights();
+    let _ = solver.solve();
+    (preview, t.elapsed().as_secs_f64() * 1e3)
+}
+
 /// One complete build and solve of `scene`, timed.
 pub fn run_once(
     scene: &prep::PreparedScene,
@@ -211,9 +244,10 @@ pub fn run_once(
     compute: &Compute,
 ) -> crate::Result<(RunTimes, Sizes, Vec<glam::Vec3>)> {
     let t0 = Instant::now();
-    let solver = Solver::new_on(scene.clone(), *params, compute, &|_, _| {})?;
+    let mut solver = Solver::new_on(scene.clone(), *params, compute, &|_, _| {})?;
     let solution = solver.solve();
     let first_solution_ms = t0.elapsed().as_secs_f64() * 1e3;
+    let (light_preview_ms, light_move_ms) = time_light_move(&mut solver);
     let l = &solver.links.stats;
     let times = RunTimes {
         kd_ms: solver.kd.stats.build_ms,
@@ -223,6 +257,8 @@ pub fn run_once(
         shadow_rays_per_s: solver.light_links.shadow_rays as f64 / (solver.light_links.ms.max(1e-9) * 1e-3),
         bounces_ms: solution.gather.ms,
         first_solution_ms,
+        light_preview_ms,
+        light_move_ms,
     };
     let sizes = Sizes {
         vertices: solver.scene.vertex_count(),

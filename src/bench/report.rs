@@ -99,6 +99,22 @@ pub fn markdown(rows: &[BenchRow]) -> String {
             );
         }
     }
+    let _ = writeln!(
+        out,
+        "\n### Moving light 0 by 5 cm (median [min, max] of {runs} runs): its light links, then bounces and smoothing\n"
+    );
+    let _ = writeln!(out, "| scene | source | preview ms | full ms |");
+    let _ = writeln!(out, "|---|---|---|---|");
+    for r in rows.iter().filter(|r| r.light_move_ms.median.is_finite()) {
+        let _ = writeln!(
+            out,
+            "| {} | linkgi {} | {} | {} |",
+            r.scene,
+            r.backend,
+            stat(&r.light_preview_ms, 1),
+            stat(&r.light_move_ms, 1)
+        );
+    }
     let cpu: Vec<&BenchRow> = rows.iter().filter(|r| r.backend == "CPU" && r.read_gbps.is_finite()).collect();
     if let Some(first) = cpu.first() {
         let _ = writeln!(
@@ -152,6 +168,8 @@ mod tests {
                 shadow_rays_per_s: 2e5 * k,
                 bounces_ms: k / 5.0,
                 first_solution_ms: 100.0 * k,
+                light_preview_ms: k / 20.0,
+                light_move_ms: k / 4.0,
             })
             .collect();
         let sizes = Sizes {
@@ -196,6 +214,7 @@ mod tests {
         assert!(lines[c + 2].starts_with("| IPHI | paper, 2 GPUs | 47 |"));
         assert!(md.contains("| tearoom | linkgi | 11900 | 14000 | 3.00 | 1.00 | 24.0 | 6.0 |"));
         assert!(md.contains("first solution s") && md.contains("2.00 [1.00, 3.00]"));
+        assert!(md.contains("| tearoom | linkgi CPU | 1.0 [0.5, 1.5] | 5.0 [2.5, 7.5] |"), "{md}");
         // No bandwidth measured: no bandwidth table.
         assert!(!md.contains("Gather bandwidth"));
         let mut r = synthetic("tearoom");
