@@ -247,14 +247,16 @@ pub fn run_once(
     let mut solver = Solver::new_on(scene.clone(), *params, compute, &|_, _| {})?;
     let solution = solver.solve();
     let first_solution_ms = t0.elapsed().as_secs_f64() * 1e3;
+    // Read before the light move below replaces them.
+    let (light_links_ms, shadow_rays) = (solver.light_links.ms, solver.light_links.shadow_rays);
     let (light_preview_ms, light_move_ms) = time_light_move(&mut solver);
     let l = &solver.links.stats;
     let times = RunTimes {
         kd_ms: solver.kd.stats.build_ms,
         links_ms: l.shoot_ms,
         rays_per_s: l.rays_per_second(),
-        light_links_ms: solver.light_links.ms,
-        shadow_rays_per_s: solver.light_links.shadow_rays as f64 / (solver.light_links.ms.max(1e-9) * 1e-3),
+        light_links_ms,
+        shadow_rays_per_s: shadow_rays as f64 / (light_links_ms.max(1e-9) * 1e-3),
         bounces_ms: solution.gather.ms,
         first_solution_ms,
         light_preview_ms,
