@@ -226,11 +226,11 @@ impl Solver {
     }
 
     /// As [`Solver::update_lights`], but lights that need tracing get quick
-    /// preview columns ([`LightLinks::preview_with`]). Returns true if any
-    /// column is a preview (then [`Solver::update_lights`] refines them).
+    /// preview columns ([`LightLinks::preview_with`]). Returns true if this
+    /// call traced any (then [`Solver::update_lights`] refines them).
     pub fn preview_lights(&mut self) -> bool {
         self.refresh_lights(true);
-        self.light_links.coarse.iter().any(|&c| c)
+        self.light_links.shadow_rays > 0 && self.light_links.coarse.contains(&true)
     }
 
     fn refresh_lights(&mut self, preview: bool) {

@@ -187,3 +187,34 @@ fn light_preview_is_followed_by_the_full_result() {
     assert!(plain.wait_idle(WAIT));
     assert_eq!(plain.latest().unwrap().e_direct, last.e_direct);
 }
+
+/// A preview whose refinement was put off for a queued batch that then
+/// fails (a bad light index) or panics is still replaced by a full result,
+/// and every change counts as handled, so `wait_idle` returns.
+#[test]
+fn a_failed_batch_after_a_preview_still_ends_in_a_full_result() {
+    let mut desc = builtin::builtin("cornell").unwrap();
+    desc.settings.rays_per_vertex = 16;
+    let scene = prep::prepare(&desc).unwrap();
+    let params = SolveParams::from_settings(&scene.settings);
+    let (p, i) = first_point(&scene);
+    for bad in [Change::RemoveLight(99), Change::Panic] {
+        let opts = EngineParams { delay: Duration::from_millis(400), light_preview: true };
+        let mut e = Engine::start(scene.clone(), params, Compute::Cpu, opts);
+        assert!(e.wait_idle(WAIT));
+        let moved = |k: f32| Change::MoveLight { index: 0, light: Light::Point { position: p - Vec3::X * 0.1 * k, intensity: i } };
+        e.send(moved(1.0));
+        // Queued while the first move is handled: its preview is not refined.
+        std::thread::sleep(Duration::from_millis(100));
+        e.send_batch(vec![moved(2.0), bad.clone()]);
+        assert!(e.wait_idle(WAIT), "{:?}", e.counters());
+        let deadline = std::time::Instant::now() + WAIT;
+        while e.latest().unwrap().preview && std::time::Instant::now() < deadline {
+            std::thread::sleep(Duration::from_millis(20));
+        }
+        let (c, r) = (e.counters(), e.latest().unwrap());
+        assert!(!r.preview, "a preview was left standing: {c:?}");
+        assert_eq!((c.changes, c.errors), (3, 1), "{c:?}");
+        assert!(e.last_error().is_some());
+    }
+}

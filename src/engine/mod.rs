@@ -315,6 +315,25 @@ impl Worker {
             if stop {
                 break;
             }
+            if rx.is_empty() {
+                self.settle();
+            }
+        }
+    }
+
+    /// With nothing queued, a preview left standing (its batch was
+    /// followed by one that failed, or a panic dropped the solver) is
+    /// replaced by a full result: the kept solver refines its preview
+    /// columns, or a solver is rebuilt from the last good scene.
+    fn settle(&mut self) {
+        let shows_preview = lock(&self.shared.latest).as_ref().is_some_and(|r| r.preview);
+        let coarse = self.solver.as_ref().is_some_and(|s| s.light_links.coarse.contains(&true));
+        if coarse {
+            let scene = self.current().clone();
+            self.update(scene, Dirty { lights: true, ..Dirty::default() }, 0, &|| false);
+        } else if shows_preview && self.solver.is_none() {
+            let scene = self.good.clone();
+            self.update(scene, Dirty { geometry: true, lights: true, gather: true, panic: false }, 0, &|| false);
         }
     }
 
@@ -482,7 +501,9 @@ impl Worker {
         *lock(&self.shared.last_error) = Some(message);
         let mut c = lock(&self.shared.counters);
         c.errors += 1;
-        c.changes += changes;
+        // The changes of a standing preview count as handled here too;
+        // `settle` replaces the preview with a full result.
+        c.changes += changes + std::mem::take(&mut self.pending);
         c.batches += 1;
     }
 }
