@@ -113,16 +113,19 @@ impl KdTree {
     /// Clips the ray to the root box: `(t_enter, t_exit)` or `None`.
     #[inline]
     fn clip_root(&self, ray: &Ray, inv: Vec3) -> Option<(f32, f32)> {
+        // Arrays, not `Vec3`: glam indexes a `Vec3` through a `match`, a
+        // branch per access where the index is not a constant.
+        let (o, d, inv) = (ray.origin.to_array(), ray.dir.to_array(), inv.to_array());
         let (mut t0, mut t1) = (ray.tmin, ray.tmax);
         for a in 0..3 {
-            if ray.dir[a] == 0.0 {
-                if ray.origin[a] < self.min[a] || ray.origin[a] > self.max[a] {
+            if d[a] == 0.0 {
+                if o[a] < self.min[a] || o[a] > self.max[a] {
                     return None;
                 }
                 continue;
             }
-            let ta = (self.min[a] - ray.origin[a]) * inv[a];
-            let tb = (self.max[a] - ray.origin[a]) * inv[a];
+            let ta = (self.min[a] - o[a]) * inv[a];
+            let tb = (self.max[a] - o[a]) * inv[a];
             t0 = t0.max(ta.min(tb));
             t1 = t1.min(ta.max(tb));
         }
@@ -197,9 +200,12 @@ impl KdTree {
         if rope & ROPE_LEAF != 0 {
             rope & !ROPE_LEAF
         } else {
-            let mut p = ray.origin + ray.dir * t;
+            // Arrays, not `Vec3`: glam indexes a `Vec3` at a run-time axis
+            // through a jump table, an indirect branch that is mispredicted
+            // about every time.
+            let mut p = (ray.origin + ray.dir * t).to_array();
             p[face / 2] = if face % 2 == 1 { leaf.max[face / 2] } else { leaf.min[face / 2] };
-            self.locate(rope, p, ray.dir)
+            self.locate(rope, Vec3::from_array(p), ray.dir)
         }
     }
 
@@ -219,18 +225,20 @@ impl KdTree {
         // Each step moves to a leaf further along the ray; the bound only guards
         // against a malformed tree.
         let mut leaf = self.accel.leaves[leaf_id as usize];
+        // Arrays for the per-axis loops (see `clip_root`).
+        let (o, d, inv) = (ray.origin.to_array(), ray.dir.to_array(), inv.to_array());
         for _ in 0..=self.leaves.len() {
             let (mut t_exit, mut exit_face) = (f32::INFINITY, usize::MAX);
             let mut t_face = [f32::INFINITY; 3];
             for a in 0..3 {
-                let (bound, f) = if ray.dir[a] > 0.0 {
+                let (bound, f) = if d[a] > 0.0 {
                     (leaf.max[a], 2 * a + 1)
-                } else if ray.dir[a] < 0.0 {
+                } else if d[a] < 0.0 {
                     (leaf.min[a], 2 * a)
                 } else {
                     continue;
                 };
-                let t = (bound - ray.origin[a]) * inv[a];
+                let t = (bound - o[a]) * inv[a];
                 t_face[a] = t;
                 if t < t_exit {
                     t_exit = t;
@@ -252,7 +260,7 @@ impl KdTree {
             // across the other tied faces (see the module doc of kdtree).
             if t_exit < t_exit_root {
                 for a in 0..3 {
-                    let f = 2 * a + (ray.dir[a] > 0.0) as usize;
+                    let f = 2 * a + (d[a] > 0.0) as usize;
                     if f == exit_face || t_face[a] - t_exit > 1e-6 * t_exit.abs() {
                         continue;
                     }
@@ -282,6 +290,9 @@ impl KdTree {
     /// The leaf under `node` containing `p` (ties go the way `dir` points).
     #[inline]
     fn locate(&self, mut node: u32, p: Vec3, dir: Vec3) -> u32 {
+        // Arrays: a `Vec3` indexed at the node's axis goes through a jump
+        // table (see `enter`).
+        let (p, dir) = (p.to_array(), dir.to_array());
         let mut n = self.nodes[node as usize];
         while n.kind != LEAF {
             let a = n.kind as usize;

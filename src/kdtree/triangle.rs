@@ -52,6 +52,8 @@ impl RayShear {
     #[inline]
     pub fn new(d: Vec3) -> RayShear {
         let kz = d.abs().max_position();
+        // An array: glam indexes a `Vec3` through a branching `match`.
+        let d = d.to_array();
         let mut kx = (kz + 1) % 3;
         let mut ky = (kx + 1) % 3;
         if d[kz] < 0.0 {
@@ -120,6 +122,8 @@ pub struct Hits4 {
 /// [`intersect`] on the lanes of `tri` set in `lanes`, four at a time.
 #[inline(always)]
 pub fn intersect4(tri: &Tri4, lanes: u32, o: Vec3, s: &RayShear, tmin: f32, tmax: f32) -> Hits4 {
+    // An array: glam indexes a `Vec3` through a branching `match`.
+    let o = o.to_array();
     let p = |c: usize, k: usize| Vec4::from_array(tri.v[c][k]) - Vec4::splat(o[k]);
     let (akx, aky, akz) = (p(0, s.kx), p(0, s.ky), p(0, s.kz));
     let (bkx, bky, bkz) = (p(1, s.kx), p(1, s.ky), p(1, s.kz));
