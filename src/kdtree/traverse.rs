@@ -224,7 +224,7 @@ impl KdTree {
         };
         // Each step moves to a leaf further along the ray; the bound only guards
         // against a malformed tree.
-        let mut leaf = self.accel.leaves[leaf_id as usize];
+        let mut leaf = &self.accel.leaves[leaf_id as usize];
         // Arrays for the per-axis loops (see `clip_root`).
         let (o, d, inv) = (ray.origin.to_array(), ray.dir.to_array(), inv.to_array());
         for _ in 0..=self.leaves.len() {
@@ -246,14 +246,14 @@ impl KdTree {
                 }
             }
             // The next leaf is found before this one's triangles are tested,
-            // so its loads overlap the tests (the order of the tests does not
+            // so finding it overlaps the tests (the order of the tests does not
             // change the nearest hit).
             let next = if t_exit >= t_exit_root || exit_face == usize::MAX || leaf.ropes[exit_face] == NO_ROPE {
                 None
             } else {
-                Some(self.accel.leaves[self.enter(leaf.ropes[exit_face], ray, t_enter.max(t_exit), exit_face, &leaf) as usize])
+                Some(&self.accel.leaves[self.enter(leaf.ropes[exit_face], ray, t_enter.max(t_exit), exit_face, leaf) as usize])
             };
-            if self.test_cpu_leaf::<ANY>(&leaf, ray, &shear, &mut best) {
+            if self.test_cpu_leaf::<ANY>(leaf, ray, &shear, &mut best) {
                 return best;
             }
             // Leaving through a leaf edge or corner: also test the leaves
@@ -266,7 +266,7 @@ impl KdTree {
                     }
                     let rope = leaf.ropes[f];
                     if rope != NO_ROPE {
-                        let side = &self.accel.leaves[self.enter(rope, ray, t_exit, f, &leaf) as usize];
+                        let side = &self.accel.leaves[self.enter(rope, ray, t_exit, f, leaf) as usize];
                         if self.test_cpu_leaf::<ANY>(side, ray, &shear, &mut best) {
                             return best;
                         }
