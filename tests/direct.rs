@@ -151,7 +151,8 @@ fn light_on_a_vertex_and_behind_surfaces_stay_finite() {
 fn light_updates_trace_only_moved_lights() {
     let point = |p: Vec3, i: f32| Light::Point { position: p, intensity: Vec3::splat(i) };
     let sun = Light::Directional { direction: Vec3::new(0.3, -1.0, 0.2).normalize(), irradiance: Vec3::ONE };
-    let mut scene = floor_scene(true, vec![point(Vec3::new(0.2, 1.0, 0.1), 3.0), sun, point(Vec3::new(-0.4, 0.8, 0.3), 1.0)]);
+    let mut scene =
+        floor_scene(true, vec![point(Vec3::new(0.2, 1.0, 0.1), 3.0), sun, point(Vec3::new(-0.4, 0.8, 0.3), 1.0)]);
     let kd = KdTree::build(&scene.positions, &scene.triangles, &KdBuildParams::default());
     kd.validate().unwrap();
     let params = LightLinkParams::default();
@@ -213,14 +214,20 @@ fn light_preview_is_exact_outside_penumbrae_and_refines() {
     assert_eq!(links.coarse, vec![true]);
     let full = LightLinks::compute(&scene, &kd, &params);
     assert!(preview_rays > 0 && preview_rays * 5 < full.shadow_rays, "{preview_rays} vs {}", full.shadow_rays);
-    let g = |v: usize| linkgi::exchange::light_links::geometry(&scene.lights[0], scene.positions[v], scene.normals[v], 1e-6);
+    let g = |v: usize| {
+        linkgi::exchange::light_links::geometry(&scene.lights[0], scene.positions[v], scene.normals[v], 1e-6)
+    };
     let (mut lit, mut dark) = (0, 0);
     for v in 0..441 {
         let (f, p) = (full.factors[0][v], links.factors[0][v]);
         assert!(p.is_finite() && p >= 0.0 && p <= g(v) * 1.0001);
         if f == 0.0 || (f - g(v)).abs() <= 1e-6 * g(v) {
             assert!((p - f).abs() <= 1e-6 * f, "vertex {v}: preview {p}, full {f}");
-            if f == 0.0 { dark += 1 } else { lit += 1 }
+            if f == 0.0 {
+                dark += 1
+            } else {
+                lit += 1
+            }
         }
     }
     assert!(lit > 100 && dark > 10, "{lit} lit, {dark} in umbra");

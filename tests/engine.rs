@@ -162,7 +162,8 @@ fn light_preview_is_followed_by_the_full_result() {
     };
     let (mut plain, mut quick) = (start(false), start(true));
     let (p, i) = first_point(&scene);
-    let moved = |k: f32| Change::MoveLight { index: 0, light: Light::Point { position: p - Vec3::X * 0.1 * k, intensity: i } };
+    let moved =
+        |k: f32| Change::MoveLight { index: 0, light: Light::Point { position: p - Vec3::X * 0.1 * k, intensity: i } };
     for e in [&mut plain, &mut quick] {
         assert!(e.wait_idle(WAIT));
         e.send(moved(1.0));
@@ -202,7 +203,10 @@ fn a_failed_batch_after_a_preview_still_ends_in_a_full_result() {
         let opts = EngineParams { delay: Duration::from_millis(400), light_preview: true };
         let mut e = Engine::start(scene.clone(), params, Compute::Cpu, opts);
         assert!(e.wait_idle(WAIT));
-        let moved = |k: f32| Change::MoveLight { index: 0, light: Light::Point { position: p - Vec3::X * 0.1 * k, intensity: i } };
+        let moved = |k: f32| Change::MoveLight {
+            index: 0,
+            light: Light::Point { position: p - Vec3::X * 0.1 * k, intensity: i },
+        };
         e.send(moved(1.0));
         // Queued while the first move is handled: its preview is not refined.
         std::thread::sleep(Duration::from_millis(100));

@@ -298,11 +298,8 @@ fn leaf_hint_runs_match_single_rays() {
             let centre = rvec(&mut rng, 0.0, 1.0);
             let mut hint = LeafHint::default();
             for j in 0..16 {
-                let origin = if j % 4 == 0 {
-                    (centre * 8.0).round() / 8.0
-                } else {
-                    centre + rvec(&mut rng, -0.01, 0.01)
-                };
+                let origin =
+                    if j % 4 == 0 { (centre * 8.0).round() / 8.0 } else { centre + rvec(&mut rng, -0.01, 0.01) };
                 let target = rvec(&mut rng, -0.2, 1.2);
                 let mut ray = Ray::new(origin, (target - origin).normalize());
                 ray.tmin = if i % 2 == 0 { 1e-4 } else { 0.0 };

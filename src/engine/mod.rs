@@ -204,7 +204,9 @@ impl Engine {
         let sh = shared.clone();
         let handle = std::thread::Builder::new()
             .name("linkgi-gi".into())
-            .spawn(move || Worker { shared: sh, compute, options, params, solver: None, good: scene, pending: 0 }.run(rx))
+            .spawn(move || {
+                Worker { shared: sh, compute, options, params, solver: None, good: scene, pending: 0 }.run(rx)
+            })
             .expect("spawn GI worker");
         Engine { tx, shared, sent: 0, handle: Some(handle) }
     }

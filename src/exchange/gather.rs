@@ -155,7 +155,11 @@ impl BounceKernel for CpuBounces<'_> {
         for _ in 0..count {
             gather_bounce_padded(self.links, &self.b, &mut self.e_b);
             self.e_i.par_iter_mut().zip(&self.e_b).for_each(|(i, e)| *i += *e);
-            self.b.par_iter_mut().zip(&self.e_b).zip(self.albedo).for_each(|((b, e), r)| *b = (*e * *r / PI).extend(0.0));
+            self.b
+                .par_iter_mut()
+                .zip(&self.e_b)
+                .zip(self.albedo)
+                .for_each(|((b, e), r)| *b = (*e * *r / PI).extend(0.0));
             totals.push(total(&self.e_b));
         }
         Ok(totals)

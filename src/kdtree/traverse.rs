@@ -251,7 +251,10 @@ impl KdTree {
             let next = if t_exit >= t_exit_root || exit_face == usize::MAX || leaf.ropes[exit_face] == NO_ROPE {
                 None
             } else {
-                Some(&self.accel.leaves[self.enter(leaf.ropes[exit_face], ray, t_enter.max(t_exit), exit_face, leaf) as usize])
+                Some(
+                    &self.accel.leaves
+                        [self.enter(leaf.ropes[exit_face], ray, t_enter.max(t_exit), exit_face, leaf) as usize],
+                )
             };
             if self.test_cpu_leaf::<ANY>(leaf, ray, &shear, &mut best) {
                 return best;
