@@ -335,11 +335,7 @@ impl GpuRenderer {
                 occlusion_query_set: None,
                 multiview_mask: None,
             });
-            pass.set_pipeline(&self.shadow);
-            pass.set_bind_group(0, &shadow_group, &[]);
-            pass.set_vertex_buffer(0, vbuf.slice(..));
-            pass.set_index_buffer(ibuf.slice(..), wgpu::IndexFormat::Uint32);
-            pass.draw_indexed(0..index_count, 0, layer..layer + 1);
+            draw_mesh(&mut pass, &self.shadow, &shadow_group, &vbuf, &ibuf, index_count, layer..layer + 1);
         }
         {
             let mut pass = enc.begin_render_pass(&wgpu::RenderPassDescriptor {
@@ -362,11 +358,7 @@ impl GpuRenderer {
                 occlusion_query_set: None,
                 multiview_mask: None,
             });
-            pass.set_pipeline(&self.main);
-            pass.set_bind_group(0, &main_group, &[]);
-            pass.set_vertex_buffer(0, vbuf.slice(..));
-            pass.set_index_buffer(ibuf.slice(..), wgpu::IndexFormat::Uint32);
-            pass.draw_indexed(0..index_count, 0, 0..1);
+            draw_mesh(&mut pass, &self.main, &main_group, &vbuf, &ibuf, index_count, 0..1);
         }
         Ok((enc, hdr, stats))
     }
@@ -420,4 +412,21 @@ impl GpuRenderer {
         stats.ms = t0.elapsed().as_secs_f64() * 1e3;
         Ok((HdrImage { width: w, height: h, pixels }, stats))
     }
+}
+
+/// Draws the scene mesh (`u32` indices) with `pipeline` and bind group 0.
+fn draw_mesh(
+    pass: &mut wgpu::RenderPass<'_>,
+    pipeline: &wgpu::RenderPipeline,
+    group: &wgpu::BindGroup,
+    vbuf: &wgpu::Buffer,
+    ibuf: &wgpu::Buffer,
+    index_count: u32,
+    instances: std::ops::Range<u32>,
+) {
+    pass.set_pipeline(pipeline);
+    pass.set_bind_group(0, group, &[]);
+    pass.set_vertex_buffer(0, vbuf.slice(..));
+    pass.set_index_buffer(ibuf.slice(..), wgpu::IndexFormat::Uint32);
+    pass.draw_indexed(0..index_count, 0, instances);
 }
