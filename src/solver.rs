@@ -142,6 +142,12 @@ pub struct SolveStats {
     pub smooth_ms: f64,
     /// "cpu (N threads)" or the adapters.
     pub backend: String,
+    /// The tracer the rays went through ("bvh", "kd" or "gpu-kd").
+    pub tracer: String,
+    /// Build time of the CPU wide BVH, ms (NaN when the solve used no BVH).
+    pub bvh_build_ms: f64,
+    /// Shadow rays per second of the last light-link computation.
+    pub shadow_rays_per_second: f64,
     /// Link generation per logical device (GPU path only).
     pub devices: Vec<DeviceShare>,
 }
@@ -250,6 +256,25 @@ impl Solver {
         update(&mut self.light_links, &self.scene, &self.kd).expect("the CPU tracer cannot fail");
     }
 
+    /// The tracer the rays go through: "bvh", "kd" or "gpu-kd".
+    pub fn tracer_name(&self) -> &'static str {
+        if self.gpu.is_some() {
+            "gpu-kd"
+        } else {
+            "kd"
+        }
+    }
+
+    /// Build time of the CPU wide BVH, ms; NaN when this solver has none.
+    pub fn bvh_build_ms(&self) -> f64 {
+        f64::NAN
+    }
+
+    /// Build time of the acceleration structure the rays went through, ms.
+    pub fn accel_build_ms(&self) -> f64 {
+        self.kd.stats.build_ms
+    }
+
     /// Gathers the bounces and smooths.
     pub fn solve(&self) -> Solution {
         let e_direct = self.light_links.direct(&self.scene.lights, self.scene.vertex_count());
@@ -292,6 +317,9 @@ impl Solver {
             gather_ms: solution.gather.ms,
             smooth_ms,
             backend: self.compute.describe(),
+            tracer: self.tracer_name().to_string(),
+            bvh_build_ms: self.bvh_build_ms(),
+            shadow_rays_per_second: self.light_links.shadow_rays as f64 / (self.light_links.ms.max(1e-9) * 1e-3),
             devices: self.gpu.as_ref().map(|g| g.shares.clone()).unwrap_or_default(),
         }
     }

@@ -95,6 +95,38 @@ pub enum Bounces {
     Auto,
 }
 
+/// Which CPU structure traces rays (`tracer` in the scene TOML, `--tracer`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum TracerKind {
+    /// The 8-wide BVH with SIMD node tests (`crate::bvh`); the fastest on the CPU.
+    #[default]
+    Bvh,
+    /// The kd-tree with ropes (`crate::kdtree`), the structure the GPU shader walks.
+    Kd,
+}
+
+impl std::str::FromStr for TracerKind {
+    type Err = crate::Error;
+    fn from_str(s: &str) -> crate::Result<TracerKind> {
+        match s.to_ascii_lowercase().as_str() {
+            "bvh" => Ok(TracerKind::Bvh),
+            "kd" => Ok(TracerKind::Kd),
+            _ => Err(crate::Error::Setting(format!("tracer \"{s}\": expected bvh or kd"))),
+        }
+    }
+}
+
+impl TracerKind {
+    /// The setting's name ("bvh", "kd").
+    pub fn name(self) -> &'static str {
+        match self {
+            TracerKind::Bvh => "bvh",
+            TracerKind::Kd => "kd",
+        }
+    }
+}
+
 /// Solver settings (the scene file's `[settings]` table).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Settings {

@@ -1,0 +1,239 @@
+//! One tracing interface for every stage that traces rays (DESIGN.md §1b):
+//! link shooting, light links, the reference path tracer and the CPU
+//! renderer ask a [`Tracer`] for closest hits (link rays) and any-hit
+//! visibility (shadow rays), whatever answers them: the CPU wide BVH
+//! ([`crate::bvh::Bvh`], the CPU default), the CPU kd-tree rope walk
+//! ([`crate::kdtree::KdTree`], the GPU shader's oracle) or the wgpu compute
+//! tracer ([`crate::gpu::GpuTracer`]).
+//!
+//! [`CpuTracer`] adds single-ray queries and the rays of one origin (a
+//! vertex's rays), which the CPU structures answer without batching;
+//! [`Accel`] is the CPU structure a solver built, chosen by
+//! [`TracerKind`] (`tracer = "bvh" | "kd"` in the scene TOML, `--tracer`).
+//!
+//! Every tracer uses the same watertight triangle test
+//! ([`crate::kdtree::triangle`]) and orders hits with equal `t` by triangle
+//! id, so they return the same hit for the same ray (up to the documented
+//! rope-walk ties of [`crate::kdtree`]). Distances are metres along unit
+//! directions.
+
+use crate::bvh::Bvh;
+use crate::kdtree::{Hit, KdTree, Ray};
+use glam::Vec3;
+use rayon::prelude::*;
+
+pub use crate::scene::TracerKind;
+
+/// Batches of rays: closest hits and any-hit visibility.
+pub trait Tracer: Sync {
+    /// Short name for figures ("bvh", "kd", "gpu-kd").
+    fn name(&self) -> &'static str;
+
+    /// The nearest hit (front or back face) of every ray in `[tmin, tmax]`,
+    /// ignoring triangles with the ray's `skip` vertex as a corner; `None`
+    /// where the ray meets nothing.
+    fn closest_hits(&self, rays: &[Ray]) -> crate::Result<Vec<Option<Hit>>>;
+
+    /// Any-hit: `true` where nothing (front or back face) lies on the
+    /// segment `[tmin, tmax]` of the ray.
+    fn visible(&self, rays: &[Ray]) -> crate::Result<Vec<bool>>;
+}
+
+/// Rays in a run of this many share start hints (nearby shadow rays).
+const RUN: usize = 64;
+
+/// Single rays and rays of one origin, answered on the CPU.
+pub trait CpuTracer: Sync {
+    /// Nearest hit of one ray (see [`Tracer::closest_hits`]).
+    fn intersect(&self, ray: &Ray) -> Option<Hit>;
+
+    /// True if anything lies on the ray's segment.
+    fn occluded(&self, ray: &Ray) -> bool;
+
+    /// Nearest hits of rays leaving `origin` along `dirs` (unit), each
+    /// skipping `skip`, into `out[i]` for `dirs[i]` (`t` in `[0, inf)`).
+    /// A tracer may share work between them; the hits are those of
+    /// [`CpuTracer::intersect`].
+    fn intersect_origin(&self, origin: Vec3, skip: u32, dirs: &[Vec3], out: &mut [Option<Hit>]) {
+        for (d, o) in dirs.iter().zip(out.iter_mut()) {
+            *o = self.intersect(&Ray { origin, dir: *d, tmin: 0.0, tmax: f32::INFINITY, skip });
+        }
+    }
+
+    /// Visibility of a run of nearby shadow rays (one vertex's
+    /// oversampling points), `out[i]` for `rays[i]`. A tracer may carry
+    /// start hints from ray to ray; the answers are those of
+    /// [`CpuTracer::occluded`].
+    fn visible_run(&self, rays: &[Ray], out: &mut [bool]) {
+        for (r, o) in rays.iter().zip(out.iter_mut()) {
+            *o = !self.occluded(r);
+        }
+    }
+}
+
+/// [`Tracer::closest_hits`] of a CPU tracer: rays split over rayon threads.
+pub fn cpu_closest_hits<T: CpuTracer + ?Sized>(t: &T, rays: &[Ray]) -> Vec<Option<Hit>> {
+    let mut out = vec![None; rays.len()];
+    out.par_chunks_mut(RUN).zip(rays.par_chunks(RUN)).for_each(|(o, r)| {
+        for (o, r) in o.iter_mut().zip(r) {
+            *o = t.intersect(r);
+        }
+    });
+    out
+}
+
+/// [`Tracer::visible`] of a CPU tracer: runs of nearby rays over rayon threads.
+pub fn cpu_visible<T: CpuTracer + ?Sized>(t: &T, rays: &[Ray]) -> Vec<bool> {
+    let mut out = vec![false; rays.len()];
+    out.par_chunks_mut(RUN).zip(rays.par_chunks(RUN)).for_each(|(o, r)| t.visible_run(r, o));
+    out
+}
+
+/// The CPU acceleration structure a solver traces with.
+#[derive(Clone, Debug)]
+pub enum Accel {
+    Bvh(Bvh),
+    Kd(KdTree),
+}
+
+impl Accel {
+    /// Builds the structure `kind` names over `triangles` (vertex ids into `positions`).
+    pub fn build(kind: TracerKind, positions: &[Vec3], triangles: &[[u32; 3]], kd: &crate::kdtree::KdBuildParams) -> Accel {
+        match kind {
+            TracerKind::Bvh => Accel::Bvh(Bvh::build(positions, triangles, &crate::bvh::BvhBuildParams::default())),
+            TracerKind::Kd => Accel::Kd(KdTree::build(positions, triangles, kd)),
+        }
+    }
+
+    pub fn kind(&self) -> TracerKind {
+        match self {
+            Accel::Bvh(_) => TracerKind::Bvh,
+            Accel::Kd(_) => TracerKind::Kd,
+        }
+    }
+
+    /// Build time, ms.
+    pub fn build_ms(&self) -> f64 {
+        match self {
+            Accel::Bvh(b) => b.stats.build_ms,
+            Accel::Kd(k) => k.stats.build_ms,
+        }
+    }
+
+    /// Bytes of the structure.
+    pub fn bytes(&self) -> usize {
+        match self {
+            Accel::Bvh(b) => b.bytes(),
+            Accel::Kd(k) => k.bytes() + k.accel.bytes(),
+        }
+    }
+
+    /// Checks the structure's invariants (see each structure's `validate`).
+    pub fn validate(&self) -> Result<(), String> {
+        match self {
+            Accel::Bvh(b) => b.validate(),
+            Accel::Kd(k) => k.validate(),
+        }
+    }
+
+    /// The kd-tree, when this is one.
+    pub fn kd(&self) -> Option<&KdTree> {
+        match self {
+            Accel::Kd(k) => Some(k),
+            Accel::Bvh(_) => None,
+        }
+    }
+
+    /// The BVH, when this is one.
+    pub fn bvh(&self) -> Option<&Bvh> {
+        match self {
+            Accel::Bvh(b) => Some(b),
+            Accel::Kd(_) => None,
+        }
+    }
+}
+
+impl CpuTracer for Accel {
+    #[inline]
+    fn intersect(&self, ray: &Ray) -> Option<Hit> {
+        match self {
+            Accel::Bvh(b) => b.intersect(ray),
+            Accel::Kd(k) => k.intersect(ray),
+        }
+    }
+
+    #[inline]
+    fn occluded(&self, ray: &Ray) -> bool {
+        match self {
+            Accel::Bvh(b) => b.occluded(ray),
+            Accel::Kd(k) => k.occluded(ray),
+        }
+    }
+
+    fn intersect_origin(&self, origin: Vec3, skip: u32, dirs: &[Vec3], out: &mut [Option<Hit>]) {
+        match self {
+            Accel::Bvh(b) => b.intersect_origin(origin, skip, dirs, out),
+            Accel::Kd(k) => k.intersect_origin(origin, skip, dirs, out),
+        }
+    }
+
+    fn visible_run(&self, rays: &[Ray], out: &mut [bool]) {
+        match self {
+            Accel::Bvh(b) => b.visible_run(rays, out),
+            Accel::Kd(k) => k.visible_run(rays, out),
+        }
+    }
+}
+
+impl Tracer for Accel {
+    fn name(&self) -> &'static str {
+        self.kind().name()
+    }
+    fn closest_hits(&self, rays: &[Ray]) -> crate::Result<Vec<Option<Hit>>> {
+        Ok(cpu_closest_hits(self, rays))
+    }
+    fn visible(&self, rays: &[Ray]) -> crate::Result<Vec<bool>> {
+        Ok(cpu_visible(self, rays))
+    }
+}
+
+impl CpuTracer for KdTree {
+    #[inline]
+    fn intersect(&self, ray: &Ray) -> Option<Hit> {
+        KdTree::intersect(self, ray)
+    }
+
+    #[inline]
+    fn occluded(&self, ray: &Ray) -> bool {
+        KdTree::occluded(self, ray)
+    }
+
+    /// The walk from the root to the start leaf is shared per direction
+    /// octant ([`crate::kdtree::traverse::StartLeaves`]).
+    fn intersect_origin(&self, origin: Vec3, skip: u32, dirs: &[Vec3], out: &mut [Option<Hit>]) {
+        let mut start = crate::kdtree::traverse::StartLeaves::new(origin);
+        for (d, o) in dirs.iter().zip(out.iter_mut()) {
+            *o = self.intersect_from(&Ray { origin, dir: *d, tmin: 0.0, tmax: f32::INFINITY, skip }, &mut start);
+        }
+    }
+
+    /// Consecutive rays share a start-leaf hint ([`crate::kdtree::traverse::LeafHint`]).
+    fn visible_run(&self, rays: &[Ray], out: &mut [bool]) {
+        let mut hint = crate::kdtree::traverse::LeafHint::default();
+        for (r, o) in rays.iter().zip(out.iter_mut()) {
+            *o = !self.occluded_near(r, &mut hint);
+        }
+    }
+}
+
+impl Tracer for KdTree {
+    fn name(&self) -> &'static str {
+        "kd"
+    }
+    fn closest_hits(&self, rays: &[Ray]) -> crate::Result<Vec<Option<Hit>>> {
+        Ok(cpu_closest_hits(self, rays))
+    }
+    fn visible(&self, rays: &[Ray]) -> crate::Result<Vec<bool>> {
+        Ok(cpu_visible(self, rays))
+    }
+}
