@@ -5,32 +5,7 @@
 use crate::error::{Error, Result};
 use std::sync::Arc;
 
-/// Which path computes links and bounces (`backend` in the scene TOML, `--backend`).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
-#[serde(rename_all = "lowercase")]
-pub enum Backend {
-    /// A hardware GPU when one exists, else the CPU path (a software
-    /// rasterizer such as lavapipe is slower than the CPU path, so `auto`
-    /// does not pick it).
-    #[default]
-    Auto,
-    /// Any adapter, software ones included; an error if there is none.
-    Gpu,
-    /// The CPU path (rayon).
-    Cpu,
-}
-
-impl std::str::FromStr for Backend {
-    type Err = Error;
-    fn from_str(s: &str) -> Result<Backend> {
-        match s {
-            "auto" => Ok(Backend::Auto),
-            "gpu" => Ok(Backend::Gpu),
-            "cpu" => Ok(Backend::Cpu),
-            _ => Err(Error::Setting(format!("backend \"{s}\": expected auto, gpu or cpu"))),
-        }
-    }
-}
+use crate::scene::Backend;
 
 /// One opened adapter: device, queue, what it is and the limits it was opened with.
 #[derive(Clone, Debug)]

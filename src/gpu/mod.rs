@@ -1,5 +1,6 @@
 //! The GPU path (DESIGN.md §5), wgpu compute, headless:
-//! - [`context`]: adapters and devices, the `backend` setting;
+//! - [`context`]: adapters and devices for the `backend` setting
+//!   ([`Backend`], defined in `crate::scene`);
 //! - [`tracer`]: the kd-tree on a device, `shoot_rays` and `light_visibility`
 //!   (`shaders/shoot.wgsl`);
 //! - [`schedule`]: batches over several (logical) devices, sized from each
@@ -23,7 +24,8 @@ pub mod layout;
 pub mod schedule;
 pub mod tracer;
 
-pub use context::{devices_for, open_all, Backend, GpuDevice};
+pub use crate::scene::Backend;
+pub use context::{devices_for, open_all, GpuDevice};
 pub use gather::GpuLinks;
 pub use schedule::{shoot_links_gpu, DeviceShare, LogicalDevice, ScheduleParams};
 pub use tracer::GpuTracer;

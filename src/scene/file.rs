@@ -4,7 +4,7 @@
 //! written to `scenes/` this way).
 
 use super::deform::{Deform, DeformKind};
-use super::{obj, Bounces, Camera, Light, SceneDesc, Settings, Transform};
+use super::{obj, Backend, Bounces, Camera, Light, SceneDesc, Settings, TracerKind, Transform};
 use crate::{Error, Result};
 use glam::Vec3;
 use serde::{Deserialize, Serialize};
@@ -37,6 +37,9 @@ pub struct SettingsFile {
     /// "auto", "gpu" or "cpu".
     #[serde(skip_serializing_if = "Option::is_none")]
     pub backend: Option<String>,
+    /// "bvh" or "kd".
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub tracer: Option<String>,
 }
 
 /// `bounces = 3` or `bounces = "auto"`.
@@ -201,9 +204,15 @@ fn settings_from(path: &Path, s: &SettingsFile) -> Result<Settings> {
         seed: s.seed.unwrap_or(d.seed),
         backend: match &s.backend {
             None => d.backend,
-            Some(b) => b.parse().map_err(|_| {
+            Some(b) => b.parse::<Backend>().map_err(|_| {
                 scene_err(path, format!("settings.backend = \"{b}\": expected \"auto\", \"gpu\" or \"cpu\""))
             })?,
+        },
+        tracer: match &s.tracer {
+            None => d.tracer,
+            Some(t) => t
+                .parse::<TracerKind>()
+                .map_err(|_| scene_err(path, format!("settings.tracer = \"{t}\": expected \"bvh\" or \"kd\"")))?,
         },
     };
     settings.validate().map_err(|e| scene_err(path, e.to_string()))?;
@@ -314,8 +323,12 @@ pub fn to_toml(scene: &SceneDesc, obj_names: &[String]) -> String {
             smoothing_angle_deg: Some(s.smoothing_angle_deg),
             seed: Some(s.seed),
             backend: match s.backend {
-                crate::gpu::Backend::Auto => None,
-                b => Some(format!("{b:?}").to_lowercase()),
+                Backend::Auto => None,
+                b => Some(b.name().to_string()),
+            },
+            tracer: match s.tracer {
+                TracerKind::Bvh => None,
+                t => Some(t.name().to_string()),
             },
         },
         camera: Some(CameraFile {

@@ -127,6 +127,45 @@ impl TracerKind {
     }
 }
 
+/// Which path computes links and bounces (`backend` in the scene TOML, `--backend`).
+/// Also reachable as `crate::gpu::Backend`.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Backend {
+    /// A hardware GPU when one exists, else the CPU path (a software
+    /// rasterizer such as lavapipe is slower than the CPU path, so `auto`
+    /// does not pick it).
+    #[default]
+    Auto,
+    /// Any adapter, software ones included; an error if there is none.
+    Gpu,
+    /// The CPU path (rayon).
+    Cpu,
+}
+
+impl std::str::FromStr for Backend {
+    type Err = crate::Error;
+    fn from_str(s: &str) -> crate::Result<Backend> {
+        match s {
+            "auto" => Ok(Backend::Auto),
+            "gpu" => Ok(Backend::Gpu),
+            "cpu" => Ok(Backend::Cpu),
+            _ => Err(crate::Error::Setting(format!("backend \"{s}\": expected auto, gpu or cpu"))),
+        }
+    }
+}
+
+impl Backend {
+    /// The setting's name ("auto", "gpu", "cpu").
+    pub fn name(self) -> &'static str {
+        match self {
+            Backend::Auto => "auto",
+            Backend::Gpu => "gpu",
+            Backend::Cpu => "cpu",
+        }
+    }
+}
+
 /// Solver settings (the scene file's `[settings]` table).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Settings {
@@ -138,7 +177,9 @@ pub struct Settings {
     /// Seed of the direction set and per-vertex rotations.
     pub seed: u64,
     /// Where links and bounces are computed.
-    pub backend: crate::gpu::Backend,
+    pub backend: Backend,
+    /// Which CPU structure traces rays.
+    pub tracer: TracerKind,
 }
 
 impl Default for Settings {
@@ -148,7 +189,8 @@ impl Default for Settings {
             bounces: Bounces::Fixed(3),
             smoothing_angle_deg: 30.0,
             seed: 1,
-            backend: crate::gpu::Backend::Auto,
+            backend: Backend::Auto,
+            tracer: TracerKind::Bvh,
         }
     }
 }
