@@ -32,6 +32,9 @@ enum Command {
         /// Rays per vertex (a square number).
         #[arg(long, default_value_t = 256)]
         rays: u32,
+        /// CPU ray tracer: bvh (wide BVH) or kd (kd-tree with ropes); overrides the scenes' setting.
+        #[arg(long, value_name = "bvh|kd", value_parser = cli::parse_tracer)]
+        tracer: Option<scene::TracerKind>,
         /// Measured runs per scene (after one warm-up run); the median is reported.
         #[arg(long, default_value_t = 5)]
         runs: u32,
@@ -55,6 +58,9 @@ enum Command {
         /// Reference cache folder (default target/reference-cache).
         #[arg(long)]
         cache: Option<PathBuf>,
+        /// CPU ray tracer: bvh (wide BVH) or kd (kd-tree with ropes); overrides the scene's setting.
+        #[arg(long, value_name = "bvh|kd", value_parser = cli::parse_tracer)]
+        tracer: Option<scene::TracerKind>,
     },
     /// Render a scene (GI solved first) to a PNG.
     Render(cli::render::RenderArgs),
@@ -81,16 +87,17 @@ fn main() -> Result<()> {
             backend: "auto".into(),
             exposure: 0.6,
             rays: None,
+            tracer: None,
         }),
         Some(Command::Solve(args)) => cli::solve::run(args),
         Some(Command::Render(args)) => cli::render::run(args),
         Some(Command::Animate(args)) => cli::animate::run(args),
         Some(Command::View(args)) => cli::view::run(args),
-        Some(Command::Bench { scenes, backend, rays, runs, json, markdown }) => {
-            cli::bench::run(cli::bench::Args { scenes, backend, rays, runs, json, markdown })
+        Some(Command::Bench { scenes, backend, rays, tracer, runs, json, markdown }) => {
+            cli::bench::run(cli::bench::Args { scenes, backend, rays, tracer, runs, json, markdown })
         }
-        Some(Command::Error { scene, out, ref_samples, cache }) => {
-            cli::error::run(cli::error::Args { scene, out, ref_samples, cache })
+        Some(Command::Error { scene, out, ref_samples, cache, tracer }) => {
+            cli::error::run(cli::error::Args { scene, out, ref_samples, cache, tracer })
         }
         Some(Command::Scenes { dir }) => {
             for name in scene::builtin::NAMES {

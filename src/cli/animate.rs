@@ -11,7 +11,7 @@ use linkgi::engine::{Change, Engine, EngineParams};
 use linkgi::gpu::Backend;
 use linkgi::render::{write_png, Frame, RenderParams, Renderer};
 use linkgi::scene::deform::{deform_scene, has_deformers};
-use linkgi::scene::{self, prep, Light};
+use linkgi::scene::{self, prep, Light, TracerKind};
 use linkgi::solver::{Compute, SolveParams};
 use std::fmt::Write as _;
 use std::path::PathBuf;
@@ -43,6 +43,9 @@ pub struct AnimateArgs {
     /// Rays per vertex of the GI (a square number); overrides the scene's setting.
     #[arg(long)]
     pub rays: Option<u32>,
+    /// CPU ray tracer: bvh (wide BVH) or kd (kd-tree with ropes); overrides the scene's setting.
+    #[arg(long, value_name = "bvh|kd", value_parser = crate::cli::parse_tracer)]
+    pub tracer: Option<TracerKind>,
     /// Radiance scale before tone mapping.
     #[arg(long, default_value_t = 0.6)]
     pub exposure: f32,
@@ -57,6 +60,9 @@ pub fn run(args: AnimateArgs) -> Result<()> {
     let mut desc = scene::load(&args.scene)?;
     if let Some(r) = args.rays {
         desc.settings.rays_per_vertex = r;
+    }
+    if let Some(t) = args.tracer {
+        desc.settings.tracer = t;
     }
     let prepared = prep::prepare(&desc)?;
     let (compute, note) = Compute::from_backend(backend, 1)?;

@@ -4,13 +4,15 @@
 use anyhow::{Context, Result};
 use indicatif::{ProgressBar, ProgressStyle};
 use linkgi::bench::{self, Backend, BenchParams};
-use linkgi::scene;
+use linkgi::scene::{self, TracerKind};
 use std::path::PathBuf;
 
 pub struct Args {
     pub scenes: Vec<String>,
     pub backend: String,
     pub rays: u32,
+    /// Overrides each scene's `tracer` setting.
+    pub tracer: Option<TracerKind>,
     pub runs: u32,
     pub json: Option<PathBuf>,
     pub markdown: Option<PathBuf>,
@@ -27,7 +29,11 @@ pub fn run(args: Args) -> Result<()> {
     let params = BenchParams { rays_per_vertex: args.rays, runs: args.runs.max(1), ..Default::default() };
     let mut descs = Vec::new();
     for n in &names {
-        descs.push(scene::load(n).with_context(|| format!("loading scene {n}"))?);
+        let mut d = scene::load(n).with_context(|| format!("loading scene {n}"))?;
+        if let Some(t) = args.tracer {
+            d.settings.tracer = t;
+        }
+        descs.push(d);
     }
     let per_scene = (params.warmup + params.runs) as u64;
     let bar = ProgressBar::new(per_scene * (descs.len() * computes.len()) as u64);

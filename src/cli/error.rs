@@ -6,7 +6,7 @@ use anyhow::{Context, Result};
 use indicatif::{ProgressBar, ProgressStyle};
 use linkgi::accuracy::{self, SweepParams};
 use linkgi::reference::{self, ReferenceParams};
-use linkgi::scene::{self, prep};
+use linkgi::scene::{self, prep, TracerKind};
 use std::path::PathBuf;
 use std::time::Instant;
 
@@ -15,10 +15,15 @@ pub struct Args {
     pub out: PathBuf,
     pub ref_samples: u32,
     pub cache: Option<PathBuf>,
+    /// Overrides the scene's `tracer` setting.
+    pub tracer: Option<TracerKind>,
 }
 
 pub fn run(args: Args) -> Result<()> {
-    let desc = scene::load(&args.scene)?;
+    let mut desc = scene::load(&args.scene)?;
+    if let Some(t) = args.tracer {
+        desc.settings.tracer = t;
+    }
     let prepared = prep::prepare(&desc)?;
     std::fs::create_dir_all(&args.out).with_context(|| format!("creating {}", args.out.display()))?;
     let cache = args.cache.clone().unwrap_or_else(reference::cache::default_dir);

@@ -6,3 +6,10 @@ pub mod error;
 pub mod render;
 pub mod solve;
 pub mod view;
+
+use linkgi::scene::TracerKind;
+
+/// Parses `--tracer` (clap value parser): "bvh" or "kd".
+pub fn parse_tracer(s: &str) -> Result<TracerKind, String> {
+    s.parse::<TracerKind>().map_err(|_| format!("unknown tracer \"{s}\": expected bvh or kd"))
+}

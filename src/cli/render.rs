@@ -4,7 +4,7 @@
 use anyhow::{bail, Context, Result};
 use linkgi::gpu::Backend;
 use linkgi::render::{write_exr, write_png, Frame, RenderParams, Renderer, View};
-use linkgi::scene::{self, prep};
+use linkgi::scene::{self, prep, TracerKind};
 use linkgi::solver::{Compute, SolveParams, Solver};
 use std::path::PathBuf;
 use std::time::Instant;
@@ -36,6 +36,9 @@ pub struct RenderArgs {
     /// Rays per vertex of the GI solve (a square number); overrides the scene's setting.
     #[arg(long)]
     pub rays: Option<u32>,
+    /// CPU ray tracer: bvh (wide BVH) or kd (kd-tree with ropes); overrides the scene's setting.
+    #[arg(long, value_name = "bvh|kd", value_parser = crate::cli::parse_tracer)]
+    pub tracer: Option<TracerKind>,
 }
 
 /// `WxH` -> (W, H).
@@ -61,6 +64,9 @@ pub fn run(args: RenderArgs) -> Result<()> {
     }
     if let Some(r) = args.rays {
         desc.settings.rays_per_vertex = r;
+    }
+    if let Some(t) = args.tracer {
+        desc.settings.tracer = t;
     }
     let gi_backend = if backend == Backend::Cpu { Backend::Cpu } else { backend };
     let (compute, note) = Compute::from_backend(gi_backend, 1)?;

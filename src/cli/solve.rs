@@ -3,7 +3,7 @@
 
 use anyhow::{Context, Result};
 use indicatif::{ProgressBar, ProgressStyle};
-use linkgi::scene::{self, prep, Bounces};
+use linkgi::scene::{self, prep, Bounces, TracerKind};
 use linkgi::solver::{Compute, SolveParams, Solver};
 use std::path::PathBuf;
 use std::time::Instant;
@@ -36,13 +36,16 @@ pub struct SolveArgs {
     /// auto (a hardware GPU, else the CPU), gpu (any adapter, software ones too) or cpu; overrides the scene.
     #[arg(long)]
     pub backend: Option<String>,
+    /// CPU ray tracer: bvh (wide BVH) or kd (kd-tree with ropes); overrides the scene's setting.
+    #[arg(long, value_name = "bvh|kd", value_parser = super::parse_tracer)]
+    pub tracer: Option<TracerKind>,
     /// Logical devices per adapter (exercises the multi-device scheduler on one GPU).
     #[arg(long, default_value_t = 1)]
     pub devices: usize,
 }
 
 pub fn run(args: SolveArgs) -> Result<()> {
-    let SolveArgs { scene: scene_name, rays, bounces, seed, export, backend, devices } = args;
+    let SolveArgs { scene: scene_name, rays, bounces, seed, export, backend, tracer, devices } = args;
     let t0 = Instant::now();
     let mut desc = scene::load(&scene_name)?;
     for w in &desc.warnings {
@@ -59,6 +62,9 @@ pub fn run(args: SolveArgs) -> Result<()> {
     }
     if let Some(b) = backend {
         desc.settings.backend = b.parse()?;
+    }
+    if let Some(t) = tracer {
+        desc.settings.tracer = t;
     }
     let (compute, note) = Compute::from_backend(desc.settings.backend, devices)?;
     if let Some(note) = note {

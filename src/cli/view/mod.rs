@@ -39,7 +39,7 @@ use linkgi::kdtree::{KdBuildParams, KdTree, Ray};
 use linkgi::render::{Frame, RenderParams, View};
 use linkgi::scene::deform::{deform_scene, has_deformers};
 use linkgi::scene::prep::PreparedScene;
-use linkgi::scene::{self, prep, Light, Settings};
+use linkgi::scene::{self, prep, Light, Settings, TracerKind};
 use linkgi::solver::{Compute, SolveParams};
 use orbit::{cursor_on_plane, project, Orbit};
 use panel::{strength, PanelModel, UiAction};
@@ -77,6 +77,9 @@ pub struct ViewArgs {
     /// Rays per vertex of the GI (a square number); overrides the scene's setting.
     #[arg(long)]
     pub rays: Option<u32>,
+    /// CPU ray tracer: bvh (wide BVH) or kd (kd-tree with ropes); overrides the scene's setting.
+    #[arg(long, value_name = "bvh|kd", value_parser = crate::cli::parse_tracer)]
+    pub tracer: Option<TracerKind>,
     /// Present without waiting for the display's refresh (measures the real frame rate).
     #[arg(long)]
     pub no_vsync: bool,
@@ -744,6 +747,9 @@ pub fn run(args: ViewArgs) -> Result<()> {
     }
     if let Some(r) = args.rays {
         desc.settings.rays_per_vertex = r;
+    }
+    if let Some(t) = args.tracer {
+        desc.settings.tracer = t;
     }
     desc.settings.validate()?;
     let prepared = prep::prepare(&desc)?;
