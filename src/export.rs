@@ -63,6 +63,15 @@ pub fn ply_bytes(scene: &PreparedScene, solution: &Solution) -> Vec<u8> {
     out
 }
 
+/// `x` as a JSON number, or null when it is NaN or infinite (e.g. no BVH was built).
+fn number_or_null(x: f64) -> serde_json::Value {
+    if x.is_finite() {
+        json!(x)
+    } else {
+        serde_json::Value::Null
+    }
+}
+
 /// The `scene.json` document.
 pub fn scene_json(scene: &PreparedScene, stats: &SolveStats) -> serde_json::Value {
     let lights: Vec<_> = scene
@@ -89,6 +98,7 @@ pub fn scene_json(scene: &PreparedScene, stats: &SolveStats) -> serde_json::Valu
             "bounces": bounces,
             "smoothing_angle_deg": s.smoothing_angle_deg,
             "seed": s.seed,
+            "tracer": s.tracer.name(),
         },
         "stats": {
             "vertices": stats.vertices,
@@ -109,7 +119,10 @@ pub fn scene_json(scene: &PreparedScene, stats: &SolveStats) -> serde_json::Valu
             "links_merged_bytes": stats.links.merged_bytes,
             "links_ms": stats.links.shoot_ms,
             "rays_per_second": stats.links.rays_per_second(),
+            "tracer": stats.tracer,
+            "bvh_build_ms": number_or_null(stats.bvh_build_ms),
             "shadow_rays": stats.shadow_rays,
+            "shadow_rays_per_second": number_or_null(stats.shadow_rays_per_second),
             "light_links_ms": stats.light_links_ms,
             "bounces": stats.bounces,
             "tail_relative": stats.tail_relative,
