@@ -149,3 +149,26 @@ fn bare_obj_loads_with_defaults() {
     assert_eq!(desc.meshes[0].triangles.len(), 2);
     assert!(desc.lights.is_empty());
 }
+
+#[test]
+fn tracer_setting_is_checked_and_round_trips() {
+    let d = tmpdir("tracer");
+    write(&d, "m.obj", QUAD);
+    let msg = load_err(&write(&d, "t.toml", &format!("[settings]\ntracer = \"octree\"\n{}", scene_toml("m.obj"))));
+    assert!(msg.contains("t.toml") && msg.contains("tracer") && msg.contains("octree"), "{msg}");
+
+    let p = write(&d, "kd.toml", &format!("[settings]\ntracer = \"kd\"\n{}", scene_toml("m.obj")));
+    let desc = scene::load(p.to_str().unwrap()).unwrap();
+    assert_eq!(desc.settings.tracer, scene::TracerKind::Kd);
+    let text = scene::file::to_toml(&desc, &["m.obj".to_string()]);
+    assert!(text.contains("tracer = \"kd\""), "{text}");
+    let back = scene::file::parse_toml(&p, &text).unwrap();
+    assert_eq!(back.settings, desc.settings);
+
+    // The default (bvh) is left out when written, and read back as bvh.
+    let desc = scene::load(write(&d, "b.toml", &scene_toml("m.obj")).to_str().unwrap()).unwrap();
+    assert_eq!(desc.settings.tracer, scene::TracerKind::Bvh);
+    let text = scene::file::to_toml(&desc, &["m.obj".to_string()]);
+    assert!(!text.contains("tracer"), "{text}");
+    assert_eq!(scene::file::parse_toml(&p, &text).unwrap().settings.tracer, scene::TracerKind::Bvh);
+}

@@ -68,4 +68,10 @@ fn ply_export_carries_the_solution() {
     assert_eq!(json["lights"][0]["kind"], "point");
     assert_eq!(json["stats"]["vertices"], n);
     assert_eq!(json["settings"]["rays_per_vertex"], 16);
+    assert_eq!(json["settings"]["tracer"], desc.settings.tracer.name());
+    let stats = &json["stats"];
+    assert!(stats["tracer"].as_str().is_some_and(|t| !t.is_empty()), "{stats}");
+    assert!(stats["rays_per_second"].as_f64().is_some_and(|r| r > 0.0), "{stats}");
+    assert!(stats.get("shadow_rays_per_second").is_some(), "{stats}");
+    assert!(stats.get("bvh_build_ms").is_some(), "{stats}");
 }
