@@ -6,6 +6,7 @@
 
 pub mod accuracy;
 pub mod bench;
+pub mod bvh;
 pub mod engine;
 pub mod error;
 pub mod exchange;
@@ -18,5 +19,6 @@ pub mod render;
 pub mod sampling;
 pub mod scene;
 pub mod solver;
+pub mod trace;
 
 pub use error::{Error, Result};

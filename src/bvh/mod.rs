@@ -1,0 +1,200 @@
+//! 8-wide BVH for the CPU path (DESIGN.md §1b): the structure the CPU
+//! traces link rays, shadow rays, reference paths and fallback renders
+//! with. The kd-tree with ropes ([`crate::kdtree`]) stays the GPU shader's
+//! structure and its CPU oracle.
+//!
+//! Build ([`build`]): a binary BVH by binned SAH over triangle boxes
+//! (Wald 2007, "On fast construction of SAH-based bounding volume
+//! hierarchies"), subtrees built in parallel with `rayon::join`, then
+//! collapsed into 8-wide nodes by repeatedly opening the child of largest
+//! surface area (as Embree's and tinybvh's BVH8 collapses). The cost of a
+//! leaf counts blocks of four triangles (`ceil(n / 4)`), the unit the CPU
+//! tests at once, as the kd-tree's does. Regular meshes (the built-in rooms'
+//! grids of equal triangles) are where greedy builders degrade; binning over
+//! centroid bounds and a median split where every centroid falls in one bin
+//! keep the tree sound there (the SAH cost is in [`BvhStats`] and checked
+//! against the kd-tree's in the tests).
+//!
+//! Nodes ([`Node8`], 224 bytes): the eight child boxes as structure of
+//! arrays, so one SIMD operation per axis and side tests all eight slabs
+//! ([`traverse`]: AVX-512 and AVX2 builds chosen at run time, a portable
+//! fallback, all with the same arithmetic and so the same hits). Leaves
+//! hold their triangles in blocks of four ([`CpuBlock`], the kd-tree's CPU
+//! layout) tested with the same watertight test
+//! ([`crate::kdtree::triangle::intersect4`]); hits equal the kd-tree's and
+//! brute force's (nearest `t`, ties by triangle id).
+//!
+//! Deforming meshes ([`refit`]): with unchanged topology the boxes are
+//! refitted bottom-up in O(n); when the refitted SAH cost exceeds
+//! [`BvhBuildParams::rebuild_factor`] times the fresh build's, the tree is
+//! rebuilt.
+//!
+//! Units: lengths in metres (world space); SAH costs are unitless (in units
+//! of one block test); times in ms.
+
+pub mod build;
+pub mod refit;
+pub mod traverse;
+pub mod validate;
+
+pub use crate::kdtree::accel::CpuBlock;
+pub use traverse::Isa;
+
+use glam::Vec3;
+
+/// A child slot with nothing in it.
+pub const EMPTY: u32 = u32::MAX;
+/// Flag of a child that is a leaf: bits 0..27 first block, bits 27..31 blocks - 1.
+pub const LEAF_BIT: u32 = 0x8000_0000;
+/// Most blocks one leaf can name (4 bits of the child word).
+pub const MAX_LEAF_BLOCKS: u32 = 16;
+const FIRST_MASK: u32 = (1 << 27) - 1;
+
+/// Encodes a leaf child: `blocks` blocks from `first`.
+#[inline]
+pub fn leaf_ref(first: u32, blocks: u32) -> u32 {
+    debug_assert!(blocks >= 1 && blocks <= MAX_LEAF_BLOCKS && first <= FIRST_MASK);
+    LEAF_BIT | (blocks - 1) << 27 | first
+}
+
+/// `(first block, block count)` of a leaf child.
+#[inline(always)]
+pub fn leaf_range(child: u32) -> (u32, u32) {
+    (child & FIRST_MASK, (child >> 27 & 0xf) + 1)
+}
+
+/// True for a leaf child (not [`EMPTY`]).
+#[inline(always)]
+pub fn is_leaf(child: u32) -> bool {
+    child & LEAF_BIT != 0 && child != EMPTY
+}
+
+/// One 8-wide node: child boxes as structure of arrays (`bounds[0..3]`:
+/// minimum x, y, z of each child; `bounds[3..6]`: maximum), and the
+/// children (a node index, a leaf, or [`EMPTY`], whose box is inverted,
+/// `+inf..-inf`, so no ray enters it).
+#[repr(C, align(32))]
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Node8 {
+    pub bounds: [[f32; 8]; 6],
+    pub child: [u32; 8],
+}
+
+impl Node8 {
+    pub const EMPTY: Node8 = Node8 {
+        bounds: [
+            [f32::INFINITY; 8],
+            [f32::INFINITY; 8],
+            [f32::INFINITY; 8],
+            [f32::NEG_INFINITY; 8],
+            [f32::NEG_INFINITY; 8],
+            [f32::NEG_INFINITY; 8],
+        ],
+        child: [EMPTY; 8],
+    };
+
+    /// Box of slot `i` as `(min, max)`.
+    #[inline]
+    pub fn slot_box(&self, i: usize) -> (Vec3, Vec3) {
+        let b = &self.bounds;
+        (Vec3::new(b[0][i], b[1][i], b[2][i]), Vec3::new(b[3][i], b[4][i], b[5][i]))
+    }
+
+    /// Sets slot `i` to `child` with box `(min, max)`.
+    #[inline]
+    pub fn set_slot(&mut self, i: usize, child: u32, min: Vec3, max: Vec3) {
+        for a in 0..3 {
+            self.bounds[a][i] = min[a];
+            self.bounds[3 + a][i] = max[a];
+        }
+        self.child[i] = child;
+    }
+}
+
+/// Build parameters of the BVH.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BvhBuildParams {
+    /// Cost of testing one 8-wide node, in units of one block test.
+    pub traversal_cost: f32,
+    /// Cost of testing one block of four triangles.
+    pub intersect_cost: f32,
+    /// Bins per axis of the binned SAH.
+    pub bins: usize,
+    /// Most triangles a leaf holds (a multiple of 4, at most 64); the SAH
+    /// makes leaves of fewer where that is cheaper.
+    pub max_leaf_triangles: usize,
+    /// Subtrees with more triangles than this are built in parallel.
+    pub parallel_threshold: usize,
+    /// A refit whose SAH cost exceeds this factor times the last fresh
+    /// build's is replaced by a rebuild ([`Bvh::update`]).
+    pub rebuild_factor: f32,
+}
+
+impl Default for BvhBuildParams {
+    fn default() -> Self {
+        Self {
+            traversal_cost: 1.0,
+            intersect_cost: 1.0,
+            bins: 16,
+            max_leaf_triangles: 8,
+            parallel_threshold: 4096,
+            rebuild_factor: 1.5,
+        }
+    }
+}
+
+/// Figures describing a built (or refitted) BVH.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct BvhStats {
+    /// 8-wide nodes.
+    pub nodes: usize,
+    pub leaves: usize,
+    /// Blocks of four triangle slots.
+    pub blocks: usize,
+    /// Mean triangles per leaf.
+    pub mean_leaf_triangles: f32,
+    /// Depth of the deepest leaf in 8-wide levels (root children: 1).
+    pub max_depth: u32,
+    /// Expected cost of a random ray by the surface area heuristic (units of one block test).
+    pub sah_cost: f32,
+    /// SAH cost right after the last full build.
+    pub fresh_sah_cost: f32,
+    pub build_ms: f64,
+    /// Time of the last refit, ms (0 if none).
+    pub refit_ms: f64,
+}
+
+/// A built 8-wide BVH: nodes (node 0 is the root), leaf blocks, and the
+/// scene bounds.
+#[derive(Clone, Debug)]
+pub struct Bvh {
+    pub nodes: Vec<Node8>,
+    pub blocks: Vec<CpuBlock>,
+    /// Triangles the tree was built over.
+    pub triangle_count: usize,
+    pub min: Vec3,
+    pub max: Vec3,
+    pub params: BvhBuildParams,
+    pub stats: BvhStats,
+    /// The node-test build the single-ray queries use ([`Isa::detect`] by default).
+    pub isa: Isa,
+}
+
+impl Bvh {
+    /// Builds the tree over `triangles` (vertex ids into `positions`).
+    pub fn build(positions: &[Vec3], triangles: &[[u32; 3]], params: &BvhBuildParams) -> Bvh {
+        build::build(positions, triangles, params)
+    }
+
+    /// Runs the queries with node tests of `isa` (the portable build where
+    /// this CPU lacks it); returns the build in use.
+    pub fn set_isa(&mut self, isa: Isa) -> Isa {
+        self.isa = if isa.supported() { isa } else { Isa::Portable };
+        self.isa
+    }
+
+    /// Bytes of the nodes and blocks.
+    pub fn bytes(&self) -> usize {
+        std::mem::size_of_val(self.nodes.as_slice()) + std::mem::size_of_val(self.blocks.as_slice())
+    }
+}

@@ -1,0 +1,239 @@
+//! Wide BVH: structure checks, closest and any hits against brute force on
+//! random and degenerate meshes, the same hits from every SIMD build, and
+//! refits that equal fresh builds.
+
+use glam::Vec3;
+use linkgi::bvh::refit::Update;
+use linkgi::bvh::{Bvh, BvhBuildParams, Isa};
+use linkgi::kdtree::traverse::brute_force;
+use linkgi::kdtree::{Hit, KdBuildParams, KdTree, Ray};
+use rand::{Rng, SeedableRng};
+use rand_pcg::Pcg32;
+
+fn rvec(rng: &mut Pcg32, lo: f32, hi: f32) -> Vec3 {
+    Vec3::new(rng.random_range(lo..hi), rng.random_range(lo..hi), rng.random_range(lo..hi))
+}
+
+type Mesh = (Vec<Vec3>, Vec<[u32; 3]>);
+
+fn soup(rng: &mut Pcg32, n: usize, size: f32) -> Mesh {
+    let mut pos = Vec::new();
+    let mut tris = Vec::new();
+    for i in 0..n as u32 {
+        let c = rvec(rng, 0.0, 1.0);
+        pos.extend([c + rvec(rng, -size, size), c + rvec(rng, -size, size), c + rvec(rng, -size, size)]);
+        tris.push([3 * i, 3 * i + 1, 3 * i + 2]);
+    }
+    (pos, tris)
+}
+
+/// A regular grid of `n x n` quads on a plane of constant `axis`
+/// coordinate `at`, sharing vertices (a flat, regular mesh).
+fn grid(n: u32, axis: usize, at: f32, pos: &mut Vec<Vec3>, tris: &mut Vec<[u32; 3]>) {
+    let base = pos.len() as u32;
+    let (a, b) = ((axis + 1) % 3, (axis + 2) % 3);
+    for i in 0..=n {
+        for j in 0..=n {
+            let mut p = Vec3::ZERO;
+            p[axis] = at;
+            p[a] = i as f32 / n as f32;
+            p[b] = j as f32 / n as f32;
+            pos.push(p);
+        }
+    }
+    let id = |i: u32, j: u32| base + i * (n + 1) + j;
+    for i in 0..n {
+        for j in 0..n {
+            tris.push([id(i, j), id(i + 1, j), id(i + 1, j + 1)]);
+            tris.push([id(i, j), id(i + 1, j + 1), id(i, j + 1)]);
+        }
+    }
+}
+
+/// Axis-aligned grids on the three middle planes (coincident bounds, many ties).
+fn axis_aligned(n: u32) -> Mesh {
+    let (mut pos, mut tris) = (Vec::new(), Vec::new());
+    for axis in 0..3 {
+        grid(n, axis, 0.5, &mut pos, &mut tris);
+    }
+    (pos, tris)
+}
+
+fn random_rays(rng: &mut Pcg32, count: usize, skip_max: u32) -> Vec<Ray> {
+    (0..count)
+        .map(|i| {
+            let origin = rvec(rng, -0.2, 1.2);
+            let dir = if i % 7 == 0 {
+                // Axis-parallel directions (zero components).
+                let mut d = Vec3::ZERO;
+                d[i % 3] = if i % 2 == 0 { 1.0 } else { -1.0 };
+                d
+            } else {
+                rvec(rng, -1.0, 1.0).normalize()
+            };
+            let mut r = Ray::new(origin, dir);
+            if i % 3 == 0 {
+                r.tmax = rng.random_range(0.1..2.0);
+            }
+            if i % 4 == 0 {
+                r.tmin = rng.random_range(0.0..0.3);
+            }
+            if i % 5 == 0 && skip_max > 0 {
+                r.skip = rng.random_range(0..skip_max);
+            }
+            r
+        })
+        .collect()
+}
+
+fn key(h: Option<Hit>) -> Option<(u32, u32, u32, u32, bool)> {
+    h.map(|h| (h.tri, h.t.to_bits(), h.u.to_bits(), h.v.to_bits(), h.front))
+}
+
+fn isas() -> Vec<Isa> {
+    [Isa::Avx512, Isa::Avx2, Isa::Portable].into_iter().filter(|i| i.supported()).collect()
+}
+
+/// Every supported build agrees with brute force on every ray (closest hit
+/// bit for bit, any-hit as its existence); returns the rays that hit.
+fn check(mesh: &Mesh, rays: &[Ray], params: &BvhBuildParams) -> usize {
+    let (pos, tris) = mesh;
+    let mut bvh = Bvh::build(pos, tris, params);
+    bvh.validate().expect("bvh valid");
+    let kd = KdTree::build(pos, tris, &KdBuildParams::default());
+    let mut hits = 0;
+    for (i, r) in rays.iter().enumerate() {
+        let want = brute_force(&kd, r);
+        hits += want.is_some() as usize;
+        for isa in isas() {
+            assert_eq!(bvh.set_isa(isa), isa);
+            assert_eq!(key(bvh.intersect(r)), key(want), "ray {i} {r:?} ({isa:?})");
+            assert_eq!(bvh.occluded(r), want.is_some(), "any-hit of ray {i} ({isa:?})");
+        }
+    }
+    hits
+}
+
+#[test]
+fn random_soup_matches_brute_force() {
+    let mut rng = Pcg32::seed_from_u64(11);
+    let mesh = soup(&mut rng, 3000, 0.05);
+    let rays = random_rays(&mut rng, 4000, mesh.0.len() as u32);
+    let hits = check(&mesh, &rays, &BvhBuildParams::default());
+    assert!(hits > 1000, "{hits}");
+    // Other leaf sizes and bin counts give the same hits.
+    let p = BvhBuildParams { max_leaf_triangles: 16, bins: 32, parallel_threshold: 64, ..Default::default() };
+    check(&mesh, &rays[..1500], &p);
+}
+
+#[test]
+fn flat_and_axis_aligned_meshes_match_brute_force() {
+    let mut rng = Pcg32::seed_from_u64(12);
+    let aa = axis_aligned(24);
+    let rays = random_rays(&mut rng, 3000, aa.0.len() as u32);
+    let hits = check(&aa, &rays, &BvhBuildParams::default());
+    assert!(hits > 600, "{hits}");
+    // A single flat grid: every box has zero thickness along z.
+    let (mut pos, mut tris) = (Vec::new(), Vec::new());
+    grid(40, 2, 0.25, &mut pos, &mut tris);
+    let flat = (pos, tris);
+    let rays = random_rays(&mut rng, 3000, flat.0.len() as u32);
+    assert!(check(&flat, &rays, &BvhBuildParams::default()) > 300);
+    // Rays through the grid's vertices and edges exactly.
+    let through: Vec<Ray> = (0..400)
+        .map(|i| {
+            let p = Vec3::new((i % 41) as f32 / 40.0, ((i * 7) % 41) as f32 / 40.0 * 0.5 + (i % 2) as f32 / 80.0, 0.25);
+            Ray::new(p + Vec3::new(0.1, -0.2, 1.0), (-Vec3::new(0.1, -0.2, 1.0)).normalize())
+        })
+        .collect();
+    check(&flat, &through, &BvhBuildParams::default());
+}
+
+#[test]
+fn coincident_and_single_triangles() {
+    let mut rng = Pcg32::seed_from_u64(13);
+    // 40 copies of the same triangles: ties go to the lowest id.
+    let (mut pos, mut tris) = (Vec::new(), Vec::new());
+    for _ in 0..40 {
+        let base = pos.len() as u32;
+        pos.extend([Vec3::new(0.0, 0.0, 0.5), Vec3::new(1.0, 0.0, 0.5), Vec3::new(0.0, 1.0, 0.5)]);
+        tris.push([base, base + 1, base + 2]);
+    }
+    let same = (pos, tris);
+    let rays = random_rays(&mut rng, 2000, 0);
+    let hits = check(&same, &rays, &BvhBuildParams::default());
+    assert!(hits > 100);
+    let bvh = Bvh::build(&same.0, &same.1, &BvhBuildParams::default());
+    for r in &rays {
+        if let Some(h) = bvh.intersect(r) {
+            assert_eq!(h.tri, 0, "a tie must go to the lowest id");
+        }
+    }
+    let one = (vec![Vec3::ZERO, Vec3::X, Vec3::Y], vec![[0, 1, 2]]);
+    let rays: Vec<Ray> = (0..500)
+        .map(|_| {
+            let o = rvec(&mut rng, -1.0, 1.0) + Vec3::Z;
+            Ray::new(o, (rvec(&mut rng, 0.0, 0.6).with_z(0.0) - o).normalize())
+        })
+        .collect();
+    assert!(check(&one, &rays, &BvhBuildParams::default()) > 100);
+    let none = Bvh::build(&[], &[], &BvhBuildParams::default());
+    none.validate().unwrap();
+    assert!(none.intersect(&rays[0]).is_none() && !none.occluded(&rays[0]));
+}
+
+/// Twists the mesh about the vertical axis through (0.5, *, 0.5).
+fn twist(pos: &[Vec3], amount: f32) -> Vec<Vec3> {
+    pos.iter()
+        .map(|p| {
+            let a = amount * p.y;
+            let (s, c) = a.sin_cos();
+            let (x, z) = (p.x - 0.5, p.z - 0.5);
+            Vec3::new(0.5 + c * x - s * z, p.y, 0.5 + s * x + c * z)
+        })
+        .collect()
+}
+
+#[test]
+fn refit_equals_a_fresh_build() {
+    let mut rng = Pcg32::seed_from_u64(14);
+    let (mut pos, mut tris) = (Vec::new(), Vec::new());
+    for axis in 0..3 {
+        grid(20, axis, 0.3 + 0.2 * axis as f32, &mut pos, &mut tris);
+    }
+    let params = BvhBuildParams::default();
+    let mut bvh = Bvh::build(&pos, &tris, &params);
+    let rays = random_rays(&mut rng, 3000, pos.len() as u32);
+    for step in 1..4 {
+        let moved = twist(&pos, 0.4 * step as f32);
+        assert_eq!(bvh.update(&moved, &tris), Update::Refit, "a small twist refits");
+        bvh.validate().expect("refitted bvh valid");
+        assert!(bvh.stats.sah_cost >= 0.99 * bvh.stats.fresh_sah_cost);
+        let fresh = Bvh::build(&moved, &tris, &params);
+        let kd = KdTree::build(&moved, &tris, &KdBuildParams::default());
+        for r in &rays {
+            let want = key(brute_force(&kd, r));
+            assert_eq!(key(bvh.intersect(r)), want);
+            assert_eq!(key(fresh.intersect(r)), want);
+        }
+    }
+    // Scrambling every vertex makes the refit far worse than a fresh tree: rebuilt.
+    let scrambled: Vec<Vec3> = pos.iter().map(|_| rvec(&mut rng, 0.0, 1.0)).collect();
+    assert_eq!(bvh.update(&scrambled, &tris), Update::Rebuild);
+    bvh.validate().expect("rebuilt bvh valid");
+    assert_eq!(bvh.stats.sah_cost, bvh.stats.fresh_sah_cost);
+}
+
+#[test]
+fn build_does_not_depend_on_threads() {
+    let mut rng = Pcg32::seed_from_u64(15);
+    let (pos, tris) = soup(&mut rng, 20000, 0.02);
+    let params = BvhBuildParams { parallel_threshold: 256, ..Default::default() };
+    let a = Bvh::build(&pos, &tris, &params);
+    let pool = rayon::ThreadPoolBuilder::new().num_threads(1).build().unwrap();
+    let b = pool.install(|| Bvh::build(&pos, &tris, &params));
+    a.validate().unwrap();
+    assert_eq!(a.nodes, b.nodes);
+    assert_eq!(a.blocks.len(), b.blocks.len());
+    assert!(a.blocks.iter().zip(&b.blocks).all(|(x, y)| x.lanes == y.lanes));
+}
