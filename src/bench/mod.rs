@@ -9,13 +9,19 @@
 //! [`run_scene`] measures, [`markdown`] formats (with the paper's rows next
 //! to ours), [`Stat`] does the statistics; all are free of I/O so they can
 //! be tested on synthetic data.
+//!
+//! Where the Embree 3 peer program is built ([`peer`]), each CPU row also
+//! carries Embree's ray rates and build time on the same mesh and rays,
+//! measured right after our runs, and the report sets them beside ours.
 
 pub mod bandwidth;
 pub mod memory;
 pub mod paper;
+pub mod peer;
 pub mod report;
 
 pub use paper::{paper_rows, PaperRow};
+pub use peer::PeerFigures;
 pub use report::markdown;
 
 use crate::scene::{prep, Bounces, SceneDesc};
@@ -163,6 +169,9 @@ pub struct BenchRow {
     pub gather_bytes: u64,
     /// This machine's read bandwidth ([`bandwidth::read_bandwidth_gbps`]), GB/s; NaN: not measured.
     pub read_gbps: f64,
+    /// Embree 3 on the same mesh and rays, run right after our measured runs
+    /// ([`peer`]); CPU rows only, `None` when the peer program is not found.
+    pub peer: Option<PeerFigures>,
 }
 
 impl BenchRow {
@@ -197,6 +206,7 @@ impl BenchRow {
             bounces: 3,
             gather_bytes: sizes.gather_bytes,
             read_gbps: f64::NAN,
+            peer: None,
         }
     }
 }
@@ -333,6 +343,14 @@ pub fn run_scene(
         let (fps, renderer) = render_fps(&desc, &scene, &e_indirect, params.render_frames)?;
         row.render_fps = fps;
         row.renderer = renderer;
+    }
+    // Embree on the same mesh and workload, in this same run (CPU rows: the
+    // peer traces on the CPU with as many threads as our pool).
+    if label == "CPU" {
+        if let Some(exe) = peer::find() {
+            let threads = rayon::current_num_threads();
+            row.peer = Some(peer::run(&exe, &scene, params.rays_per_vertex, params.runs.max(1), threads)?);
+        }
     }
     Ok(row)
 }

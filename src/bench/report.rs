@@ -1,8 +1,10 @@
 //! Markdown tables of benchmark rows, each of our rows followed by the
 //! paper's rows for the same scene (sizes table, then times table).
-//! Times: median with [min, max] in ms; rates in k rays/s.
+//! Times: median with [min, max] in ms; rates in k rays/s. Where rows carry
+//! Embree peer figures, a last table sets our ray rate and build time beside
+//! Embree's (its rates in M rays/s).
 
-use super::{paper_rows, BenchRow, Stat};
+use super::{paper_rows, BenchRow, PeerFigures, Stat};
 use std::fmt::Write;
 
 fn stat(s: &Stat, digits: usize) -> String {
@@ -138,7 +140,43 @@ pub fn markdown(rows: &[BenchRow]) -> String {
             );
         }
     }
+    let peers: Vec<(&BenchRow, &PeerFigures)> = rows.iter().filter_map(|r| r.peer.as_ref().map(|p| (r, p))).collect();
+    if !peers.is_empty() {
+        let _ = writeln!(out, "\n### Beside Embree 3 (same run, same machine)\n");
+        let _ = writeln!(
+            out,
+            "| scene | ours k rays/s | Embree rtcIntersect1 M rays/s | rays ours/Embree | Embree rtcIntersect16 M rays/s | our kd build ms | Embree build ms | build ours/Embree |"
+        );
+        let _ = writeln!(out, "|---|---|---|---|---|---|---|---|");
+        for (r, p) in peers {
+            let ours_build = our_build_ms(r);
+            let _ = writeln!(
+                out,
+                "| {} | {:.0} | {:.2} | {:.2} | {:.2} | {:.1} | {:.1} | {:.2} |",
+                r.scene,
+                r.k_rays_per_s.median,
+                p.mrays_single,
+                r.k_rays_per_s.median / 1e3 / p.mrays_single,
+                p.mrays_packet16,
+                ours_build,
+                p.build_ms,
+                ours_build / p.build_ms
+            );
+        }
+        let _ = writeln!(
+            out,
+            "\nOurs: link shooting rate and kd-tree build (`kd ms` above), median of {runs} runs. Embree (`../shared/peers/embree_peer`): \
+             the same mesh, {rays} cosine-weighted rays per vertex, best of {runs} traces with as many threads; \
+             BVH build `RTC_BUILD_QUALITY_HIGH`, best of 3. Ratios above 1: ours is faster (rays) or slower (build)."
+        );
+    }
     out
+}
+
+/// Our build time set beside Embree's, ms (median): the kd-tree build, the
+/// one build time a row records so far.
+fn our_build_ms(r: &BenchRow) -> f64 {
+    r.kd_ms.median
 }
 
 #[cfg(test)]
@@ -238,6 +276,25 @@ mod tests {
         let cpu = lines.iter().position(|l| l.starts_with("| tearoom | linkgi CPU")).unwrap();
         assert!(lines[cpu + 1].starts_with("| tearoom | linkgi GPU") && lines[cpu + 1].ends_with("| 123 |"));
         assert!(lines[cpu + 2].starts_with("| TEAROOM | paper, 1 GPU"));
+    }
+
+    #[test]
+    fn embree_table_only_with_peer_figures() {
+        let md = markdown(&[synthetic("tearoom")]);
+        assert!(!md.contains("Beside Embree"), "{md}");
+        let mut cpu = synthetic("tearoom");
+        // Ours: 20,000 k rays/s = 20 M rays/s median, kd build 20 ms median.
+        cpu.peer = Some(PeerFigures { mrays_single: 10.0, mrays_packet16: 12.5, build_ms: 40.0 });
+        let mut gpu = synthetic("tearoom");
+        gpu.backend = "GPU".into();
+        let md = markdown(&[cpu, gpu, synthetic("cornell")]);
+        let lines: Vec<&str> = md.lines().collect();
+        let h = lines.iter().position(|l| *l == "### Beside Embree 3 (same run, same machine)").expect("{md}");
+        assert!(lines[h + 2].starts_with("| scene | ours k rays/s | Embree rtcIntersect1 M rays/s |"), "{md}");
+        assert_eq!(lines[h + 4], "| tearoom | 20000 | 10.00 | 2.00 | 12.50 | 20.0 | 40.0 | 0.50 |");
+        // One row: the GPU row and the scene without figures are left out.
+        assert!(lines[h + 5].is_empty(), "{md}");
+        assert!(md.contains("best of 3 traces"), "{md}");
     }
 
     #[test]

@@ -63,6 +63,16 @@ pub fn run(args: Args) -> Result<()> {
     for (label, c) in &computes {
         println!("{label}: {}", c.describe());
     }
+    if computes.iter().any(|c| c.0 == "CPU") {
+        match bench::peer::find() {
+            Some(p) => println!("Embree peer: {}", p.display()),
+            None => println!(
+                "Embree peer: not found (build it with `make -C {}` or set {}); no Embree figures",
+                bench::peer::DEFAULT_PATH.trim_end_matches("/peer"),
+                bench::peer::ENV
+            ),
+        }
+    }
     if let Some(p) = &args.json {
         let text =
             serde_json::to_string_pretty(&serde_json::json!({ "backend": backend, "params": params, "rows": rows }))?;
