@@ -145,7 +145,7 @@ pub fn markdown(rows: &[BenchRow]) -> String {
         let _ = writeln!(out, "\n### Beside Embree 3 (same run, same machine)\n");
         let _ = writeln!(
             out,
-            "| scene | ours k rays/s | Embree rtcIntersect1 M rays/s | rays ours/Embree | Embree rtcIntersect16 M rays/s | our kd build ms | Embree build ms | build ours/Embree |"
+            "| scene | ours k rays/s | Embree rtcIntersect1 M rays/s | rays ours/Embree | Embree rtcIntersect16 M rays/s | our build ms | Embree build ms | build ours/Embree |"
         );
         let _ = writeln!(out, "|---|---|---|---|---|---|---|---|");
         for (r, p) in peers {
@@ -165,7 +165,7 @@ pub fn markdown(rows: &[BenchRow]) -> String {
         }
         let _ = writeln!(
             out,
-            "\nOurs: link shooting rate and kd-tree build (`kd ms` above), median of {runs} runs. Embree (`../shared/peers/embree_peer`): \
+            "\nOurs: link shooting rate and the build of the structure its rays go through (`kd ms` above), median of {runs} runs. Embree (`../shared/peers/embree_peer`): \
              the same mesh, {rays} cosine-weighted rays per vertex, best of {runs} traces with as many threads; \
              BVH build `RTC_BUILD_QUALITY_HIGH`, best of 3. Ratios above 1: ours is faster (rays) or slower (build)."
         );
@@ -173,8 +173,8 @@ pub fn markdown(rows: &[BenchRow]) -> String {
     out
 }
 
-/// Our build time set beside Embree's, ms (median): the kd-tree build, the
-/// one build time a row records so far.
+/// Our build time set beside Embree's, ms (median): the row's `kd_ms`, the
+/// build of the acceleration structure the link rays went through.
 fn our_build_ms(r: &BenchRow) -> f64 {
     r.kd_ms.median
 }
