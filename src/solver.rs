@@ -5,12 +5,14 @@
 //! `Compute` says, and a GPU failure after setup falls back to the CPU
 //! with one line on stderr. Lengths in metres, irradiance in W/m^2, times in ms.
 
+use crate::bvh::{BvhBuildParams, BvhStats};
 use crate::exchange::{self, GatherParams, GatherResult, LightLinkParams, LightLinks};
 use crate::gpu::{self, Backend, DeviceShare, GpuDevice, GpuLinks, GpuTracer, LogicalDevice, ScheduleParams};
 use crate::kdtree::{KdBuildParams, KdStats, KdTree};
 use crate::links::{self, LinkParams, LinkStats, Links};
 use crate::scene::prep::PreparedScene;
-use crate::scene::Settings;
+use crate::scene::{Settings, TracerKind};
+use crate::trace::Accel;
 use glam::Vec3;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
@@ -88,7 +90,11 @@ pub struct GpuState {
 /// All stage parameters, defaults from DESIGN.md.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SolveParams {
-    /// kd-tree for the CPU walk.
+    /// The CPU structure rays go through (the GPU path always walks its kd-tree).
+    pub tracer: TracerKind,
+    /// The wide BVH of `tracer = bvh`.
+    pub bvh: BvhBuildParams,
+    /// kd-tree of `tracer = kd` on the CPU.
     pub kd: KdBuildParams,
     /// kd-tree for the GPU path, whose shader tests one triangle per step
     /// ([`KdBuildParams::for_gpu`]); the hits are the same.
@@ -103,6 +109,8 @@ pub struct SolveParams {
 impl Default for SolveParams {
     fn default() -> Self {
         SolveParams {
+            tracer: TracerKind::default(),
+            bvh: BvhBuildParams::default(),
             kd: KdBuildParams::default(),
             kd_gpu: KdBuildParams::for_gpu(),
             links: LinkParams::default(),
@@ -119,6 +127,7 @@ impl SolveParams {
         let mut p = SolveParams::default();
         p.links.rays_per_vertex = s.rays_per_vertex;
         p.links.seed = s.seed;
+        p.tracer = s.tracer;
         p.gather.bounces = s.bounces;
         p.smoothing_angle_deg = s.smoothing_angle_deg;
         p
@@ -131,8 +140,14 @@ pub struct SolveStats {
     pub vertices: usize,
     pub triangles: usize,
     pub dropped_triangles: usize,
-    pub kd: KdStats,
-    pub kd_bytes: usize,
+    /// Build time of the structure the rays went through, ms.
+    pub accel_build_ms: f64,
+    /// Bytes of that structure.
+    pub accel_bytes: usize,
+    /// The kd-tree's figures, when rays went through one.
+    pub kd: Option<KdStats>,
+    /// The BVH's figures, when rays went through one.
+    pub bvh: Option<BvhStats>,
     pub links: LinkStats,
     pub shadow_rays: u64,
     pub light_links_ms: f64,
@@ -166,11 +181,13 @@ pub struct Solution {
     pub smoothed: bool,
 }
 
-/// A scene with its kd-tree, vertex links and light links built.
+/// A scene with its acceleration structure, vertex links and light links built.
 pub struct Solver {
     pub scene: PreparedScene,
     pub params: SolveParams,
-    pub kd: KdTree,
+    /// The CPU structure rays go through: `params.tracer`'s on the CPU path,
+    /// the kd-tree the GPU walks on the GPU path.
+    pub accel: Accel,
     pub links: Links,
     pub light_links: LightLinks,
     /// Present when links, light links and bounces run on a GPU.
@@ -179,13 +196,16 @@ pub struct Solver {
 }
 
 impl Solver {
-    /// Builds the kd-tree, the vertex links (reporting `progress(done, total)`
-    /// vertices) and the light links.
+    /// Builds the acceleration structure (`params.tracer`), the vertex
+    /// links (reporting `progress(done, total)` vertices) and the light links.
     pub fn new(scene: PreparedScene, params: SolveParams, progress: &(dyn Fn(usize, usize) + Sync)) -> Solver {
-        let kd = KdTree::build(&scene.positions, &scene.triangles, &params.kd);
-        let links = links::shoot_links(&scene, &kd, &params.links, progress);
-        let light_links = LightLinks::compute(&scene, &kd, &params.light);
-        Solver { scene, params, kd, links, light_links, gpu: None, compute: Compute::Cpu }
+        let accel = match params.tracer {
+            TracerKind::Bvh => Accel::Bvh(crate::bvh::Bvh::build(&scene.positions, &scene.triangles, &params.bvh)),
+            TracerKind::Kd => Accel::Kd(KdTree::build(&scene.positions, &scene.triangles, &params.kd)),
+        };
+        let links = links::shoot_links(&scene, &accel, &params.links, progress);
+        let light_links = LightLinks::compute(&scene, &accel, &params.light);
+        Solver { scene, params, accel, links, light_links, gpu: None, compute: Compute::Cpu }
     }
 
     /// Builds everything on `compute`: the kd-tree on the CPU (with
@@ -215,12 +235,12 @@ impl Solver {
                 });
             }
         }
-        let (links, shares) = gpu::shoot_links_gpu(&scene, &kd, &params.links, &g.schedule, &mut logical, progress)?;
+        let (links, shares) = gpu::shoot_links_gpu(&scene, &params.links, &g.schedule, &mut logical, progress)?;
         let tracer = logical.swap_remove(0).tracer;
         let light_links = LightLinks::compute_with(&scene, &tracer, &params.light)?;
         let gpu_links = GpuLinks::new(tracer.dev.clone(), &links, &scene.albedo)?;
         let gpu = GpuState { tracer, links: gpu_links, shares };
-        Ok(Solver { scene, params, kd, links, light_links, gpu: Some(gpu), compute: compute.clone() })
+        Ok(Solver { scene, params, accel: Accel::Kd(kd), links, light_links, gpu: Some(gpu), compute: compute.clone() })
     }
 
     /// Brings the light links up to date with `scene.lights` (after lights
@@ -240,7 +260,7 @@ impl Solver {
     }
 
     fn refresh_lights(&mut self, preview: bool) {
-        let update = |l: &mut LightLinks, scene: &PreparedScene, tracer: &dyn exchange::light_links::ShadowTracer| {
+        let update = |l: &mut LightLinks, scene: &PreparedScene, tracer: &dyn crate::trace::Tracer| {
             if preview {
                 l.preview_with(scene, tracer, &self.params.light)
             } else {
@@ -253,7 +273,7 @@ impl Solver {
                 Err(e) => eprintln!("warning: {e}; computing light links on the CPU"),
             }
         }
-        update(&mut self.light_links, &self.scene, &self.kd).expect("the CPU tracer cannot fail");
+        update(&mut self.light_links, &self.scene, &self.accel).expect("the CPU tracer cannot fail");
     }
 
     /// The tracer the rays go through: "bvh", "kd" or "gpu-kd".
@@ -261,18 +281,18 @@ impl Solver {
         if self.gpu.is_some() {
             "gpu-kd"
         } else {
-            "kd"
+            self.accel.kind().name()
         }
     }
 
     /// Build time of the CPU wide BVH, ms; NaN when this solver has none.
     pub fn bvh_build_ms(&self) -> f64 {
-        f64::NAN
+        self.accel.bvh().map_or(f64::NAN, |b| b.stats.build_ms)
     }
 
     /// Build time of the acceleration structure the rays went through, ms.
     pub fn accel_build_ms(&self) -> f64 {
-        self.kd.stats.build_ms
+        self.accel.build_ms()
     }
 
     /// Gathers the bounces and smooths.
@@ -307,8 +327,10 @@ impl Solver {
             vertices: self.scene.vertex_count(),
             triangles: self.scene.triangles.len(),
             dropped_triangles: self.scene.dropped_triangles,
-            kd: self.kd.stats,
-            kd_bytes: self.kd.bytes(),
+            accel_build_ms: self.accel.build_ms(),
+            accel_bytes: self.accel.bytes(),
+            kd: self.accel.kd().map(|k| k.stats),
+            bvh: self.accel.bvh().map(|b| b.stats),
             links: self.links.stats,
             shadow_rays: self.light_links.shadow_rays,
             light_links_ms: self.light_links.ms,

@@ -10,6 +10,7 @@ use glam::Vec3;
 use linkgi::exchange::{self, gather::drive, GatherParams, LightLinks};
 use linkgi::gpu::{self, schedule, GpuDevice, GpuLinks, GpuTracer};
 use linkgi::links::{LinkParams, RaySetup};
+use linkgi::scene::TracerKind;
 use linkgi::scene::{self, prep, Bounces};
 use linkgi::solver::{Compute, GpuCompute, SolveParams, Solver};
 use std::sync::{Arc, OnceLock};
@@ -93,13 +94,15 @@ fn agree_on(name: &str) {
     let scene = prep::prepare(&desc).expect("prepares");
     let params = SolveParams::from_settings(&scene.settings);
     // The CPU solver builds the tree the GPU path uses, so both walk one tree.
-    let cpu = Solver::new(scene.clone(), SolveParams { kd: params.kd_gpu, ..params }, &|_, _| {});
+    let cpu =
+        Solver::new(scene.clone(), SolveParams { kd: params.kd_gpu, tracer: TracerKind::Kd, ..params }, &|_, _| {});
     let gpu = Solver::new_on(scene.clone(), params, &gpu_compute(&dev, 1), &|_, _| {}).expect("GPU solver");
-    gpu.kd.validate().expect("kd valid");
+    gpu.accel.validate().expect("kd valid");
+    let (cpu_kd, gpu_kd) = (cpu.accel.kd().expect("kd tracer"), gpu.accel.kd().expect("the GPU path walks a kd-tree"));
     gpu.links.validate().expect("GPU links valid");
-    assert_eq!(cpu.kd.nodes, gpu.kd.nodes, "the tree is built on the CPU either way");
+    assert_eq!(cpu_kd.nodes, gpu_kd.nodes, "the tree is built on the CPU either way");
 
-    let vertex_same = compare_rays(name, &dev, &scene, &cpu.kd);
+    let vertex_same = compare_rays(name, &dev, &scene, cpu_kd);
 
     // Merged links: where every ray of a vertex met the same triangle, the
     // link group has the same targets and weights within two f16 ulps.
@@ -276,7 +279,7 @@ fn gpu_light_links_follow_a_moved_light() {
         *position += Vec3::new(0.3, -0.4, 0.2);
     }
     solver.update_lights();
-    let cpu = LightLinks::compute(&solver.scene, &solver.kd, &solver.params.light);
+    let cpu = LightLinks::compute(&solver.scene, &solver.accel, &solver.params.light);
     for (c, g) in cpu.factors[0].iter().zip(&solver.light_links.factors[0]) {
         assert!((c - g).abs() <= 1e-5 * c.abs().max(1e-6), "{c} vs {g}");
     }

@@ -62,7 +62,7 @@ fn merging_preserves_total_weight() {
         setup.trace_vertex(&kd, v, &mut hits);
         let raw: f64 = hits.iter().filter(|h| h.tri != HIT_MISS && h.tri & HIT_BACK == 0).count() as f64 * wpr;
         let (mut t, mut w) = (Vec::new(), Vec::new());
-        merge_vertex(&hits, &kd.triangles, wpr, &mut scratch, &mut t, &mut w);
+        merge_vertex(&hits, &scene.triangles, wpr, &mut scratch, &mut t, &mut w);
         let merged: f64 = w.iter().map(|x| x.to_f64()).sum();
         // Error diffusion keeps the group within half an f16 ulp (2^-11
         // relative) of its largest link of the exact sum.
@@ -77,7 +77,7 @@ fn merging_preserves_total_weight() {
 
 #[test]
 fn merge_handles_misses_back_faces_and_edges() {
-    let tri = linkgi::kdtree::KdTriangle { ia: 0, ib: 1, ic: 2, ..Default::default() };
+    let tri = [0u32, 1, 2];
     let hits = [
         HitRecord { tri: 0, u: 0.0, v: 0.0, t: 1.0 }, // corner: one link to vertex 0
         HitRecord { tri: 0, u: 0.5, v: 0.5, t: 1.0 }, // edge: links to 1 and 2

@@ -12,6 +12,7 @@ use linkgi::kdtree::{KdBuildParams, KdTree, Ray};
 use linkgi::render::{self, cpu::render_cpu, gpu::GpuRenderer, Frame, HdrImage, RenderParams, View};
 use linkgi::scene::{builtin, prep, Light};
 use linkgi::solver::{Solution, SolveParams, Solver};
+use linkgi::trace::CpuTracer;
 use std::sync::{Arc, OnceLock};
 
 const W: u32 = 160;
@@ -73,7 +74,7 @@ enum Class {
 /// Classifies each pixel by what its primary ray meets.
 fn classify(c: &Cornell) -> Vec<Vec<Class>> {
     let s = &c.solver.scene;
-    let kd = &c.solver.kd;
+    let kd = &c.solver.accel;
     let frame = Frame::of(s, &c.sol.e_indirect, c.camera);
     let extent = frame.extent();
     let Light::Point { position: light, .. } = s.lights[0] else { panic!() };
@@ -179,7 +180,7 @@ fn save(name: &str, img: &HdrImage) {
 fn cpu_fallback_image() {
     let c = cornell();
     let frame = Frame::of(&c.solver.scene, &c.sol.e_indirect, c.camera);
-    let (comb, dir, ind) = render_views(|v| render_cpu(&frame, &params(v), Some(&c.solver.kd)).unwrap().0);
+    let (comb, dir, ind) = render_views(|v| render_cpu(&frame, &params(v), Some(&c.solver.accel)).unwrap().0);
     save("cornell-cpu.png", &comb);
     check_image("cpu", &comb, &dir, &ind);
 }
@@ -195,14 +196,14 @@ fn gpu_image_and_agreement_with_cpu() {
     save("cornell-gpu-indirect.png", &ind);
     check_image("gpu", &comb, &dir, &ind);
     // CPU and GPU agree after tone mapping (shadow edges and PCF differ a little).
-    let cpu = render_cpu(&frame, &params(View::Combined), Some(&c.solver.kd)).unwrap().0;
+    let cpu = render_cpu(&frame, &params(View::Combined), Some(&c.solver.accel)).unwrap().0;
     let (a, b) = (render::tone_map(&comb, 0.6), render::tone_map(&cpu, 0.6));
     let diff: f64 = a.as_raw().iter().zip(b.as_raw()).map(|(&x, &y)| (x as f64 - y as f64).abs()).sum::<f64>()
         / a.as_raw().len() as f64
         / 255.0;
     assert!(diff < 0.03, "mean abs difference GPU vs CPU {diff:.4}");
     // Indirect-only views agree more closely (no shadows involved).
-    let cpu_ind = render_cpu(&frame, &params(View::Indirect), Some(&c.solver.kd)).unwrap().0;
+    let cpu_ind = render_cpu(&frame, &params(View::Indirect), Some(&c.solver.accel)).unwrap().0;
     let d: f32 = ind.pixels.iter().zip(&cpu_ind.pixels).map(|(a, b)| (*a - *b).abs().element_sum()).sum::<f32>()
         / ind.pixels.iter().map(|a| a.element_sum()).sum::<f32>();
     assert!(d < 0.05, "indirect views differ by {d:.4} relative");

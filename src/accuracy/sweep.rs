@@ -88,8 +88,7 @@ pub fn sweep(
         settings.rays_per_vertex = rays;
         let solve_params = SolveParams::from_settings(&settings);
         let solver = Solver::new(scene.clone(), solve_params, &|_, _| {});
-        let (kd_ms, links_ms, light_ms) =
-            (solver.kd.stats.build_ms, solver.links.stats.shoot_ms, solver.light_links.ms);
+        let (kd_ms, links_ms, light_ms) = (solver.accel_build_ms(), solver.links.stats.shoot_ms, solver.light_links.ms);
         let e_direct = solver.light_links.direct(&solver.scene.lights, solver.scene.vertex_count());
         let ed_err = error_stats(&e_direct, &reference.e_direct, &[]);
         for &b in &params.bounces {

@@ -262,7 +262,7 @@ pub fn run_once(
     let (light_preview_ms, light_move_ms) = time_light_move(&mut solver);
     let l = &solver.links.stats;
     let times = RunTimes {
-        kd_ms: solver.kd.stats.build_ms,
+        kd_ms: solver.accel_build_ms(),
         links_ms: l.shoot_ms,
         rays_per_s: l.rays_per_second(),
         light_links_ms,
@@ -275,7 +275,7 @@ pub fn run_once(
     let sizes = Sizes {
         vertices: solver.scene.vertex_count(),
         triangles: solver.scene.triangles.len(),
-        kd_nodes: solver.kd.stats.nodes,
+        kd_nodes: solver.accel.kd().map_or_else(|| solver.accel.bvh().map_or(0, |b| b.stats.nodes), |k| k.stats.nodes),
         links_raw: l.raw_links,
         links_merged: l.merged_links,
         bytes_raw: l.raw_bytes,

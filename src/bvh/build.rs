@@ -18,8 +18,8 @@
 //! triangles go into consecutive blocks of four, unused lanes with NaN
 //! corners (never hit) and vertex ids `u32::MAX`.
 
-use super::{leaf_ref, Bvh, BvhBuildParams, BvhStats, CpuBlock, Node8};
-use crate::kdtree::triangle::Tri4;
+use super::leaf::{Block8, LANES};
+use super::{leaf_ref, Bvh, BvhBuildParams, BvhStats, Node8};
 use glam::Vec3;
 use std::time::Instant;
 
@@ -77,7 +77,7 @@ struct Builder<'a> {
 
 impl Builder<'_> {
     fn blocks(n: usize) -> f32 {
-        n.div_ceil(4) as f32
+        n.div_ceil(LANES) as f32
     }
 
     fn bounds(&self, ids: &[u32]) -> (Vec3, Vec3) {
@@ -90,7 +90,7 @@ impl Builder<'_> {
     /// The cut of a node, or `None` for a leaf.
     fn cut(&self, ids: &mut [u32], lo: Vec3, hi: Vec3) -> Option<Cut> {
         let n = ids.len();
-        if n <= 4 {
+        if n <= 2 {
             return None;
         }
         let (mut clo, mut chi) = (Vec3::INFINITY, Vec3::NEG_INFINITY);
@@ -144,7 +144,7 @@ impl Builder<'_> {
         }
         let parent_area = area(lo, hi).max(f32::MIN_POSITIVE);
         let leaf_cost = self.p.intersect_cost * Self::blocks(n);
-        let max_leaf = self.p.max_leaf_triangles.clamp(4, 64);
+        let max_leaf = self.p.max_leaf_triangles.clamp(2, LANES * super::MAX_LEAF_BLOCKS as usize);
         match best {
             Some((cost, a, split)) => {
                 let split_cost = self.p.traversal_cost + self.p.intersect_cost * cost / parent_area;
@@ -162,7 +162,9 @@ impl Builder<'_> {
                     }
                 }
                 let side = |r: std::ops::Range<usize>| {
-                    bins[a][r].iter().fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), b| (lo.min(b.lo), hi.max(b.hi)))
+                    bins[a][r]
+                        .iter()
+                        .fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), b| (lo.min(b.lo), hi.max(b.hi)))
                 };
                 Some(Cut { mid: i, l: side(0..split + 1), r: side(split + 1..nb) })
             }
@@ -201,10 +203,8 @@ impl Builder<'_> {
             return vec![BNode { lo, hi, a: first as u32, b: 0, count: ids.len() as u32 }];
         };
         let (l, r) = ids.split_at_mut(c.mid);
-        let (lv, rv) = rayon::join(
-            || self.build_par(l, first, c.l.0, c.l.1),
-            || self.build_par(r, first + c.mid, c.r.0, c.r.1),
-        );
+        let (lv, rv) =
+            rayon::join(|| self.build_par(l, first, c.l.0, c.l.1), || self.build_par(r, first + c.mid, c.r.0, c.r.1));
         let mut out = Vec::with_capacity(1 + lv.len() + rv.len());
         let (lo_off, ro_off) = (1u32, 1 + lv.len() as u32);
         out.push(BNode { lo, hi, a: lo_off, b: ro_off, count: 0 });
@@ -222,7 +222,7 @@ struct Collapse<'a> {
     positions: &'a [Vec3],
     triangles: &'a [[u32; 3]],
     nodes: Vec<Node8>,
-    blocks: Vec<CpuBlock>,
+    blocks: Vec<Block8>,
     leaves: usize,
     max_depth: u32,
 }
@@ -231,17 +231,10 @@ impl Collapse<'_> {
     fn leaf(&mut self, b: &BNode) -> u32 {
         let first = self.blocks.len() as u32;
         let ids = &self.ids[b.a as usize..(b.a + b.count) as usize];
-        for chunk in ids.chunks(4) {
-            let mut block = CpuBlock { tri: Tri4 { v: [[[f32::NAN; 4]; 3]; 3] }, lanes: [[u32::MAX; 4]; 4] };
+        for chunk in ids.chunks(LANES) {
+            let mut block = Block8::EMPTY;
             for (lane, &id) in chunk.iter().enumerate() {
-                let t = self.triangles[id as usize];
-                for (c, &vi) in t.iter().enumerate() {
-                    let p = self.positions[vi as usize];
-                    for k in 0..3 {
-                        block.tri.v[c][k][lane] = p[k];
-                    }
-                }
-                block.lanes[lane] = [t[0], t[1], t[2], id];
+                block.set(lane, id, self.triangles[id as usize], self.positions);
             }
             self.blocks.push(block);
         }
@@ -280,6 +273,7 @@ impl Collapse<'_> {
             };
             self.nodes[me as usize].set_slot(slot, child, kn.lo, kn.hi);
         }
+        self.nodes[me as usize].set_order();
         me
     }
 }
@@ -315,6 +309,7 @@ pub fn build(positions: &[Vec3], triangles: &[[u32; 3]], params: &BvhBuildParams
             let mut root = Node8::EMPTY;
             let child = c.leaf(l);
             root.set_slot(0, child, l.lo, l.hi);
+            root.set_order();
             c.nodes.push(root);
             c.max_depth = 1;
         }

@@ -8,8 +8,8 @@
 //! hierarchies"), subtrees built in parallel with `rayon::join`, then
 //! collapsed into 8-wide nodes by repeatedly opening the child of largest
 //! surface area (as Embree's and tinybvh's BVH8 collapses). The cost of a
-//! leaf counts blocks of four triangles (`ceil(n / 4)`), the unit the CPU
-//! tests at once, as the kd-tree's does. Regular meshes (the built-in rooms'
+//! leaf counts blocks of eight triangles (`ceil(n / 8)`), the unit the CPU
+//! tests at once. Regular meshes (the built-in rooms'
 //! grids of equal triangles) are where greedy builders degrade; binning over
 //! centroid bounds and a median split where every centroid falls in one bin
 //! keep the tree sound there (the SAH cost is in [`BvhStats`] and checked
@@ -19,10 +19,10 @@
 //! arrays, so one SIMD operation per axis and side tests all eight slabs
 //! ([`traverse`]: AVX-512 and AVX2 builds chosen at run time, a portable
 //! fallback, all with the same arithmetic and so the same hits). Leaves
-//! hold their triangles in blocks of four ([`CpuBlock`], the kd-tree's CPU
-//! layout) tested with the same watertight test
-//! ([`crate::kdtree::triangle::intersect4`]); hits equal the kd-tree's and
-//! brute force's (nearest `t`, ties by triangle id).
+//! hold their triangles in blocks of eight ([`Block8`], tested in one pass
+//! of 8-lane operations, [`leaf`]) with the same watertight test as the
+//! kd-tree ([`crate::kdtree::triangle::intersect`]); hits equal the
+//! kd-tree's and brute force's (nearest `t`, ties by triangle id).
 //!
 //! Deforming meshes ([`refit`]): with unchanged topology the boxes are
 //! refitted bottom-up in O(n); when the refitted SAH cost exceeds
@@ -33,11 +33,13 @@
 //! of one block test); times in ms.
 
 pub mod build;
+pub mod leaf;
 pub mod refit;
+pub mod stream;
 pub mod traverse;
 pub mod validate;
 
-pub use crate::kdtree::accel::CpuBlock;
+pub use leaf::Block8;
 pub use traverse::Isa;
 
 use glam::Vec3;
@@ -69,15 +71,19 @@ pub fn is_leaf(child: u32) -> bool {
     child & LEAF_BIT != 0 && child != EMPTY
 }
 
-/// One 8-wide node: child boxes as structure of arrays (`bounds[0..3]`:
-/// minimum x, y, z of each child; `bounds[3..6]`: maximum), and the
-/// children (a node index, a leaf, or [`EMPTY`], whose box is inverted,
-/// `+inf..-inf`, so no ray enters it).
+/// One 8-wide node (256 bytes): child boxes as structure of arrays
+/// (`bounds[0..3]`: minimum x, y, z of each child; `bounds[3..6]`:
+/// maximum), the children (a node index, a leaf, or [`EMPTY`], whose box is
+/// inverted, `+inf..-inf`, so no ray enters it), and the visiting order per
+/// ray octant: bits `3o..3o+3` of `perm[i]` name the slot visited `i`-th
+/// from the back for octant `o` (bit `a` of `o` set where the direction's
+/// axis `a` is negative).
 #[repr(C, align(32))]
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Node8 {
     pub bounds: [[f32; 8]; 6],
     pub child: [u32; 8],
+    pub perm: [u32; 8],
 }
 
 impl Node8 {
@@ -91,6 +97,7 @@ impl Node8 {
             [f32::NEG_INFINITY; 8],
         ],
         child: [EMPTY; 8],
+        perm: [0; 8],
     };
 
     /// Box of slot `i` as `(min, max)`.
@@ -98,6 +105,32 @@ impl Node8 {
     pub fn slot_box(&self, i: usize) -> (Vec3, Vec3) {
         let b = &self.bounds;
         (Vec3::new(b[0][i], b[1][i], b[2][i]), Vec3::new(b[3][i], b[4][i], b[5][i]))
+    }
+
+    /// Orders the slots per octant back to front: by the dot product of
+    /// the box centre with the octant's direction signs, largest first
+    /// (empty slots first of all; no ray enters them).
+    pub fn set_order(&mut self) {
+        self.perm = [0; 8];
+        for o in 0..8u32 {
+            let s = Vec3::new(
+                if o & 1 == 0 { 1.0 } else { -1.0 },
+                if o & 2 == 0 { 1.0 } else { -1.0 },
+                if o & 4 == 0 { 1.0 } else { -1.0 },
+            );
+            let key = |i: usize| {
+                if self.child[i] == EMPTY {
+                    return f32::INFINITY;
+                }
+                let (lo, hi) = self.slot_box(i);
+                ((lo + hi) * 0.5).dot(s)
+            };
+            let mut slots: [usize; 8] = [0, 1, 2, 3, 4, 5, 6, 7];
+            slots.sort_by(|&a, &b| key(b).total_cmp(&key(a)).then(a.cmp(&b)));
+            for (i, &slot) in slots.iter().enumerate() {
+                self.perm[i] |= (slot as u32) << (3 * o);
+            }
+        }
     }
 
     /// Sets slot `i` to `child` with box `(min, max)`.
@@ -116,12 +149,12 @@ impl Node8 {
 pub struct BvhBuildParams {
     /// Cost of testing one 8-wide node, in units of one block test.
     pub traversal_cost: f32,
-    /// Cost of testing one block of four triangles.
+    /// Cost of testing one block of eight triangles.
     pub intersect_cost: f32,
     /// Bins per axis of the binned SAH.
     pub bins: usize,
-    /// Most triangles a leaf holds (a multiple of 4, at most 64); the SAH
-    /// makes leaves of fewer where that is cheaper.
+    /// Most triangles a leaf holds (at most 128); the SAH makes leaves of
+    /// fewer where that is cheaper. The default, 8, is one block.
     pub max_leaf_triangles: usize,
     /// Subtrees with more triangles than this are built in parallel.
     pub parallel_threshold: usize,
@@ -149,7 +182,7 @@ pub struct BvhStats {
     /// 8-wide nodes.
     pub nodes: usize,
     pub leaves: usize,
-    /// Blocks of four triangle slots.
+    /// Blocks of eight triangle slots.
     pub blocks: usize,
     /// Mean triangles per leaf.
     pub mean_leaf_triangles: f32,
@@ -169,7 +202,7 @@ pub struct BvhStats {
 #[derive(Clone, Debug)]
 pub struct Bvh {
     pub nodes: Vec<Node8>,
-    pub blocks: Vec<CpuBlock>,
+    pub blocks: Vec<Block8>,
     /// Triangles the tree was built over.
     pub triangle_count: usize,
     pub min: Vec3,

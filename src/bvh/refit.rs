@@ -10,6 +10,7 @@
 //! a fresh one when triangles move far; [`Bvh::update`] rebuilds when the
 //! refitted SAH cost exceeds `rebuild_factor` times the last build's.
 
+use super::leaf::{LANES, UNUSED};
 use super::{is_leaf, leaf_range, Bvh, Node8, EMPTY};
 use glam::Vec3;
 use rayon::prelude::*;
@@ -28,17 +29,17 @@ fn area(lo: Vec3, hi: Vec3) -> f32 {
 }
 
 impl Bvh {
-    /// Box of a leaf child's valid lanes.
+    /// Box of a leaf child's used lanes.
     fn leaf_box(&self, child: u32) -> (Vec3, Vec3) {
         let (first, count) = leaf_range(child);
         let (mut lo, mut hi) = (Vec3::INFINITY, Vec3::NEG_INFINITY);
         for blk in &self.blocks[first as usize..(first + count) as usize] {
-            for lane in 0..4 {
-                if blk.lanes[lane][3] == u32::MAX {
+            for lane in 0..LANES {
+                if blk.tri[lane] == UNUSED {
                     continue;
                 }
                 for c in 0..3 {
-                    let p = Vec3::new(blk.tri.v[c][0][lane], blk.tri.v[c][1][lane], blk.tri.v[c][2][lane]);
+                    let p = blk.corner(c, lane);
                     lo = lo.min(p);
                     hi = hi.max(p);
                 }
@@ -53,14 +54,14 @@ impl Bvh {
     pub fn refit(&mut self, positions: &[Vec3]) {
         let start = Instant::now();
         self.blocks.par_iter_mut().for_each(|blk| {
-            for lane in 0..4 {
-                if blk.lanes[lane][3] == u32::MAX {
+            for lane in 0..LANES {
+                if blk.tri[lane] == UNUSED {
                     continue;
                 }
                 for c in 0..3 {
-                    let p = positions[blk.lanes[lane][c] as usize];
+                    let p = positions[blk.corners[c][lane] as usize];
                     for k in 0..3 {
-                        blk.tri.v[c][k][lane] = p[k];
+                        blk.v[c][k][lane] = p[k];
                     }
                 }
             }
@@ -78,6 +79,7 @@ impl Bvh {
                 lo = lo.min(clo);
                 hi = hi.max(chi);
             }
+            self.nodes[i].set_order();
             boxes[i] = (lo, hi);
         }
         if let Some(&(lo, hi)) = boxes.first() {
@@ -122,7 +124,8 @@ impl Bvh {
                 }
                 let (lo, hi) = n.slot_box(slot);
                 let w = (area(lo, hi) / root) as f64;
-                cost += w * if is_leaf(c) { p.intersect_cost * leaf_range(c).1 as f32 } else { p.traversal_cost } as f64;
+                cost +=
+                    w * if is_leaf(c) { p.intersect_cost * leaf_range(c).1 as f32 } else { p.traversal_cost } as f64;
             }
         }
         cost as f32

@@ -1,5 +1,10 @@
 //! Closest-hit and any-hit traversal of the 8-wide BVH with an explicit
-//! stack, children visited nearest first.
+//! stack, children visited front to back in the order the build stored for
+//! the ray's direction octant ([`super::Node8::perm`], as tinybvh's BVH8_CPU
+//! does): the entered children are packed and pushed in one step with no
+//! sort and no branch on their count, and the nearest is taken from
+//! registers. A popped child whose entry distance lies beyond the nearest
+//! hit so far is skipped.
 //!
 //! Node test: the eight slabs of each axis in one SIMD operation, near and
 //! far planes picked per ray by the direction's sign, so
@@ -14,13 +19,14 @@
 //! and Rust never fuses a multiply and an add, so all three find the same
 //! boxes and return the same hits.
 //!
-//! Leaves test blocks of four triangles with the kd-tree's watertight
-//! [`intersect4`], skipping triangles with the ray's `skip` vertex as a
-//! corner; nearest `t` wins, ties go to the lower triangle id (as the
+//! Leaves test blocks of eight triangles ([`super::leaf`]) with the
+//! kd-tree's watertight test, skipping triangles with the ray's `skip`
+//! vertex as a corner; nearest `t` wins, ties go to the lower triangle id (as the
 //! kd-tree and brute force do). Distances in metres along unit directions.
 
-use super::{is_leaf, leaf_range, Bvh, Node8, EMPTY};
-use crate::kdtree::triangle::{intersect4, Hit, RayShear};
+use super::leaf::{intersect8_portable, Block8, Hits8};
+use super::{is_leaf, leaf_range, Bvh, Node8};
+use crate::kdtree::triangle::{Hit, RayShear};
 use crate::kdtree::Ray;
 use glam::Vec3;
 
@@ -28,9 +34,16 @@ use glam::Vec3;
 /// `eps = 2^-24`: scales far distances so rounding never culls a touched box.
 const ROBUST: f32 = 1.0 + 2.0 * (3.0 * f32::EPSILON * 0.5) / (1.0 - 3.0 * f32::EPSILON * 0.5);
 
-/// Entries of the traversal stack (7 per level at most; the build keeps
-/// binary depth far below this).
-const STACK: usize = 512;
+/// Margin on the nearest hit's distance when culling boxes: a triangle's
+/// computed `t` can lie a few ulps below its box's exact entry distance
+/// (the two are computed differently), and a box holding a triangle tied
+/// with the best hit (equal `t`, lower id wins) must still be entered.
+/// Measured: coincident triangles lost their lowest-id tie with no margin.
+const CULL: f32 = 1.0 + 1e-5;
+
+/// Entries of the traversal stack (7 per 8-wide level at most: 36 levels;
+/// a deeper tree falls back to a growable stack).
+pub(super) const STACK: usize = 256;
 
 /// Which SIMD build runs the node tests.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -48,10 +61,10 @@ impl Isa {
     pub fn detect() -> Isa {
         #[cfg(target_arch = "x86_64")]
         {
-            if std::arch::is_x86_feature_detected!("avx512f") && std::arch::is_x86_feature_detected!("avx512vl") {
+            if Isa::Avx512.supported() {
                 return Isa::Avx512;
             }
-            if std::arch::is_x86_feature_detected!("avx2") {
+            if Isa::Avx2.supported() {
                 return Isa::Avx2;
             }
         }
@@ -63,10 +76,14 @@ impl Isa {
         match self {
             Isa::Portable => true,
             #[cfg(target_arch = "x86_64")]
-            Isa::Avx2 => std::arch::is_x86_feature_detected!("avx2"),
+            Isa::Avx2 => {
+                use std::arch::is_x86_feature_detected as has;
+                has!("avx2") && has!("bmi1") && has!("bmi2") && has!("popcnt") && has!("lzcnt")
+            }
             #[cfg(target_arch = "x86_64")]
             Isa::Avx512 => {
-                std::arch::is_x86_feature_detected!("avx512f") && std::arch::is_x86_feature_detected!("avx512vl")
+                use std::arch::is_x86_feature_detected as has;
+                Isa::Avx2.supported() && has!("avx512f") && has!("avx512vl")
             }
             #[cfg(not(target_arch = "x86_64"))]
             _ => false,
@@ -76,13 +93,15 @@ impl Isa {
 
 /// Per-ray constants of the node test.
 #[derive(Clone, Copy, Debug)]
-struct RayPre {
+pub(super) struct RayPre {
     o: [f32; 3],
     inv: [f32; 3],
     /// Row of `Node8::bounds` holding the near (far) plane of each axis.
     near: [usize; 3],
     far: [usize; 3],
     tmin: f32,
+    /// Shift selecting the ray's octant in `Node8::perm` (3 bits per octant).
+    perm_shift: u32,
 }
 
 impl RayPre {
@@ -91,47 +110,91 @@ impl RayPre {
         let (o, d) = (ray.origin.to_array(), ray.dir.to_array());
         let mut inv = [0f32; 3];
         let (mut near, mut far) = ([0usize; 3], [0usize; 3]);
+        let mut octant = 0;
         for a in 0..3 {
             let da = if d[a].abs() < 1e-30 { 1e-30f32.copysign(d[a]) } else { d[a] };
             inv[a] = 1.0 / da;
             (near[a], far[a]) = if inv[a] >= 0.0 { (a, a + 3) } else { (a + 3, a) };
+            octant |= ((inv[a] < 0.0) as u32) << a;
         }
-        RayPre { o, inv, near, far, tmin: ray.tmin }
+        RayPre { o, inv, near, far, tmin: ray.tmin, perm_shift: 3 * octant }
     }
 }
 
-/// The children of a node a ray enters: `count` of them, packed, with their near distances.
-struct Entered {
-    count: usize,
-    child: [u32; 8],
-    t: [f32; 8],
+/// The traversal stack: children and their entry distances. Eight slack
+/// entries let a node push all its children with whole-vector stores.
+pub(super) struct Stack {
+    child: [u32; STACK + 8],
+    t: [f32; STACK + 8],
+    sp: usize,
 }
 
-/// One build of the node test.
-trait NodeTest {
-    fn test(node: &Node8, r: &RayPre, tbest: f32) -> Entered;
+/// One ray's traversal state.
+pub(super) struct Walker {
+    pub(super) ray: Ray,
+    pre: RayPre,
+    shear: RayShear,
+    pub(super) best: Option<Hit>,
+    tbest: f32,
+    cur: u32,
+    /// The leaf holding `best` (a leaf word), or `EMPTY`.
+    pub(super) hit_leaf: u32,
+    overflow: bool,
+    st: Stack,
 }
 
-/// Packs the children set in `mask`.
-#[inline(always)]
-fn pack(node: &Node8, mask: u32, t: &[f32; 8]) -> Entered {
-    let mut e = Entered { count: 0, child: [EMPTY; 8], t: [0.0; 8] };
-    let mut m = mask;
-    while m != 0 {
-        let i = m.trailing_zeros() as usize;
-        m &= m - 1;
-        e.child[e.count] = node.child[i];
-        e.t[e.count] = t[i];
-        e.count += 1;
+impl Walker {
+    #[inline(always)]
+    pub(super) fn new() -> Walker {
+        let ray = Ray::new(Vec3::ZERO, Vec3::Z);
+        #[allow(invalid_value, clippy::uninit_assumed_init)]
+        // SAFETY: u32 and f32 arrays accept any bits; entries are written
+        // before they are read. Not zeroed: zeroing the stack per ray
+        // measured 5% of the time.
+        let st: Stack = unsafe { std::mem::MaybeUninit::uninit().assume_init() };
+        Walker {
+            ray,
+            pre: RayPre::new(&ray),
+            shear: RayShear::new(ray.dir),
+            best: None,
+            tbest: 0.0,
+            cur: 0,
+            hit_leaf: super::EMPTY,
+            overflow: false,
+            st,
+        }
     }
-    e
+
+    /// Starts `ray` at the root (node 0, never a leaf word).
+    #[inline(always)]
+    pub(super) fn start(&mut self, ray: &Ray) {
+        self.ray = *ray;
+        self.pre = RayPre::new(ray);
+        self.shear = RayShear::new(ray.dir);
+        self.best = None;
+        self.tbest = ray.tmax;
+        self.cur = 0;
+        self.hit_leaf = super::EMPTY;
+        self.overflow = false;
+        self.st.sp = 0;
+    }
 }
 
-struct Portable;
+/// One build of the node step and the block test.
+pub(super) trait NodeTest {
+    /// Tests the node's eight boxes; pushes the entered children except
+    /// the nearest (farthest deepest) and returns the nearest, or `None`.
+    /// The caller keeps `sp + 8 <= STACK`.
+    fn step(node: &Node8, r: &RayPre, tbest: f32, st: &mut Stack) -> Option<u32>;
+    /// The block test of this build.
+    fn block(b: &Block8, ray: &Ray, s: &RayShear, tmax: f32) -> Hits8;
+}
+
+pub(super) struct Portable;
 
 impl NodeTest for Portable {
     #[inline(always)]
-    fn test(node: &Node8, r: &RayPre, tbest: f32) -> Entered {
+    fn step(node: &Node8, r: &RayPre, tbest: f32, st: &mut Stack) -> Option<u32> {
         let b = &node.bounds;
         let mut tn = [r.tmin; 8];
         let mut tf = [tbest; 8];
@@ -142,75 +205,153 @@ impl NodeTest for Portable {
                 tf[i] = tf[i].min((far[i] - r.o[a]) * r.inv[a]);
             }
         }
-        let mut mask = 0u32;
+        let mut last = None;
         for i in 0..8 {
-            mask |= ((tn[i] <= tf[i] * ROBUST) as u32) << i;
+            let slot = (node.perm[i] >> r.perm_shift & 7) as usize;
+            if tn[slot] <= tf[slot] * ROBUST {
+                if let Some((c, t)) = last.replace((node.child[slot], tn[slot])) {
+                    st.child[st.sp] = c;
+                    st.t[st.sp] = t;
+                    st.sp += 1;
+                }
+            }
         }
-        pack(node, mask, &tn)
+        last.map(|l| l.0)
+    }
+
+    #[inline(always)]
+    fn block(b: &Block8, ray: &Ray, s: &RayShear, tmax: f32) -> Hits8 {
+        intersect8_portable(b, ray.origin, s, ray.skip, ray.tmin, tmax)
     }
 }
 
+/// The slab distances of the eight boxes, in the ray octant's order.
 #[cfg(target_arch = "x86_64")]
-struct Avx2;
+#[inline(always)]
+unsafe fn slabs(
+    node: &Node8,
+    r: &RayPre,
+    tbest: f32,
+) -> (std::arch::x86_64::__m256, std::arch::x86_64::__m256, std::arch::x86_64::__m256i) {
+    use std::arch::x86_64::*;
+    let b = &node.bounds;
+    let mut tn = _mm256_set1_ps(r.tmin);
+    let mut tf = _mm256_set1_ps(tbest);
+    for a in 0..3 {
+        let (o, inv) = (_mm256_set1_ps(r.o[a]), _mm256_set1_ps(r.inv[a]));
+        let near = _mm256_load_ps(b[r.near[a]].as_ptr());
+        let far = _mm256_load_ps(b[r.far[a]].as_ptr());
+        tn = _mm256_max_ps(tn, _mm256_mul_ps(_mm256_sub_ps(near, o), inv));
+        tf = _mm256_min_ps(tf, _mm256_mul_ps(_mm256_sub_ps(far, o), inv));
+    }
+    let tf = _mm256_mul_ps(tf, _mm256_set1_ps(ROBUST));
+    let perm = _mm256_and_si256(
+        _mm256_srlv_epi32(
+            _mm256_load_si256(node.perm.as_ptr() as *const __m256i),
+            _mm256_set1_epi32(r.perm_shift as i32),
+        ),
+        _mm256_set1_epi32(7),
+    );
+    let kids = _mm256_load_si256(node.child.as_ptr() as *const __m256i);
+    (_mm256_permutevar8x32_ps(tn, perm), _mm256_permutevar8x32_ps(tf, perm), _mm256_permutevar8x32_epi32(kids, perm))
+}
+
+/// Stores packed children and distances on the stack (whole vectors) and
+/// returns the last, the nearest.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+unsafe fn push_packed(
+    c: std::arch::x86_64::__m256i,
+    t: std::arch::x86_64::__m256,
+    n: usize,
+    st: &mut Stack,
+) -> Option<u32> {
+    use std::arch::x86_64::*;
+    if n == 0 {
+        return None;
+    }
+    _mm256_storeu_si256(st.child.as_mut_ptr().add(st.sp) as *mut __m256i, c);
+    _mm256_storeu_ps(st.t.as_mut_ptr().add(st.sp), t);
+    st.sp += n - 1;
+    // The nearest straight from the register (a load from the store just
+    // made could wait for it).
+    let top = _mm256_permutevar8x32_epi32(c, _mm256_set1_epi32(n as i32 - 1));
+    Some(_mm256_cvtsi256_si32(top) as u32)
+}
+
+#[cfg(target_arch = "x86_64")]
+pub(super) struct Avx2;
+
+/// For every 8-bit mask, the lanes set in it, packed low (3 bits each;
+/// AVX2 has no compress instruction).
+#[cfg(target_arch = "x86_64")]
+static PACK: [u32; 256] = {
+    let mut t = [0u32; 256];
+    let mut m = 0;
+    while m < 256 {
+        let (mut v, mut k, mut i) = (0u32, 0u32, 0u32);
+        while i < 8 {
+            if m >> i & 1 == 1 {
+                v |= i << (3 * k);
+                k += 1;
+            }
+            i += 1;
+        }
+        t[m] = v;
+        m += 1;
+    }
+    t
+};
 
 #[cfg(target_arch = "x86_64")]
 impl NodeTest for Avx2 {
     #[inline(always)]
-    fn test(node: &Node8, r: &RayPre, tbest: f32) -> Entered {
+    fn step(node: &Node8, r: &RayPre, tbest: f32, st: &mut Stack) -> Option<u32> {
         use std::arch::x86_64::*;
         // SAFETY: only reached from functions built with AVX2 enabled, which
         // run only where the CPU has it ([`Isa::supported`]); loads are
-        // from 32-byte aligned rows of `Node8`.
+        // from 32-byte aligned rows of `Node8`; stores stay within the
+        // stack's eight slack entries (the caller keeps `sp + 8 <= STACK`).
         unsafe {
-            let b = &node.bounds;
-            let mut tn = _mm256_set1_ps(r.tmin);
-            let mut tf = _mm256_set1_ps(tbest);
-            for a in 0..3 {
-                let (o, inv) = (_mm256_set1_ps(r.o[a]), _mm256_set1_ps(r.inv[a]));
-                let near = _mm256_load_ps(b[r.near[a]].as_ptr());
-                let far = _mm256_load_ps(b[r.far[a]].as_ptr());
-                tn = _mm256_max_ps(tn, _mm256_mul_ps(_mm256_sub_ps(near, o), inv));
-                tf = _mm256_min_ps(tf, _mm256_mul_ps(_mm256_sub_ps(far, o), inv));
-            }
-            let tf = _mm256_mul_ps(tf, _mm256_set1_ps(ROBUST));
-            let mask = _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(tn, tf)) as u32;
-            let mut t = [0f32; 8];
-            _mm256_storeu_ps(t.as_mut_ptr(), tn);
-            pack(node, mask, &t)
+            let (tn, tf, kids) = slabs(node, r, tbest);
+            let mask = _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(tn, tf)) as usize;
+            let idx =
+                _mm256_srlv_epi32(_mm256_set1_epi32(PACK[mask] as i32), _mm256_setr_epi32(0, 3, 6, 9, 12, 15, 18, 21));
+            let idx = _mm256_and_si256(idx, _mm256_set1_epi32(7));
+            let c = _mm256_permutevar8x32_epi32(kids, idx);
+            let t = _mm256_permutevar8x32_ps(tn, idx);
+            push_packed(c, t, mask.count_ones() as usize, st)
         }
+    }
+
+    #[inline(always)]
+    fn block(b: &Block8, ray: &Ray, s: &RayShear, tmax: f32) -> Hits8 {
+        super::leaf::intersect8_avx(b, ray.origin, s, ray.skip, ray.tmin, tmax)
     }
 }
 
 #[cfg(target_arch = "x86_64")]
-struct Avx512;
+pub(super) struct Avx512;
 
 #[cfg(target_arch = "x86_64")]
 impl NodeTest for Avx512 {
     #[inline(always)]
-    fn test(node: &Node8, r: &RayPre, tbest: f32) -> Entered {
+    fn step(node: &Node8, r: &RayPre, tbest: f32, st: &mut Stack) -> Option<u32> {
         use std::arch::x86_64::*;
         // SAFETY: only reached from functions built with AVX-512 F + VL
-        // enabled, which run only where the CPU has them; loads are from
-        // 32-byte aligned rows of `Node8`, stores into local arrays.
+        // enabled, which run only where the CPU has them; as for `Avx2`.
         unsafe {
-            let b = &node.bounds;
-            let mut tn = _mm256_set1_ps(r.tmin);
-            let mut tf = _mm256_set1_ps(tbest);
-            for a in 0..3 {
-                let (o, inv) = (_mm256_set1_ps(r.o[a]), _mm256_set1_ps(r.inv[a]));
-                let near = _mm256_load_ps(b[r.near[a]].as_ptr());
-                let far = _mm256_load_ps(b[r.far[a]].as_ptr());
-                tn = _mm256_max_ps(tn, _mm256_mul_ps(_mm256_sub_ps(near, o), inv));
-                tf = _mm256_min_ps(tf, _mm256_mul_ps(_mm256_sub_ps(far, o), inv));
-            }
-            let tf = _mm256_mul_ps(tf, _mm256_set1_ps(ROBUST));
+            let (tn, tf, kids) = slabs(node, r, tbest);
             let mask = _mm256_cmp_ps_mask::<_CMP_LE_OQ>(tn, tf);
-            let mut e = Entered { count: mask.count_ones() as usize, child: [EMPTY; 8], t: [0.0; 8] };
-            let kids = _mm256_loadu_si256(node.child.as_ptr() as *const __m256i);
-            _mm256_mask_compressstoreu_epi32(e.child.as_mut_ptr() as *mut i32, mask, kids);
-            _mm256_mask_compressstoreu_ps(e.t.as_mut_ptr(), mask, tn);
-            e
+            let c = _mm256_maskz_compress_epi32(mask, kids);
+            let t = _mm256_maskz_compress_ps(mask, tn);
+            push_packed(c, t, mask.count_ones() as usize, st)
         }
+    }
+
+    #[inline(always)]
+    fn block(b: &Block8, ray: &Ray, s: &RayShear, tmax: f32) -> Hits8 {
+        super::leaf::intersect8_avx(b, ray.origin, s, ray.skip, ray.tmin, tmax)
     }
 }
 
@@ -226,19 +367,22 @@ fn closer(t: f32, tri: u32, best: &Option<Hit>) -> bool {
 impl Bvh {
     /// Tests a leaf's blocks; returns true on a hit when `ANY`.
     #[inline(always)]
-    fn test_leaf<const ANY: bool>(&self, child: u32, ray: &Ray, shear: &RayShear, best: &mut Option<Hit>) -> bool {
+    fn test_leaf<N: NodeTest, const ANY: bool>(
+        &self,
+        child: u32,
+        ray: &Ray,
+        shear: &RayShear,
+        best: &mut Option<Hit>,
+    ) -> bool {
         let (first, count) = leaf_range(child);
         for blk in &self.blocks[first as usize..(first + count) as usize] {
             let tmax = best.map_or(ray.tmax, |b| b.t);
-            let h = intersect4(&blk.tri, 0b1111, ray.origin, shear, ray.tmin, tmax);
+            let h = N::block(blk, ray, shear, tmax);
             let mut m = h.mask;
             while m != 0 {
                 let i = m.trailing_zeros() as usize;
                 m &= m - 1;
-                let [ia, ib, ic, id] = blk.lanes[i];
-                if ia == ray.skip || ib == ray.skip || ic == ray.skip {
-                    continue;
-                }
+                let id = blk.tri[i];
                 if closer(h.t[i], id, best) {
                     *best = Some(Hit { tri: id, u: h.u[i], v: h.v[i], t: h.t[i], front: h.front >> i & 1 == 1 });
                     if ANY {
@@ -250,71 +394,80 @@ impl Bvh {
         false
     }
 
+    /// Advances `w` by one node or leaf; returns true when its ray is done.
+    #[inline(always)]
+    pub(super) fn advance<N: NodeTest, const ANY: bool>(&self, w: &mut Walker) -> bool {
+        if is_leaf(w.cur) {
+            if self.test_leaf::<N, ANY>(w.cur, &w.ray, &w.shear, &mut w.best) {
+                w.hit_leaf = w.cur;
+                return true;
+            }
+            let t = w.best.map_or(w.ray.tmax, |b| b.t);
+            if t != w.tbest {
+                w.hit_leaf = w.cur;
+                w.tbest = t;
+            }
+        } else {
+            if w.st.sp + 8 > STACK {
+                // Cannot happen for trees this builder makes (see `STACK`).
+                w.overflow = true;
+                return true;
+            }
+            if let Some(next) = N::step(&self.nodes[w.cur as usize], &w.pre, w.tbest * CULL, &mut w.st) {
+                w.cur = next;
+                return false;
+            }
+        }
+        // Pop the nearest pending child that can still hold a nearer hit.
+        loop {
+            if w.st.sp == 0 {
+                return true;
+            }
+            w.st.sp -= 1;
+            if w.st.t[w.st.sp] <= w.tbest * CULL {
+                w.cur = w.st.child[w.st.sp];
+                return false;
+            }
+        }
+    }
+
+    /// Tests `leaf` (a leaf word: the leaf a nearby ray hit) before the
+    /// walk, so the walk starts with that hit's distance and culls every
+    /// box beyond it. Returns true when that already answers the ray (an
+    /// any-hit query that hit). The walk still visits every box nearer
+    /// than the hit, so the result is the one without the hint.
+    #[inline(always)]
+    pub(super) fn prime<N: NodeTest, const ANY: bool>(&self, w: &mut Walker, leaf: u32) -> bool {
+        if self.test_leaf::<N, ANY>(leaf, &w.ray, &w.shear, &mut w.best) {
+            w.hit_leaf = leaf;
+            return true;
+        }
+        if let Some(b) = w.best {
+            w.tbest = b.t;
+            w.hit_leaf = leaf;
+        }
+        false
+    }
+
+    /// The result of a finished walker.
+    #[inline(always)]
+    pub(super) fn finish<const ANY: bool>(&self, w: &Walker) -> Option<Hit> {
+        if w.overflow {
+            self.walk_unbounded::<ANY>(&w.ray)
+        } else {
+            w.best
+        }
+    }
+
     #[inline(always)]
     fn walk<N: NodeTest, const ANY: bool>(&self, ray: &Ray) -> Option<Hit> {
         if self.nodes.is_empty() || !(ray.tmin <= ray.tmax) {
             return None;
         }
-        let pre = RayPre::new(ray);
-        let shear = RayShear::new(ray.dir);
-        let mut best: Option<Hit> = None;
-        let mut stack = [(0u32, 0f32); STACK];
-        let mut sp = 0usize;
-        // The root is node 0 (never a leaf word).
-        let mut cur = 0u32;
-        loop {
-            if is_leaf(cur) {
-                if self.test_leaf::<ANY>(cur, ray, &shear, &mut best) {
-                    return best;
-                }
-            } else {
-                let tbest = best.map_or(ray.tmax, |b| b.t);
-                let e = N::test(&self.nodes[cur as usize], &pre, tbest);
-                if e.count == 1 {
-                    cur = e.child[0];
-                    continue;
-                }
-                if e.count > 1 {
-                    // Nearest first: sort the (at most eight) entered
-                    // children by distance, push the others farthest first.
-                    let (mut c, mut t) = (e.child, e.t);
-                    for i in 1..e.count {
-                        let (ci, ti) = (c[i], t[i]);
-                        let mut j = i;
-                        while j > 0 && t[j - 1] > ti {
-                            c[j] = c[j - 1];
-                            t[j] = t[j - 1];
-                            j -= 1;
-                        }
-                        c[j] = ci;
-                        t[j] = ti;
-                    }
-                    if sp + e.count > STACK {
-                        // Cannot happen for trees this builder makes (see `STACK`).
-                        debug_assert!(false, "BVH stack overflow");
-                        return self.walk_unbounded::<ANY>(ray);
-                    }
-                    for i in (1..e.count).rev() {
-                        stack[sp] = (c[i], t[i]);
-                        sp += 1;
-                    }
-                    cur = c[0];
-                    continue;
-                }
-            }
-            // Pop the nearest pending child that can still hold a nearer hit.
-            loop {
-                if sp == 0 {
-                    return best;
-                }
-                sp -= 1;
-                let (c, t) = stack[sp];
-                if t <= best.map_or(ray.tmax, |b| b.t) * ROBUST {
-                    cur = c;
-                    break;
-                }
-            }
-        }
+        let mut w = Walker::new();
+        w.start(ray);
+        while !self.advance::<N, ANY>(&mut w) {}
+        self.finish::<ANY>(&w)
     }
 
     /// The same search with a growable stack (the fallback for trees
@@ -325,15 +478,21 @@ impl Bvh {
         let shear = RayShear::new(ray.dir);
         let mut best: Option<Hit> = None;
         let mut stack = vec![0u32];
+        let mut st = Stack { child: [0; STACK + 8], t: [0.0; STACK + 8], sp: 0 };
         while let Some(c) = stack.pop() {
             if is_leaf(c) {
-                if self.test_leaf::<ANY>(c, ray, &shear, &mut best) {
+                if self.test_leaf::<Portable, ANY>(c, ray, &shear, &mut best) {
                     return best;
                 }
                 continue;
             }
-            let e = Portable::test(&self.nodes[c as usize], &pre, best.map_or(ray.tmax, |b| b.t));
-            stack.extend_from_slice(&e.child[..e.count]);
+            st.sp = 0;
+            if let Some(n) =
+                Portable::step(&self.nodes[c as usize], &pre, best.map_or(ray.tmax, |b| b.t) * CULL, &mut st)
+            {
+                stack.extend_from_slice(&st.child[..st.sp]);
+                stack.push(n);
+            }
         }
         best
     }
@@ -374,13 +533,13 @@ impl Bvh {
     }
 
     #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2")]
+    #[target_feature(enable = "avx2,bmi1,bmi2,popcnt,lzcnt")]
     fn walk_avx2<const ANY: bool>(&self, ray: &Ray) -> Option<Hit> {
         self.walk::<Avx2, ANY>(ray)
     }
 
     #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2,avx512f,avx512vl")]
+    #[target_feature(enable = "avx2,bmi1,bmi2,popcnt,lzcnt,avx512f,avx512vl")]
     fn walk_avx512<const ANY: bool>(&self, ray: &Ray) -> Option<Hit> {
         self.walk::<Avx512, ANY>(ray)
     }
@@ -394,78 +553,6 @@ impl Bvh {
     pub fn occluded(&self, ray: &Ray) -> bool {
         self.occluded_with(ray, self.isa)
     }
-
-    /// Nearest hits of rays leaving `origin` along `dirs`, skipping `skip`.
-    pub fn intersect_origin(&self, origin: Vec3, skip: u32, dirs: &[Vec3], out: &mut [Option<Hit>]) {
-        match self.isa {
-            #[cfg(target_arch = "x86_64")]
-            Isa::Avx512 => {
-                // SAFETY: `self.isa` is only ever a build the CPU supports (`Bvh::set_isa`).
-                unsafe { self.origin_avx512(origin, skip, dirs, out) }
-            }
-            #[cfg(target_arch = "x86_64")]
-            Isa::Avx2 => {
-                // SAFETY: as above.
-                unsafe { self.origin_avx2(origin, skip, dirs, out) }
-            }
-            _ => self.origin_rays::<Portable>(origin, skip, dirs, out),
-        }
-    }
-
-    #[inline(always)]
-    fn origin_rays<N: NodeTest>(&self, origin: Vec3, skip: u32, dirs: &[Vec3], out: &mut [Option<Hit>]) {
-        for (d, o) in dirs.iter().zip(out.iter_mut()) {
-            *o = self.walk::<N, false>(&Ray { origin, dir: *d, tmin: 0.0, tmax: f32::INFINITY, skip });
-        }
-    }
-
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2")]
-    fn origin_avx2(&self, origin: Vec3, skip: u32, dirs: &[Vec3], out: &mut [Option<Hit>]) {
-        self.origin_rays::<Avx2>(origin, skip, dirs, out)
-    }
-
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2,avx512f,avx512vl")]
-    fn origin_avx512(&self, origin: Vec3, skip: u32, dirs: &[Vec3], out: &mut [Option<Hit>]) {
-        self.origin_rays::<Avx512>(origin, skip, dirs, out)
-    }
-
-    /// Visibility of a run of shadow rays (`true`: free).
-    pub fn visible_run(&self, rays: &[Ray], out: &mut [bool]) {
-        match self.isa {
-            #[cfg(target_arch = "x86_64")]
-            Isa::Avx512 => {
-                // SAFETY: `self.isa` is only ever a build the CPU supports.
-                unsafe { self.visible_avx512(rays, out) }
-            }
-            #[cfg(target_arch = "x86_64")]
-            Isa::Avx2 => {
-                // SAFETY: as above.
-                unsafe { self.visible_avx2(rays, out) }
-            }
-            _ => self.visible_rays::<Portable>(rays, out),
-        }
-    }
-
-    #[inline(always)]
-    fn visible_rays<N: NodeTest>(&self, rays: &[Ray], out: &mut [bool]) {
-        for (r, o) in rays.iter().zip(out.iter_mut()) {
-            *o = self.walk::<N, true>(r).is_none();
-        }
-    }
-
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2")]
-    fn visible_avx2(&self, rays: &[Ray], out: &mut [bool]) {
-        self.visible_rays::<Avx2>(rays, out)
-    }
-
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2,avx512f,avx512vl")]
-    fn visible_avx512(&self, rays: &[Ray], out: &mut [bool]) {
-        self.visible_rays::<Avx512>(rays, out)
-    }
 }
 
 /// Nearest hit by testing every block of every leaf (test oracle of the BVH's own layout).
@@ -473,14 +560,10 @@ pub fn brute_force(bvh: &Bvh, ray: &Ray) -> Option<Hit> {
     let shear = RayShear::new(ray.dir);
     let mut best = None;
     for blk in &bvh.blocks {
-        let h = intersect4(&blk.tri, 0b1111, ray.origin, &shear, ray.tmin, ray.tmax);
-        for i in 0..4 {
-            let [ia, ib, ic, id] = blk.lanes[i];
-            if h.mask >> i & 1 == 0 || ia == ray.skip || ib == ray.skip || ic == ray.skip {
-                continue;
-            }
-            if closer(h.t[i], id, &best) {
-                best = Some(Hit { tri: id, u: h.u[i], v: h.v[i], t: h.t[i], front: h.front >> i & 1 == 1 });
+        let h = intersect8_portable(blk, ray.origin, &shear, ray.skip, ray.tmin, ray.tmax);
+        for i in 0..super::leaf::LANES {
+            if h.mask >> i & 1 == 1 && closer(h.t[i], blk.tri[i], &best) {
+                best = Some(Hit { tri: blk.tri[i], u: h.u[i], v: h.v[i], t: h.t[i], front: h.front >> i & 1 == 1 });
             }
         }
     }

@@ -1,6 +1,7 @@
 //! Structural checks of a built or refitted BVH, called from every test
 //! that builds one.
 
+use super::leaf::{LANES, UNUSED};
 use super::refit::is_inverted;
 use super::{is_leaf, leaf_range, Bvh, EMPTY};
 use glam::Vec3;
@@ -48,12 +49,13 @@ impl Bvh {
                             return Err(format!("block {b} shared by two leaves"));
                         }
                         let blk = &self.blocks[b as usize];
-                        for lane in 0..4 {
-                            let id = blk.lanes[lane][3];
-                            let corners =
-                                (0..3).map(|c| Vec3::new(blk.tri.v[c][0][lane], blk.tri.v[c][1][lane], blk.tri.v[c][2][lane]));
-                            if id == u32::MAX {
-                                if corners.clone().any(|p| !p.is_nan()) {
+                        for lane in 0..LANES {
+                            let id = blk.tri[lane];
+                            let corners = (0..3).map(|c| blk.corner(c, lane));
+                            if id == UNUSED {
+                                if corners.clone().any(|p| !p.is_nan())
+                                    || (0..3).any(|c| blk.corners[c][lane] != UNUSED)
+                                {
                                     return Err(format!("block {b} lane {lane}: unused lane with corners"));
                                 }
                                 continue;

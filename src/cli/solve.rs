@@ -98,10 +98,24 @@ pub fn run(args: SolveArgs) -> Result<()> {
     println!("backend          {}", s.backend);
     println!("vertices         {}", s.vertices);
     println!("triangles        {}", s.triangles);
-    println!(
-        "kd nodes         {} ({} leaves, {:.2} tris/leaf, depth {}, SAH cost {:.1})",
-        s.kd.nodes, s.kd.leaves, s.kd.mean_leaf_triangles, s.kd.max_depth, s.kd.sah_cost
-    );
+    println!("tracer           {}", s.tracer);
+    if let Some(k) = &s.kd {
+        println!(
+            "kd nodes         {} ({} leaves, {:.2} tris/leaf, depth {}, SAH cost {:.1})",
+            k.nodes, k.leaves, k.mean_leaf_triangles, k.max_depth, k.sah_cost
+        );
+    }
+    if let Some(b) = &s.bvh {
+        println!(
+            "bvh nodes        {} 8-wide ({} leaves, {:.2} tris/leaf, depth {}, SAH cost {:.1}, {:.1} MB)",
+            b.nodes,
+            b.leaves,
+            b.mean_leaf_triangles,
+            b.max_depth,
+            b.sah_cost,
+            s.accel_bytes as f64 / 1e6
+        );
+    }
     println!("links raw        {} ({:.2} MB)", s.links.raw_links, mb(s.links.raw_bytes));
     println!(
         "links merged     {} ({:.2} MB, {:.1}x fewer)",
@@ -111,7 +125,7 @@ pub fn run(args: SolveArgs) -> Result<()> {
     );
     println!("rays             {} ({} missed, {} back faces)", s.links.rays, s.links.misses, s.links.back_hits);
     println!("prep ms          {prep_ms:.1}");
-    println!("kd build ms      {:.1}", s.kd.build_ms);
+    println!("{} build ms     {:.1}", if s.bvh.is_some() { "bvh" } else { "kd " }, s.accel_build_ms);
     println!("links ms         {:.1} ({:.2} M rays/s)", s.links.shoot_ms, s.links.rays_per_second() / 1e6);
     for d in &s.devices {
         println!(
@@ -122,7 +136,12 @@ pub fn run(args: SolveArgs) -> Result<()> {
             d.rays_per_second / 1e6
         );
     }
-    println!("light links ms   {:.1} ({} shadow rays)", s.light_links_ms, s.shadow_rays);
+    println!(
+        "light links ms   {:.1} ({} shadow rays, {:.2} M/s)",
+        s.light_links_ms,
+        s.shadow_rays,
+        s.shadow_rays_per_second / 1e6
+    );
     println!(
         "bounces ms       {:.1} ({} bounces, tail {:.2e}{})",
         s.gather_ms,

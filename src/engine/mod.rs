@@ -386,13 +386,14 @@ impl Worker {
                     s.validate().map_err(|e| e.to_string())?;
                     let old = scene.settings;
                     scene.settings = Settings { backend: old.backend, ..s };
-                    if s.rays_per_vertex != old.rays_per_vertex || s.seed != old.seed {
+                    if s.rays_per_vertex != old.rays_per_vertex || s.seed != old.seed || s.tracer != old.tracer {
                         dirty.geometry = true;
                     }
                     dirty.gather = true;
                     self.params = SolveParams {
                         kd: self.params.kd,
                         kd_gpu: self.params.kd_gpu,
+                        bvh: self.params.bvh,
                         light: self.params.light,
                         ..SolveParams::from_settings(&scene.settings)
                     };

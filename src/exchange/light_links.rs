@@ -23,10 +23,10 @@
 //! (`cos = 0`) and lights that vertex not at all; one just above it gives
 //! at most `I / (min_distance * l)^2`.
 
-use crate::kdtree::traverse::{LeafHint, Ray};
-use crate::kdtree::KdTree;
+use crate::kdtree::traverse::Ray;
 use crate::links::shoot::ray_origin;
 use crate::scene::{prep::PreparedScene, Light};
+use crate::trace::Tracer;
 use glam::Vec3;
 use rayon::prelude::*;
 use std::time::Instant;
@@ -117,36 +117,16 @@ pub fn geometry(light: &Light, p: Vec3, n: Vec3, min_distance: f32) -> f32 {
 /// Vertices per chunk of shadow rays handed to a [`ShadowTracer`] (bounds memory).
 const CHUNK_VERTICES: usize = 16384;
 
-/// Answers batches of shadow-ray segments: the CPU kd-tree here, the GPU
-/// in `crate::gpu`. `true` where the segment is free.
-pub trait ShadowTracer: Sync {
-    fn visible(&self, rays: &[Ray]) -> crate::Result<Vec<bool>>;
-}
-
-impl ShadowTracer for KdTree {
-    /// Runs of consecutive rays (one vertex's oversampling points lie close
-    /// together) share a start-leaf hint, which spares most walks from the root.
-    fn visible(&self, rays: &[Ray]) -> crate::Result<Vec<bool>> {
-        Ok(rays
-            .par_chunks(64)
-            .flat_map_iter(|run| {
-                let mut hint = LeafHint::default();
-                run.iter().map(move |r| !self.occluded_near(r, &mut hint))
-            })
-            .collect())
-    }
-}
-
 impl LightLinks {
-    /// Computes the factors of every light on the CPU.
-    pub fn compute(scene: &PreparedScene, kd: &KdTree, params: &LightLinkParams) -> LightLinks {
-        Self::compute_with(scene, kd, params).expect("the CPU tracer cannot fail")
+    /// Computes the factors of every light with a CPU tracer (which cannot fail).
+    pub fn compute(scene: &PreparedScene, tracer: &dyn Tracer, params: &LightLinkParams) -> LightLinks {
+        Self::compute_with(scene, tracer, params).expect("a CPU tracer cannot fail")
     }
 
     /// Computes the factors of every light with `tracer`.
     pub fn compute_with(
         scene: &PreparedScene,
-        tracer: &dyn ShadowTracer,
+        tracer: &dyn Tracer,
         params: &LightLinkParams,
     ) -> crate::Result<LightLinks> {
         let mut out = LightLinks::default();
@@ -164,7 +144,7 @@ impl LightLinks {
     pub fn update_with(
         &mut self,
         scene: &PreparedScene,
-        tracer: &dyn ShadowTracer,
+        tracer: &dyn Tracer,
         params: &LightLinkParams,
     ) -> crate::Result<u64> {
         self.update_columns(scene, tracer, params, false)
@@ -179,7 +159,7 @@ impl LightLinks {
     pub fn preview_with(
         &mut self,
         scene: &PreparedScene,
-        tracer: &dyn ShadowTracer,
+        tracer: &dyn Tracer,
         params: &LightLinkParams,
     ) -> crate::Result<u64> {
         self.update_columns(scene, tracer, params, true)
@@ -188,7 +168,7 @@ impl LightLinks {
     fn update_columns(
         &mut self,
         scene: &PreparedScene,
-        tracer: &dyn ShadowTracer,
+        tracer: &dyn Tracer,
         params: &LightLinkParams,
         preview: bool,
     ) -> crate::Result<u64> {
@@ -233,7 +213,7 @@ impl LightLinks {
     /// One light's column: `(G * V_avg per vertex, shadow rays traced)`.
     pub fn compute_light(
         scene: &PreparedScene,
-        tracer: &dyn ShadowTracer,
+        tracer: &dyn Tracer,
         light: &Light,
         params: &LightLinkParams,
     ) -> crate::Result<(Vec<f32>, u64)> {

@@ -30,12 +30,28 @@ pub use gather::GpuLinks;
 pub use schedule::{shoot_links_gpu, DeviceShare, LogicalDevice, ScheduleParams};
 pub use tracer::GpuTracer;
 
-use crate::exchange::light_links::ShadowTracer;
-use crate::kdtree::Ray;
+use crate::kdtree::{Hit, Ray};
+use crate::trace::Tracer;
 use layout::ShadowRay;
 
-/// Shadow rays go through the `light_visibility` pipeline.
-impl ShadowTracer for GpuTracer {
+/// Shadow rays go through the `light_visibility` pipeline; link rays
+/// through `shoot_rays` batches of vertices ([`shoot_links_gpu`]).
+impl Tracer for GpuTracer {
+    fn name(&self) -> &'static str {
+        "gpu-kd"
+    }
+
+    /// The rope shader traces closest hits only as whole vertices' ray
+    /// sets (`shoot_rays`, [`shoot_links_gpu`]); a batch of arbitrary rays
+    /// is refused with an error, and callers fall back to a CPU tracer.
+    fn closest_hits(&self, rays: &[Ray]) -> crate::Result<Vec<Option<Hit>>> {
+        Err(crate::Error::Gpu(format!(
+            "{}: closest hits of {} arbitrary rays: the GPU tracer shoots whole vertices' ray sets only",
+            self.dev.info.name,
+            rays.len()
+        )))
+    }
+
     fn visible(&self, rays: &[Ray]) -> crate::Result<Vec<bool>> {
         let gpu: Vec<ShadowRay> = rays
             .iter()

@@ -14,12 +14,10 @@
 use super::layout::RayVertex;
 use super::tracer::GpuTracer;
 use crate::error::{Error, Result};
-use crate::kdtree::KdTree;
 use crate::links::shoot::RaySetup;
-use crate::links::{merge_vertex, HitRecord, LinkParams, LinkStats, Links};
+use crate::links::{assemble, GroupRun, HitRecord, LinkParams, Links};
 use crate::sampling::vertex_frame;
 use crate::scene::prep::PreparedScene;
-use half::f16;
 use rayon::prelude::*;
 use std::sync::Mutex;
 use std::time::{Duration, Instant};
@@ -60,15 +58,6 @@ pub struct DeviceShare {
     pub rays_per_second: f64,
 }
 
-/// The merged links of one batch.
-struct BatchLinks {
-    first: usize,
-    counts: Vec<u32>,
-    targets: Vec<u32>,
-    weights: Vec<f16>,
-    stats: LinkStats,
-}
-
 /// Per-vertex shooting data of the whole scene, in the shader's layout.
 pub fn ray_vertices(setup: &RaySetup) -> Vec<RayVertex> {
     (0..setup.origins.len())
@@ -98,44 +87,25 @@ pub fn fix_wedges(setup: &RaySetup, v: usize, hits: &mut [HitRecord]) {
     }
 }
 
-fn merge_batch(setup: &RaySetup, kd: &KdTree, first: usize, hits: &mut [HitRecord]) -> BatchLinks {
+fn merge_batch(setup: &RaySetup, triangles: &[[u32; 3]], first: usize, hits: &mut [HitRecord]) -> GroupRun {
     let rays = setup.directions.len();
     let weight_per_ray = std::f64::consts::PI / rays as f64;
     const CHUNK: usize = 64;
-    let parts: Vec<BatchLinks> = hits
+    let parts: Vec<GroupRun> = hits
         .par_chunks_mut(rays * CHUNK)
         .enumerate()
         .map(|(ci, chunk)| {
-            let mut out = BatchLinks {
-                first: first + ci * CHUNK,
-                counts: Vec::new(),
-                targets: Vec::new(),
-                weights: Vec::new(),
-                stats: LinkStats::default(),
-            };
-            let mut scratch = Vec::new();
+            let mut run = GroupRun::new(first + ci * CHUNK);
             for (i, vh) in chunk.chunks_mut(rays).enumerate() {
-                fix_wedges(setup, out.first + i, vh);
-                let before = out.targets.len();
-                let c =
-                    merge_vertex(vh, &kd.triangles, weight_per_ray, &mut scratch, &mut out.targets, &mut out.weights);
-                out.counts.push((out.targets.len() - before) as u32);
-                out.stats.rays += vh.len() as u64;
-                out.stats.front_hits += c.front as u64;
-                out.stats.back_hits += c.back as u64;
-                out.stats.misses += c.miss as u64;
-                out.stats.raw_links += 3 * c.front as u64;
+                fix_wedges(setup, run.first + i, vh);
+                run.push_vertex(vh, triangles, weight_per_ray);
             }
-            out
+            run
         })
         .collect();
-    let mut out =
-        BatchLinks { first, counts: Vec::new(), targets: Vec::new(), weights: Vec::new(), stats: LinkStats::default() };
+    let mut out = GroupRun::new(first);
     for p in parts {
-        out.counts.extend(p.counts);
-        out.targets.extend(p.targets);
-        out.weights.extend(p.weights);
-        out.stats.add(&p.stats);
+        out.append(p);
     }
     out
 }
@@ -144,7 +114,6 @@ fn merge_batch(setup: &RaySetup, kd: &KdTree, first: usize, hits: &mut [HitRecor
 /// `progress(done, total)` is called as batches are merged.
 pub fn shoot_links_gpu(
     scene: &PreparedScene,
-    kd: &KdTree,
     params: &LinkParams,
     sched: &ScheduleParams,
     devices: &mut [LogicalDevice],
@@ -167,7 +136,7 @@ pub fn shoot_links_gpu(
     let (tx, rx) = crossbeam_channel::bounded::<Result<(usize, usize, Vec<HitRecord>)>>(devices.len());
     let mut shares: Vec<DeviceShare> =
         devices.iter().map(|d| DeviceShare { label: d.label.clone(), ..Default::default() }).collect();
-    let mut batches: Vec<BatchLinks> = Vec::new();
+    let mut batches: Vec<GroupRun> = Vec::new();
     let mut merged_vertices = 0usize;
     let mut first_error = None;
     std::thread::scope(|s| {
@@ -234,7 +203,7 @@ pub fn shoot_links_gpu(
                         )));
                         continue;
                     }
-                    batches.push(merge_batch(&setup, kd, a, &mut hits));
+                    batches.push(merge_batch(&setup, &scene.triangles, a, &mut hits));
                     merged_vertices += b - a;
                     progress(merged_vertices, n);
                 }
@@ -250,23 +219,6 @@ pub fn shoot_links_gpu(
     if merged_vertices != n {
         return Err(Error::Gpu(format!("only {merged_vertices} of {n} vertices came back from the devices")));
     }
-    batches.sort_by_key(|b| b.first);
-    let mut links = Links { offsets: Vec::with_capacity(n + 1), ..Default::default() };
-    links.offsets.push(0);
-    let mut stats = LinkStats::default();
-    for b in batches {
-        for c in b.counts {
-            let last = *links.offsets.last().expect("non-empty");
-            links.offsets.push(last + c);
-        }
-        links.targets.extend(b.targets);
-        links.weights.extend(b.weights);
-        stats.add(&b.stats);
-    }
-    stats.merged_links = links.targets.len() as u64;
-    stats.raw_bytes = stats.raw_links * 8;
-    stats.merged_bytes = stats.merged_links * 6 + 4 * (n as u64 + 1);
-    stats.shoot_ms = start.elapsed().as_secs_f64() * 1e3;
-    links.stats = stats;
+    let links = assemble(n, batches, start.elapsed().as_secs_f64() * 1e3).map_err(Error::Gpu)?;
     Ok((links, shares))
 }

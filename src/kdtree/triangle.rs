@@ -49,6 +49,30 @@ pub struct RayShear {
 }
 
 impl RayShear {
+    /// The permuted axes `(kx, ky, kz)`: `kz` is the direction's largest component.
+    #[inline(always)]
+    pub fn axes(&self) -> (usize, usize, usize) {
+        (self.kx, self.ky, self.kz)
+    }
+
+    /// Shear along x: `d[kx] / d[kz]`.
+    #[inline(always)]
+    pub fn sx(&self) -> f32 {
+        self.sx
+    }
+
+    /// Shear along y: `d[ky] / d[kz]`.
+    #[inline(always)]
+    pub fn sy(&self) -> f32 {
+        self.sy
+    }
+
+    /// Scale along z: `1 / d[kz]`.
+    #[inline(always)]
+    pub fn sz(&self) -> f32 {
+        self.sz
+    }
+
     #[inline]
     pub fn new(d: Vec3) -> RayShear {
         let kz = d.abs().max_position();

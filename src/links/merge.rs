@@ -2,7 +2,6 @@
 //! merged per target (f64 accumulation), quantized to f16 with error
 //! diffusion. Shared by the CPU and GPU shooting paths.
 
-use crate::kdtree::KdTriangle;
 use bytemuck::{Pod, Zeroable};
 use half::f16;
 
@@ -35,7 +34,7 @@ pub struct HitCounts {
 /// `targets`/`weights`. `scratch` is reused between calls.
 pub fn merge_vertex(
     hits: &[HitRecord],
-    triangles: &[KdTriangle],
+    triangles: &[[u32; 3]],
     weight_per_ray: f64,
     scratch: &mut Vec<(u32, f64)>,
     targets: &mut Vec<u32>,
@@ -53,11 +52,11 @@ pub fn merge_vertex(
             continue;
         }
         counts.front += 1;
-        let t = &triangles[h.tri as usize];
+        let [ia, ib, ic] = triangles[h.tri as usize];
         let (u, v) = (h.u as f64, h.v as f64);
-        scratch.push((t.ia, 1.0 - u - v));
-        scratch.push((t.ib, u));
-        scratch.push((t.ic, v));
+        scratch.push((ia, 1.0 - u - v));
+        scratch.push((ib, u));
+        scratch.push((ic, v));
     }
     scratch.sort_unstable_by_key(|&(t, _)| t);
     let mut carry = 0.0f64;

@@ -15,11 +15,13 @@
 //! error carried to the next link (error diffusion), so a group's total stays
 //! within half an f16 ulp of its largest link (2^-11 relative) of the exact sum.
 
+pub mod assemble;
 pub mod merge;
 pub mod shoot;
 
 use half::f16;
 
+pub use assemble::{assemble, merged_bytes, GroupRun};
 pub use merge::{merge_vertex, HitRecord, HIT_BACK, HIT_MISS};
 pub use shoot::{shoot_links, LinkParams, RaySetup, Wedge};
 

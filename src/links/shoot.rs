@@ -17,14 +17,14 @@
 //! self link): a grazing ray in a concave region meets the surface right
 //! next to its origin, where the radiosity is the vertex's own.
 
-use super::merge::{merge_vertex, HitRecord, HIT_BACK, HIT_MISS};
-use super::{LinkStats, Links};
-use crate::kdtree::traverse::{Ray, StartLeaves};
-use crate::kdtree::KdTree;
+use super::assemble::{assemble, GroupRun};
+use super::merge::{HitRecord, HIT_BACK, HIT_MISS};
+use super::Links;
+use crate::kdtree::Hit;
 use crate::sampling::{vertex_frame, vertex_rotations, DirectionSet};
 use crate::scene::prep::PreparedScene;
+use crate::trace::CpuTracer;
 use glam::Vec3;
-use half::f16;
 use rayon::prelude::*;
 use std::time::Instant;
 
@@ -135,44 +135,55 @@ impl RaySetup {
         self.directions.dirs.iter().map(move |d| (t * d.x + b * d.y + n * d.z).normalize())
     }
 
-    /// Traces all rays of vertex `v` on the CPU into `out` (one record per ray).
-    /// Runs a build of the walk for AVX2 where the CPU has it (the same
-    /// arithmetic, so the same hits: Rust never fuses a multiply and an add).
-    pub fn trace_vertex(&self, kd: &KdTree, v: usize, out: &mut Vec<HitRecord>) {
-        #[cfg(target_arch = "x86_64")]
-        if std::arch::is_x86_feature_detected!("avx2") {
-            // SAFETY: the CPU supports AVX2 (checked just above).
-            unsafe { self.trace_vertex_avx2(kd, v, out) };
-            return;
-        }
-        self.trace_vertex_portable(kd, v, out)
+    /// Traces all rays of vertex `v` with `tracer` into `out` (one record per ray).
+    pub fn trace_vertex(&self, tracer: &dyn CpuTracer, v: usize, out: &mut Vec<HitRecord>) {
+        self.trace_vertex_with(tracer, v, &mut TraceScratch::default(), out)
     }
 
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2")]
-    fn trace_vertex_avx2(&self, kd: &KdTree, v: usize, out: &mut Vec<HitRecord>) {
-        self.trace_vertex_portable(kd, v, out)
-    }
-
-    /// [`RaySetup::trace_vertex`] for any CPU.
-    #[inline(always)]
-    pub fn trace_vertex_portable(&self, kd: &KdTree, v: usize, out: &mut Vec<HitRecord>) {
+    /// [`RaySetup::trace_vertex`] reusing `scratch` between calls. Rays
+    /// that dive under an incident triangle become self hits without
+    /// tracing; the others go to the tracer together
+    /// ([`CpuTracer::intersect_origin`]), which may share work between rays
+    /// of one origin.
+    pub fn trace_vertex_with(
+        &self,
+        tracer: &dyn CpuTracer,
+        v: usize,
+        scratch: &mut TraceScratch,
+        out: &mut Vec<HitRecord>,
+    ) {
         out.clear();
-        let origin = self.origins[v];
+        scratch.dirs.clear();
         let wedges = self.wedges(v);
-        let mut start = StartLeaves::new(origin);
         for dir in self.world_directions(v) {
             if let Some(w) = wedges.iter().find(|w| w.dives_under(dir)) {
                 out.push(w.self_hit());
-                continue;
+            } else {
+                out.push(HitRecord { tri: TO_TRACE, ..Default::default() });
+                scratch.dirs.push(dir);
             }
-            let ray = Ray { origin, dir, tmin: 0.0, tmax: f32::INFINITY, skip: v as u32 };
-            out.push(match kd.intersect_from(&ray, &mut start) {
+        }
+        scratch.hits.clear();
+        scratch.hits.resize(scratch.dirs.len(), None);
+        tracer.intersect_origin(self.origins[v], v as u32, &scratch.dirs, &mut scratch.hits);
+        let mut traced = scratch.hits.iter();
+        for rec in out.iter_mut().filter(|r| r.tri == TO_TRACE) {
+            *rec = match traced.next().copied().flatten() {
                 None => HitRecord { tri: HIT_MISS, u: 0.0, v: 0.0, t: f32::INFINITY },
                 Some(h) => HitRecord { tri: if h.front { h.tri } else { h.tri | HIT_BACK }, u: h.u, v: h.v, t: h.t },
-            });
+            };
         }
     }
+}
+
+/// Marks a record still to be traced (never a triangle id: ids stay below `HIT_BACK`).
+const TO_TRACE: u32 = HIT_BACK - 1;
+
+/// Buffers [`RaySetup::trace_vertex_with`] reuses from vertex to vertex.
+#[derive(Clone, Debug, Default)]
+pub struct TraceScratch {
+    dirs: Vec<Vec3>,
+    hits: Vec<Option<Hit>>,
 }
 
 /// The ray origin of vertex `v` (see the module doc).
@@ -191,11 +202,11 @@ pub fn ray_origin(scene: &PreparedScene, v: usize, nudge: f32) -> Vec3 {
     p + (inward + n) * d
 }
 
-/// Shoots every vertex's rays on the CPU and builds the merged links.
+/// Shoots every vertex's rays with a CPU tracer and builds the merged links.
 /// `progress(done, total)` is called after each batch.
 pub fn shoot_links(
     scene: &PreparedScene,
-    kd: &KdTree,
+    tracer: &dyn CpuTracer,
     params: &LinkParams,
     progress: &(dyn Fn(usize, usize) + Sync),
 ) -> Links {
@@ -203,51 +214,34 @@ pub fn shoot_links(
     let setup = RaySetup::new(scene, params);
     let n = scene.vertex_count();
     let weight_per_ray = std::f64::consts::PI / setup.directions.len() as f64;
-    let mut links = Links { offsets: Vec::with_capacity(n + 1), ..Default::default() };
-    links.offsets.push(0);
-    let mut stats = LinkStats::default();
+    let mut runs: Vec<GroupRun> = Vec::new();
     const CHUNK: usize = 32;
     for batch_start in (0..n).step_by(params.batch_vertices.max(1)) {
         let batch_end = (batch_start + params.batch_vertices.max(1)).min(n);
-        let chunks: Vec<(Vec<u32>, Vec<u32>, Vec<f16>, LinkStats)> = (batch_start..batch_end)
+        let chunks: Vec<GroupRun> = (batch_start..batch_end)
             .step_by(CHUNK)
             .collect::<Vec<_>>()
             .into_par_iter()
             .map(|c0| {
                 let mut hits = Vec::with_capacity(setup.directions.len());
-                let mut scratch = Vec::new();
-                let (mut counts, mut targets, mut weights) = (Vec::new(), Vec::new(), Vec::new());
-                let mut st = LinkStats::default();
+                let mut scratch = TraceScratch::default();
+                let mut run = GroupRun::new(c0);
                 for v in c0..(c0 + CHUNK).min(batch_end) {
-                    setup.trace_vertex(kd, v, &mut hits);
-                    let before = targets.len();
-                    let c =
-                        merge_vertex(&hits, &kd.triangles, weight_per_ray, &mut scratch, &mut targets, &mut weights);
-                    counts.push((targets.len() - before) as u32);
-                    st.rays += hits.len() as u64;
-                    st.front_hits += c.front as u64;
-                    st.back_hits += c.back as u64;
-                    st.misses += c.miss as u64;
-                    st.raw_links += 3 * c.front as u64;
+                    setup.trace_vertex_with(tracer, v, &mut scratch, &mut hits);
+                    run.push_vertex(&hits, &scene.triangles, weight_per_ray);
                 }
-                (counts, targets, weights, st)
+                run
             })
             .collect();
-        for (counts, targets, weights, st) in chunks {
-            for c in counts {
-                let last = *links.offsets.last().unwrap();
-                links.offsets.push(last + c);
+        // Keep one run per batch so memory stays with the merged links.
+        let mut it = chunks.into_iter();
+        if let Some(mut run) = it.next() {
+            for c in it {
+                run.append(c);
             }
-            links.targets.extend_from_slice(&targets);
-            links.weights.extend_from_slice(&weights);
-            stats.add(&st);
+            runs.push(run);
         }
         progress(batch_end, n);
     }
-    stats.merged_links = links.targets.len() as u64;
-    stats.raw_bytes = stats.raw_links * 8;
-    stats.merged_bytes = stats.merged_links * 6 + 4 * (n as u64 + 1);
-    stats.shoot_ms = start.elapsed().as_secs_f64() * 1e3;
-    links.stats = stats;
-    links
+    assemble(n, runs, start.elapsed().as_secs_f64() * 1e3).expect("the runs cover every vertex once")
 }

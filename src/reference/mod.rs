@@ -47,8 +47,9 @@
 pub mod cache;
 pub mod path;
 
-use crate::kdtree::{KdBuildParams, KdTree};
+use crate::bvh::{Bvh, BvhBuildParams};
 use crate::scene::prep::PreparedScene;
+use crate::trace::CpuTracer;
 use glam::Vec3;
 use rayon::prelude::*;
 use std::time::Instant;
@@ -102,16 +103,16 @@ pub struct Reference {
     pub from_cache: bool,
 }
 
-/// Computes the reference with a kd-tree built here.
+/// Computes the reference with a wide BVH built here (the fastest CPU tracer).
 pub fn compute(scene: &PreparedScene, params: &ReferenceParams) -> Reference {
-    let kd = KdTree::build(&scene.positions, &scene.triangles, &KdBuildParams::default());
-    compute_with_tree(scene, &kd, params)
+    let bvh = Bvh::build(&scene.positions, &scene.triangles, &BvhBuildParams::default());
+    compute_with_tree(scene, &bvh, params)
 }
 
-/// Computes the reference over an already built kd-tree of `scene`.
-pub fn compute_with_tree(scene: &PreparedScene, kd: &KdTree, params: &ReferenceParams) -> Reference {
+/// Computes the reference with `accel`, a CPU tracer built over `scene`.
+pub fn compute_with_tree(scene: &PreparedScene, accel: &dyn CpuTracer, params: &ReferenceParams) -> Reference {
     let start = Instant::now();
-    let tracer = path::Tracer::new(scene, kd, params);
+    let tracer = path::Tracer::new(scene, accel, params);
     let per_vertex: Vec<(Vec3, Vec3, Vec3)> =
         (0..scene.vertex_count()).into_par_iter().map(|v| tracer.vertex(v)).collect();
     let mut out = Reference { params: *params, ..Default::default() };

@@ -5,9 +5,9 @@
 
 use super::ReferenceParams;
 use crate::kdtree::traverse::{Ray, NO_SKIP};
-use crate::kdtree::KdTree;
 use crate::scene::prep::PreparedScene;
 use crate::scene::Light;
+use crate::trace::CpuTracer;
 use glam::{DVec3, Vec3};
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64Mcg;
@@ -23,7 +23,7 @@ enum At {
 /// Precomputed per-vertex and per-triangle data plus the tree.
 pub struct Tracer<'a> {
     scene: &'a PreparedScene,
-    kd: &'a KdTree,
+    kd: &'a dyn CpuTracer,
     params: ReferenceParams,
     /// Unit geometric normal of every triangle (zero for degenerate ones).
     tri_normals: Vec<Vec3>,
@@ -54,7 +54,7 @@ fn ulp_floor(p: Vec3) -> f32 {
 }
 
 impl<'a> Tracer<'a> {
-    pub fn new(scene: &'a PreparedScene, kd: &'a KdTree, params: &ReferenceParams) -> Tracer<'a> {
+    pub fn new(scene: &'a PreparedScene, kd: &'a dyn CpuTracer, params: &ReferenceParams) -> Tracer<'a> {
         let mut tri_normals = Vec::with_capacity(scene.triangles.len());
         let mut tri_offsets = Vec::with_capacity(scene.triangles.len());
         for t in &scene.triangles {

@@ -1,28 +1,34 @@
 //! CPU fallback renderer (no adapter): one primary ray per pixel centre
-//! through a kd-tree of the frame's triangles; at a front-face hit the
+//! through a CPU tracer (a wide BVH of the frame's triangles unless one is given); at a front-face hit the
 //! normal, albedo and `E_i` are interpolated with the hit's barycentrics and
 //! each light's visibility is one shadow ray from the hit offset along the
 //! normal (hard shadows). Back faces and misses are black. Radiance as in
 //! [`super`]: `L = rho / pi * (E_d + E_i)`; rows run in parallel (rayon).
 
 use super::{pixel_ray, Frame, HdrImage, RenderParams, RenderStats, View};
-use crate::kdtree::{KdBuildParams, KdTree, Ray};
+use crate::bvh::{Bvh, BvhBuildParams};
+use crate::kdtree::Ray;
 use crate::scene::Light;
+use crate::trace::CpuTracer;
 use glam::Vec3;
 use rayon::prelude::*;
 use std::f32::consts::PI;
 use std::time::Instant;
 
-/// Renders `frame`; `kd` must be built over `frame.positions`/`triangles`
-/// when given, else one is built here.
-pub fn render_cpu(frame: &Frame, params: &RenderParams, kd: Option<&KdTree>) -> crate::Result<(HdrImage, RenderStats)> {
+/// Renders `frame`; `kd` (any CPU tracer) must be built over
+/// `frame.positions`/`triangles` when given, else a BVH is built here.
+pub fn render_cpu(
+    frame: &Frame,
+    params: &RenderParams,
+    kd: Option<&dyn CpuTracer>,
+) -> crate::Result<(HdrImage, RenderStats)> {
     frame.validate()?;
     let t0 = Instant::now();
     let built;
-    let kd = match kd {
+    let kd: &dyn CpuTracer = match kd {
         Some(k) => k,
         None => {
-            built = KdTree::build(frame.positions, frame.triangles, &KdBuildParams::default());
+            built = Bvh::build(frame.positions, frame.triangles, &BvhBuildParams::default());
             &built
         }
     };
@@ -42,7 +48,7 @@ pub fn render_cpu(frame: &Frame, params: &RenderParams, kd: Option<&KdTree>) -> 
     Ok((HdrImage { width: w, height: h, pixels }, stats))
 }
 
-fn shade(frame: &Frame, kd: &KdTree, view: View, offset: f32, ray: Ray) -> Vec3 {
+fn shade(frame: &Frame, kd: &dyn CpuTracer, view: View, offset: f32, ray: Ray) -> Vec3 {
     let Some(hit) = kd.intersect(&ray) else { return Vec3::ZERO };
     if !hit.front {
         return Vec3::ZERO;

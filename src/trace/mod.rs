@@ -98,7 +98,12 @@ pub enum Accel {
 
 impl Accel {
     /// Builds the structure `kind` names over `triangles` (vertex ids into `positions`).
-    pub fn build(kind: TracerKind, positions: &[Vec3], triangles: &[[u32; 3]], kd: &crate::kdtree::KdBuildParams) -> Accel {
+    pub fn build(
+        kind: TracerKind,
+        positions: &[Vec3],
+        triangles: &[[u32; 3]],
+        kd: &crate::kdtree::KdBuildParams,
+    ) -> Accel {
         match kind {
             TracerKind::Bvh => Accel::Bvh(Bvh::build(positions, triangles, &crate::bvh::BvhBuildParams::default())),
             TracerKind::Kd => Accel::Kd(KdTree::build(positions, triangles, kd)),
@@ -209,12 +214,17 @@ impl CpuTracer for KdTree {
     }
 
     /// The walk from the root to the start leaf is shared per direction
-    /// octant ([`crate::kdtree::traverse::StartLeaves`]).
+    /// octant ([`crate::kdtree::traverse::StartLeaves`]); runs a build of
+    /// the walk for AVX2 where the CPU has it (the same arithmetic, so the
+    /// same hits: Rust never fuses a multiply and an add).
     fn intersect_origin(&self, origin: Vec3, skip: u32, dirs: &[Vec3], out: &mut [Option<Hit>]) {
-        let mut start = crate::kdtree::traverse::StartLeaves::new(origin);
-        for (d, o) in dirs.iter().zip(out.iter_mut()) {
-            *o = self.intersect_from(&Ray { origin, dir: *d, tmin: 0.0, tmax: f32::INFINITY, skip }, &mut start);
+        #[cfg(target_arch = "x86_64")]
+        if std::arch::is_x86_feature_detected!("avx2") {
+            // SAFETY: the CPU supports AVX2 (checked just above).
+            unsafe { kd_origin_avx2(self, origin, skip, dirs, out) };
+            return;
         }
+        kd_origin(self, origin, skip, dirs, out)
     }
 
     /// Consecutive rays share a start-leaf hint ([`crate::kdtree::traverse::LeafHint`]).
@@ -226,9 +236,55 @@ impl CpuTracer for KdTree {
     }
 }
 
+#[inline(always)]
+fn kd_origin(kd: &KdTree, origin: Vec3, skip: u32, dirs: &[Vec3], out: &mut [Option<Hit>]) {
+    let mut start = crate::kdtree::traverse::StartLeaves::new(origin);
+    for (d, o) in dirs.iter().zip(out.iter_mut()) {
+        *o = kd.intersect_from(&Ray { origin, dir: *d, tmin: 0.0, tmax: f32::INFINITY, skip }, &mut start);
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn kd_origin_avx2(kd: &KdTree, origin: Vec3, skip: u32, dirs: &[Vec3], out: &mut [Option<Hit>]) {
+    kd_origin(kd, origin, skip, dirs, out)
+}
+
 impl Tracer for KdTree {
     fn name(&self) -> &'static str {
         "kd"
+    }
+    fn closest_hits(&self, rays: &[Ray]) -> crate::Result<Vec<Option<Hit>>> {
+        Ok(cpu_closest_hits(self, rays))
+    }
+    fn visible(&self, rays: &[Ray]) -> crate::Result<Vec<bool>> {
+        Ok(cpu_visible(self, rays))
+    }
+}
+
+impl CpuTracer for Bvh {
+    #[inline]
+    fn intersect(&self, ray: &Ray) -> Option<Hit> {
+        Bvh::intersect(self, ray)
+    }
+
+    #[inline]
+    fn occluded(&self, ray: &Ray) -> bool {
+        Bvh::occluded(self, ray)
+    }
+
+    fn intersect_origin(&self, origin: Vec3, skip: u32, dirs: &[Vec3], out: &mut [Option<Hit>]) {
+        Bvh::intersect_origin(self, origin, skip, dirs, out)
+    }
+
+    fn visible_run(&self, rays: &[Ray], out: &mut [bool]) {
+        Bvh::visible_run(self, rays, out)
+    }
+}
+
+impl Tracer for Bvh {
+    fn name(&self) -> &'static str {
+        "bvh"
     }
     fn closest_hits(&self, rays: &[Ray]) -> crate::Result<Vec<Option<Hit>>> {
         Ok(cpu_closest_hits(self, rays))

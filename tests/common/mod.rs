@@ -14,7 +14,7 @@ pub fn solve(desc: &SceneDesc) -> (Solver, Solution) {
 
 pub fn solve_with(scene: prep::PreparedScene, params: SolveParams) -> (Solver, Solution) {
     let solver = Solver::new(scene, params, &|_, _| {});
-    solver.kd.validate().expect("kd-tree valid");
+    solver.accel.validate().expect("acceleration structure valid");
     solver.links.validate().expect("links valid");
     let sol = solver.solve();
     for v in sol.e_direct.iter().chain(&sol.e_indirect).chain(&sol.e_indirect_raw) {

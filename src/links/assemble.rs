@@ -1,0 +1,100 @@
+//! Hit records to CSR links, in one place whatever traced the rays (the CPU
+//! tracers in [`super::shoot`], the GPU in `crate::gpu::schedule`): each
+//! vertex's records are merged into its link group ([`merge_vertex`]),
+//! groups of consecutive vertices are collected into [`GroupRun`]s (one per
+//! worker chunk or device batch), and [`assemble`] stitches the runs in
+//! vertex order into [`Links`] with the counters and storage sizes.
+//!
+//! Sizes: raw links are counted as (u32 target, f32 weight), 8 bytes;
+//! merged links as stored, [`MERGED_LINK_BYTES`] each plus a u32 offset
+//! per vertex ([`merged_bytes`]).
+
+use super::merge::{merge_vertex, HitRecord};
+use super::{LinkStats, Links};
+use half::f16;
+
+/// Bytes of one merged link as stored (u32 target + f16 weight).
+pub const MERGED_LINK_BYTES: u64 = 6;
+/// Bytes of one raw link (u32 target + f32 weight).
+pub const RAW_LINK_BYTES: u64 = 8;
+
+/// Bytes of `links` merged links over `vertices` vertices (links plus the offsets).
+pub fn merged_bytes(links: u64, vertices: usize) -> u64 {
+    links * MERGED_LINK_BYTES + 4 * (vertices as u64 + 1)
+}
+
+/// The merged link groups of consecutive vertices `first..first + counts.len()`.
+#[derive(Clone, Debug, Default)]
+pub struct GroupRun {
+    pub first: usize,
+    /// Links of each vertex, in order.
+    pub counts: Vec<u32>,
+    pub targets: Vec<u32>,
+    pub weights: Vec<f16>,
+    pub stats: LinkStats,
+    scratch: Vec<(u32, f64)>,
+}
+
+impl GroupRun {
+    pub fn new(first: usize) -> GroupRun {
+        GroupRun { first, ..Default::default() }
+    }
+
+    /// Appends the next vertex's group, merged from its hit records (one
+    /// per ray; triangles give the hit triangles' corner vertices).
+    pub fn push_vertex(&mut self, hits: &[HitRecord], triangles: &[[u32; 3]], weight_per_ray: f64) {
+        let before = self.targets.len();
+        let c = merge_vertex(hits, triangles, weight_per_ray, &mut self.scratch, &mut self.targets, &mut self.weights);
+        self.counts.push((self.targets.len() - before) as u32);
+        let st = &mut self.stats;
+        st.rays += hits.len() as u64;
+        st.front_hits += c.front as u64;
+        st.back_hits += c.back as u64;
+        st.misses += c.miss as u64;
+        st.raw_links += 3 * c.front as u64;
+    }
+
+    /// Appends `next`, which must start where this run ends.
+    pub fn append(&mut self, next: GroupRun) {
+        debug_assert_eq!(next.first, self.first + self.counts.len());
+        self.counts.extend(next.counts);
+        self.targets.extend(next.targets);
+        self.weights.extend(next.weights);
+        self.stats.add(&next.stats);
+    }
+}
+
+/// Stitches runs covering vertices `0..n` (in any order) into CSR links;
+/// `shoot_ms` is the time the caller spent, ms. Missing or overlapping runs
+/// are an error naming the first gap.
+pub fn assemble(n: usize, mut runs: Vec<GroupRun>, shoot_ms: f64) -> Result<Links, String> {
+    runs.sort_by_key(|r| r.first);
+    let total: usize = runs.iter().map(|r| r.targets.len()).sum();
+    let mut links = Links { offsets: Vec::with_capacity(n + 1), ..Default::default() };
+    links.targets.reserve(total);
+    links.weights.reserve(total);
+    links.offsets.push(0);
+    let mut stats = LinkStats::default();
+    for r in runs {
+        let at = links.offsets.len() - 1;
+        if r.first != at {
+            return Err(format!("link groups of vertices {at}..{} are missing or overlap", r.first.max(at)));
+        }
+        for c in r.counts {
+            let last = *links.offsets.last().expect("non-empty");
+            links.offsets.push(last + c);
+        }
+        links.targets.extend(r.targets);
+        links.weights.extend(r.weights);
+        stats.add(&r.stats);
+    }
+    if links.offsets.len() != n + 1 {
+        return Err(format!("link groups cover {} of {n} vertices", links.offsets.len() - 1));
+    }
+    stats.merged_links = links.targets.len() as u64;
+    stats.raw_bytes = stats.raw_links * RAW_LINK_BYTES;
+    stats.merged_bytes = merged_bytes(stats.merged_links, n);
+    stats.shoot_ms = shoot_ms;
+    links.stats = stats;
+    Ok(links)
+}
