@@ -208,6 +208,38 @@ impl Solver {
         Solver { scene, params, accel, links, light_links, gpu: None, compute: Compute::Cpu }
     }
 
+    /// The solver of `scene`, a deformation of this solver's scene (same
+    /// vertices and triangles, new positions), with `params`: on the CPU
+    /// path with an unchanged tracer and triangles, the BVH is refitted
+    /// ([`crate::bvh::Bvh::update`], which rebuilds when the refit's SAH
+    /// cost has grown past `rebuild_factor`), the kd-tree rebuilt, then
+    /// links and light links are traced anew. Anything else builds from
+    /// scratch ([`Solver::new`]). Returns the solver and whether the BVH
+    /// was refitted.
+    pub fn deformed(
+        self,
+        scene: PreparedScene,
+        params: SolveParams,
+        progress: &(dyn Fn(usize, usize) + Sync),
+    ) -> (Solver, bool) {
+        let same_mesh = self.gpu.is_none()
+            && self.scene.triangles == scene.triangles
+            && params.tracer == self.params.tracer
+            && params.bvh == self.params.bvh
+            && params.kd == self.params.kd;
+        let Accel::Bvh(mut bvh) = self.accel else {
+            return (Solver::new(scene, params, progress), false);
+        };
+        if !same_mesh {
+            return (Solver::new(scene, params, progress), false);
+        }
+        let refitted = bvh.update(&scene.positions, &scene.triangles) == crate::bvh::refit::Update::Refit;
+        let accel = Accel::Bvh(bvh);
+        let links = links::shoot_links(&scene, &accel, &params.links, progress);
+        let light_links = LightLinks::compute(&scene, &accel, &params.light);
+        (Solver { scene, params, accel, links, light_links, gpu: None, compute: Compute::Cpu }, refitted)
+    }
+
     /// Builds everything on `compute`: the kd-tree on the CPU (with
     /// `params.kd_gpu` for a GPU), then links,
     /// light links (and later the bounces) on the GPU when it is one.

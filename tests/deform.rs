@@ -124,3 +124,34 @@ fn bad_deform_values_name_the_file() {
     let s = scene::load(path.to_str().unwrap()).unwrap();
     assert_eq!(s.meshes[0].deform[0].axis, Vec3::Y);
 }
+
+/// A deformation handled by refitting the BVH gives exactly the links and
+/// light links of a fresh solve of the deformed scene (the refitted tree
+/// finds the same hits), and the refitted tree validates.
+#[test]
+fn refitted_deformation_equals_a_fresh_solve() {
+    use linkgi::solver::{SolveParams, Solver};
+    let desc = builtin::builtin("torso").unwrap();
+    let mut s = prep::prepare(&desc).unwrap();
+    s.settings.rays_per_vertex = 64;
+    let params = SolveParams::from_settings(&s.settings);
+    let mut solver = Solver::new(s.clone(), params, &|_, _| {});
+    let mut refits = 0;
+    for t in [0.1f32, 0.25, 0.5] {
+        let (positions, normals) = deform_scene(&s, &s.positions, &s.normals, t);
+        let mut moved = s.clone();
+        moved.positions = positions;
+        moved.normals = normals;
+        let (next, refitted) = solver.deformed(moved.clone(), params, &|_, _| {});
+        refits += refitted as usize;
+        next.accel.validate().expect("refitted BVH valid");
+        next.links.validate().expect("links valid");
+        let fresh = Solver::new(moved, params, &|_, _| {});
+        assert_eq!(next.links.offsets, fresh.links.offsets, "t = {t}");
+        assert_eq!(next.links.targets, fresh.links.targets, "t = {t}");
+        assert_eq!(next.links.weights, fresh.links.weights, "t = {t}");
+        assert_eq!(next.light_links.factors, fresh.light_links.factors, "t = {t}");
+        solver = next;
+    }
+    assert!(refits >= 1, "small deformations refit the BVH");
+}

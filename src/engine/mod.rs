@@ -89,7 +89,10 @@ pub struct GiResult {
 /// What the worker has done so far and the stage times of its last update.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Counters {
+    /// Acceleration structures built from scratch (kd-tree or BVH).
     pub kd_builds: u64,
+    /// BVH refits after a deformation (instead of a build).
+    pub refits: u64,
     pub link_builds: u64,
     pub light_link_updates: u64,
     pub gathers: u64,
@@ -174,6 +177,7 @@ fn publish(shared: &Shared, s: &Solver, c: &mut Counters, t0: Instant, preview: 
     });
     *lock(&shared.latest) = Some(result);
     total.kd_builds += c.kd_builds;
+    total.refits += c.refits;
     total.link_builds += c.link_builds;
     total.light_link_updates += c.light_link_updates;
     total.gathers += 1;
@@ -181,7 +185,7 @@ fn publish(shared: &Shared, s: &Solver, c: &mut Counters, t0: Instant, preview: 
     total.previews += preview as u64;
     total.changes += changes;
     total.batches += batch_done as u64;
-    if c.kd_builds > 0 {
+    if c.kd_builds + c.refits > 0 {
         total.rebuild_ms = c.rebuild_ms;
     }
     if c.light_link_updates > 0 {
@@ -441,6 +445,21 @@ impl Worker {
             let mut c = Counters::default();
             let mut s = match solver.take() {
                 Some(s) if !dirty.geometry => s,
+                // A deformation on the CPU: refit the BVH, trace anew.
+                Some(s) if matches!(compute, crate::solver::Compute::Cpu) && s.gpu.is_none() => {
+                    let t = Instant::now();
+                    let (s, refitted) = s.deformed(scene.clone(), params, &|_, _| {});
+                    c.rebuild_ms = t.elapsed().as_secs_f64() * 1e3;
+                    if refitted {
+                        c.refits += 1;
+                    } else {
+                        c.kd_builds += 1;
+                    }
+                    c.link_builds += 1;
+                    c.light_link_updates += 1;
+                    c.light_links_ms = s.light_links.ms;
+                    s
+                }
                 _ => {
                     let t = Instant::now();
                     let s = Solver::new_on(scene.clone(), params, &compute, &|_, _| {}).map_err(|e| e.to_string())?;
