@@ -1,5 +1,7 @@
-//! Criterion benchmarks of the CPU stages on built-in scenes: kd-tree build,
-//! ray shooting (link generation, reported as rays/s), one gather bounce
+//! Criterion benchmarks of the CPU stages on built-in scenes: kd-tree and
+//! wide-BVH builds, ray shooting through each tracer (link generation,
+//! reported as rays/s), shadow rays of the light links through each tracer
+//! (rays/s), one gather bounce
 //! (reported as bytes/s moved, [`linkgi::bench::bandwidth::gather_bytes`]),
 //! beside the machine's read bandwidth (a parallel sum over 512 MB), the
 //! yardstick of the gather's target (>= 50%).
@@ -8,10 +10,13 @@
 //! `cargo bench --bench solver -- conference`.
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
+use linkgi::bvh::{Bvh, BvhBuildParams};
 use linkgi::exchange::gather::gather_bounce_padded;
+use linkgi::exchange::{LightLinkParams, LightLinks};
 use linkgi::kdtree::{KdBuildParams, KdTree};
 use linkgi::links::{shoot_links, LinkParams};
 use linkgi::scene::{builtin, prep};
+use linkgi::trace::{CpuTracer, Tracer};
 use std::time::Duration;
 
 fn stages(c: &mut Criterion) {
@@ -22,11 +27,26 @@ fn stages(c: &mut Criterion) {
         g.bench_function("kd_build", |b| {
             b.iter(|| KdTree::build(&scene.positions, &scene.triangles, &KdBuildParams::default()))
         });
+        g.bench_function("bvh_build", |b| {
+            b.iter(|| Bvh::build(&scene.positions, &scene.triangles, &BvhBuildParams::default()))
+        });
         let kd = KdTree::build(&scene.positions, &scene.triangles, &KdBuildParams::default());
+        let bvh = Bvh::build(&scene.positions, &scene.triangles, &BvhBuildParams::default());
         let params = LinkParams::default();
         g.throughput(Throughput::Elements(scene.vertex_count() as u64 * params.rays_per_vertex as u64));
-        g.bench_function("shoot_256_rays_per_vertex", |b| b.iter(|| shoot_links(&scene, &kd, &params, &|_, _| {})));
-        let links = shoot_links(&scene, &kd, &params, &|_, _| {});
+        for (label, t) in [("bvh", &bvh as &dyn CpuTracer), ("kd", &kd as &dyn CpuTracer)] {
+            g.bench_function(format!("shoot_256_rays_per_vertex_{label}"), |b| {
+                b.iter(|| shoot_links(&scene, t, &params, &|_, _| {}))
+            });
+        }
+        let shadow = LightLinks::compute(&scene, &bvh, &LightLinkParams::default()).shadow_rays;
+        g.throughput(Throughput::Elements(shadow));
+        for (label, t) in [("bvh", &bvh as &dyn Tracer), ("kd", &kd as &dyn Tracer)] {
+            g.bench_function(format!("light_links_{label}"), |b| {
+                b.iter(|| LightLinks::compute(&scene, t, &LightLinkParams::default()))
+            });
+        }
+        let links = shoot_links(&scene, &bvh, &params, &|_, _| {});
         let b0 = vec![glam::Vec4::new(0.1, 0.1, 0.1, 0.0); scene.vertex_count()];
         let mut out = vec![glam::Vec3::ZERO; scene.vertex_count()];
         g.throughput(Throughput::Bytes(linkgi::bench::bandwidth::gather_bytes(&links)));

@@ -55,7 +55,7 @@ fn merging_preserves_total_weight() {
     let setup = RaySetup::new(&scene, &params);
     let wpr = PI / 64.0;
     let mut hits = Vec::new();
-    let mut scratch = Vec::new();
+    let mut scratch = linkgi::links::MergeScratch::default();
     let mut raw_links = 0usize;
     let mut merged_links = 0usize;
     for v in (0..scene.vertex_count()).step_by(7) {
@@ -84,7 +84,7 @@ fn merge_handles_misses_back_faces_and_edges() {
         HitRecord { tri: HIT_MISS, u: 0.0, v: 0.0, t: 0.0 },
         HitRecord { tri: HIT_BACK, u: 0.2, v: 0.2, t: 1.0 },
     ];
-    let (mut t, mut w, mut s) = (Vec::new(), Vec::new(), Vec::new());
+    let (mut t, mut w, mut s) = (Vec::new(), Vec::new(), linkgi::links::MergeScratch::default());
     let c = merge_vertex(&hits, &[tri], 0.25, &mut s, &mut t, &mut w);
     assert_eq!((c.front, c.back, c.miss), (2, 1, 1));
     assert_eq!(t, vec![0, 1, 2]);

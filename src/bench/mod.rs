@@ -172,6 +172,12 @@ pub struct BenchRow {
     /// Embree 3 on the same mesh and rays, run right after our measured runs
     /// ([`peer`]); CPU rows only, `None` when the peer program is not found.
     pub peer: Option<PeerFigures>,
+    /// Link rays traced per second with nothing else (no merging into
+    /// links), best of `runs` passes over every vertex's rays, the figure
+    /// set beside Embree's trace-only rate; CPU rows only (NaN otherwise).
+    pub trace_k_rays_per_s: f64,
+    /// The tracer of the CPU rows ("bvh" or "kd"; "gpu-kd" on the GPU).
+    pub tracer: String,
 }
 
 impl BenchRow {
@@ -207,6 +213,8 @@ impl BenchRow {
             gather_bytes: sizes.gather_bytes,
             read_gbps: f64::NAN,
             peer: None,
+            trace_k_rays_per_s: f64::NAN,
+            tracer: String::new(),
         }
     }
 }
@@ -285,6 +293,35 @@ pub fn run_once(
     Ok((times, sizes, solution.e_indirect))
 }
 
+/// Link rays per second of the CPU tracer `params.tracer` names, tracing
+/// every vertex's rays (self hits of diving rays included, as the link
+/// stage does) without merging them into links; best of `passes`.
+pub fn trace_rate(scene: &prep::PreparedScene, params: &SolveParams, passes: u32) -> f64 {
+    use rayon::prelude::*;
+    let accel = crate::trace::Accel::build(params.tracer, &scene.positions, &scene.triangles, &params.kd);
+    let setup = crate::links::RaySetup::new(scene, &params.links);
+    let n = scene.vertex_count();
+    let mut best = 0f64;
+    for _ in 0..passes.max(1) {
+        let t = Instant::now();
+        let rays: usize = (0..n)
+            .into_par_iter()
+            .chunks(32)
+            .map(|vs| {
+                let (mut hits, mut scratch) = (Vec::new(), crate::links::shoot::TraceScratch::default());
+                let mut rays = 0;
+                for v in vs {
+                    setup.trace_vertex_with(&accel, v, &mut scratch, &mut hits);
+                    rays += hits.len();
+                }
+                rays
+            })
+            .sum();
+        best = best.max(rays as f64 / t.elapsed().as_secs_f64().max(1e-9));
+    }
+    best
+}
+
 /// Frames per second of `frames` offscreen renders (with read-back) of
 /// `scene` with `e_indirect`, lights standing still: after the warm-up
 /// frame the shadow maps are reused, as while orbiting in the viewer.
@@ -344,9 +381,11 @@ pub fn run_scene(
         row.render_fps = fps;
         row.renderer = renderer;
     }
+    row.tracer = if label == "CPU" { solve_params.tracer.name().to_string() } else { "gpu-kd".to_string() };
     // Embree on the same mesh and workload, in this same run (CPU rows: the
     // peer traces on the CPU with as many threads as our pool).
     if label == "CPU" {
+        row.trace_k_rays_per_s = trace_rate(&scene, &solve_params, params.runs.max(1)) / 1e3;
         if let Some(exe) = peer::find() {
             let threads = rayon::current_num_threads();
             row.peer = Some(peer::run(&exe, &scene, params.rays_per_vertex, params.runs.max(1), threads)?);

@@ -145,18 +145,20 @@ pub fn markdown(rows: &[BenchRow]) -> String {
         let _ = writeln!(out, "\n### Beside Embree 3 (same run, same machine)\n");
         let _ = writeln!(
             out,
-            "| scene | ours k rays/s | Embree rtcIntersect1 M rays/s | rays ours/Embree | Embree rtcIntersect16 M rays/s | our build ms | Embree build ms | build ours/Embree |"
+            "| scene | tracer | ours k rays/s | ours trace-only k rays/s | Embree rtcIntersect1 M rays/s | trace-only ours/Embree | Embree rtcIntersect16 M rays/s | our build ms | Embree build ms | build ours/Embree |"
         );
-        let _ = writeln!(out, "|---|---|---|---|---|---|---|---|");
+        let _ = writeln!(out, "|---|---|---|---|---|---|---|---|---|---|");
         for (r, p) in peers {
             let ours_build = our_build_ms(r);
             let _ = writeln!(
                 out,
-                "| {} | {:.0} | {:.2} | {:.2} | {:.2} | {:.1} | {:.1} | {:.2} |",
+                "| {} | {} | {:.0} | {:.0} | {:.2} | {:.2} | {:.2} | {:.1} | {:.1} | {:.2} |",
                 r.scene,
+                r.tracer,
                 r.k_rays_per_s.median,
+                r.trace_k_rays_per_s,
                 p.mrays_single,
-                r.k_rays_per_s.median / 1e3 / p.mrays_single,
+                r.trace_k_rays_per_s / 1e3 / p.mrays_single,
                 p.mrays_packet16,
                 ours_build,
                 p.build_ms,
@@ -165,7 +167,8 @@ pub fn markdown(rows: &[BenchRow]) -> String {
         }
         let _ = writeln!(
             out,
-            "\nOurs: link shooting rate and the build of the structure its rays go through (`kd ms` above), median of {runs} runs. Embree (`../shared/peers/embree_peer`): \
+            "\nOurs: link shooting rate (tracing and merging into links), median of {runs} runs; trace-only: the same rays traced \
+             without merging, best of {runs} passes; the build of the structure the rays go through (`kd ms` above), median. Embree (`../shared/peers/embree_peer`): \
              the same mesh, {rays} cosine-weighted rays per vertex, best of {runs} traces with as many threads; \
              BVH build `RTC_BUILD_QUALITY_HIGH`, best of 3. Ratios above 1: ours is faster (rays) or slower (build)."
         );
@@ -285,13 +288,15 @@ mod tests {
         let mut cpu = synthetic("tearoom");
         // Ours: 20,000 k rays/s = 20 M rays/s median, kd build 20 ms median.
         cpu.peer = Some(PeerFigures { mrays_single: 10.0, mrays_packet16: 12.5, build_ms: 40.0 });
+        cpu.trace_k_rays_per_s = 25000.0;
+        cpu.tracer = "bvh".into();
         let mut gpu = synthetic("tearoom");
         gpu.backend = "GPU".into();
         let md = markdown(&[cpu, gpu, synthetic("cornell")]);
         let lines: Vec<&str> = md.lines().collect();
         let h = lines.iter().position(|l| *l == "### Beside Embree 3 (same run, same machine)").expect("{md}");
-        assert!(lines[h + 2].starts_with("| scene | ours k rays/s | Embree rtcIntersect1 M rays/s |"), "{md}");
-        assert_eq!(lines[h + 4], "| tearoom | 20000 | 10.00 | 2.00 | 12.50 | 20.0 | 40.0 | 0.50 |");
+        assert!(lines[h + 2].starts_with("| scene | tracer | ours k rays/s | ours trace-only k rays/s |"), "{md}");
+        assert_eq!(lines[h + 4], "| tearoom | bvh | 20000 | 25000 | 10.00 | 2.50 | 12.50 | 20.0 | 40.0 | 0.50 |");
         // One row: the GPU row and the scene without figures are left out.
         assert!(lines[h + 5].is_empty(), "{md}");
         assert!(md.contains("best of 3 traces"), "{md}");

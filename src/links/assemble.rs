@@ -9,7 +9,7 @@
 //! merged links as stored, [`MERGED_LINK_BYTES`] each plus a u32 offset
 //! per vertex ([`merged_bytes`]).
 
-use super::merge::{merge_vertex, HitRecord};
+use super::merge::{merge_vertex, HitRecord, MergeScratch};
 use super::{LinkStats, Links};
 use half::f16;
 
@@ -32,7 +32,7 @@ pub struct GroupRun {
     pub targets: Vec<u32>,
     pub weights: Vec<f16>,
     pub stats: LinkStats,
-    scratch: Vec<(u32, f64)>,
+    scratch: MergeScratch,
 }
 
 impl GroupRun {

@@ -1,6 +1,12 @@
 //! Hits to merged link groups: three barycentric links per front hit,
 //! merged per target (f64 accumulation), quantized to f16 with error
 //! diffusion. Shared by the CPU and GPU shooting paths.
+//!
+//! Merging: the raw links of a vertex (three per front hit) are summed
+//! per target in an open-addressing hash table ([`MergeScratch`], ray
+//! order), then only the distinct targets are sorted. Sorting every raw
+//! link instead took about 40% of the link stage (conference: 9.9 M rays/s
+//! traced, 6.1 M/s with merging).
 
 use bytemuck::{Pod, Zeroable};
 use half::f16;
@@ -30,18 +36,60 @@ pub struct HitCounts {
     pub miss: u32,
 }
 
+/// Reusable buffers of [`merge_vertex`]: a hash table from target vertex
+/// to summed weight (slots [`MergeScratch::EMPTY`] between calls) and the
+/// list of slots in use.
+#[derive(Clone, Debug, Default)]
+pub struct MergeScratch {
+    keys: Vec<u32>,
+    sums: Vec<f64>,
+    used: Vec<u32>,
+    groups: Vec<(u32, f64)>,
+}
+
+impl MergeScratch {
+    const EMPTY: u32 = u32::MAX;
+
+    /// Adds `w` to `target`'s sum.
+    #[inline(always)]
+    fn add(&mut self, target: u32, w: f64) {
+        let mask = self.keys.len() - 1;
+        let mut h = (target.wrapping_mul(0x9E37_79B1) >> 7) as usize & mask;
+        loop {
+            let k = self.keys[h];
+            if k == target {
+                self.sums[h] += w;
+                return;
+            }
+            if k == Self::EMPTY {
+                self.keys[h] = target;
+                self.sums[h] = w;
+                self.used.push(h as u32);
+                return;
+            }
+            h = (h + 1) & mask;
+        }
+    }
+}
+
 /// Turns one vertex's hits into its merged link group, appended to
 /// `targets`/`weights`. `scratch` is reused between calls.
 pub fn merge_vertex(
     hits: &[HitRecord],
     triangles: &[[u32; 3]],
     weight_per_ray: f64,
-    scratch: &mut Vec<(u32, f64)>,
+    scratch: &mut MergeScratch,
     targets: &mut Vec<u32>,
     weights: &mut Vec<f16>,
 ) -> HitCounts {
     let mut counts = HitCounts::default();
-    scratch.clear();
+    // At most half full: a power of two at least twice the raw links.
+    let size = (6 * hits.len()).next_power_of_two().max(64);
+    if scratch.keys.len() < size {
+        scratch.keys = vec![MergeScratch::EMPTY; size];
+        scratch.sums = vec![0.0; size];
+    }
+    scratch.used.clear();
     for h in hits {
         if h.tri == HIT_MISS {
             counts.miss += 1;
@@ -54,20 +102,19 @@ pub fn merge_vertex(
         counts.front += 1;
         let [ia, ib, ic] = triangles[h.tri as usize];
         let (u, v) = (h.u as f64, h.v as f64);
-        scratch.push((ia, 1.0 - u - v));
-        scratch.push((ib, u));
-        scratch.push((ic, v));
+        scratch.add(ia, 1.0 - u - v);
+        scratch.add(ib, u);
+        scratch.add(ic, v);
     }
-    scratch.sort_unstable_by_key(|&(t, _)| t);
+    let MergeScratch { keys, sums, used, groups } = scratch;
+    groups.clear();
+    for &slot in used.iter() {
+        groups.push((keys[slot as usize], sums[slot as usize]));
+        keys[slot as usize] = MergeScratch::EMPTY;
+    }
+    groups.sort_unstable_by_key(|&(t, _)| t);
     let mut carry = 0.0f64;
-    let mut i = 0;
-    while i < scratch.len() {
-        let target = scratch[i].0;
-        let mut sum = 0.0f64;
-        while i < scratch.len() && scratch[i].0 == target {
-            sum += scratch[i].1;
-            i += 1;
-        }
+    for &(target, sum) in groups.iter() {
         let exact = sum * weight_per_ray + carry;
         let q = f16::from_f64(exact);
         // Barycentrics of zero (a hit exactly on an edge) give no link.

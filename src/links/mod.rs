@@ -22,7 +22,7 @@ pub mod shoot;
 use half::f16;
 
 pub use assemble::{assemble, merged_bytes, GroupRun};
-pub use merge::{merge_vertex, HitRecord, HIT_BACK, HIT_MISS};
+pub use merge::{merge_vertex, HitRecord, MergeScratch, HIT_BACK, HIT_MISS};
 pub use shoot::{shoot_links, LinkParams, RaySetup, Wedge};
 
 /// Counters of one link generation.

@@ -233,14 +233,8 @@ pub fn shoot_links(
                 run
             })
             .collect();
-        // Keep one run per batch so memory stays with the merged links.
-        let mut it = chunks.into_iter();
-        if let Some(mut run) = it.next() {
-            for c in it {
-                run.append(c);
-            }
-            runs.push(run);
-        }
+        // Kept as they are: `assemble` copies every link once, into the CSR arrays.
+        runs.extend(chunks);
         progress(batch_end, n);
     }
     assemble(n, runs, start.elapsed().as_secs_f64() * 1e3).expect("the runs cover every vertex once")

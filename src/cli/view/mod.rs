@@ -33,9 +33,10 @@ mod script;
 use anyhow::{bail, Context, Result};
 use display::{Capture, Display};
 use glam::{Vec2, Vec3};
+use linkgi::bvh::{Bvh, BvhBuildParams};
 use linkgi::engine::{Change, Engine, EngineParams, GiResult};
 use linkgi::gpu::Backend;
-use linkgi::kdtree::{KdBuildParams, KdTree, Ray};
+use linkgi::kdtree::Ray;
 use linkgi::render::{Frame, RenderParams, View};
 use linkgi::scene::deform::{deform_scene, has_deformers};
 use linkgi::scene::prep::PreparedScene;
@@ -241,8 +242,8 @@ impl Viewer {
         }
         let cam = self.orbit.camera();
         let dir = (cam.target - cam.position).normalize_or_zero();
-        let kd = KdTree::build(&self.positions, &self.prepared.triangles, &KdBuildParams::default());
-        let t = kd.intersect(&Ray::new(cam.position, dir)).map_or(self.orbit.distance, |h| h.t);
+        let bvh = Bvh::build(&self.positions, &self.prepared.triangles, &BvhBuildParams::default());
+        let t = bvh.intersect(&Ray::new(cam.position, dir)).map_or(self.orbit.distance, |h| h.t);
         let i = self.lights.get(self.selected).map_or(1.0, strength).max(1e-6);
         let light = Light::Point { position: cam.position + dir * (0.5 * t), intensity: Vec3::splat(i) };
         self.lights.push(light);
