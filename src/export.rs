@@ -8,6 +8,7 @@ use crate::scene::prep::PreparedScene;
 use crate::scene::{Bounces, Light};
 use crate::solver::{Solution, SolveStats};
 use crate::{Error, Result};
+use glam::Vec3;
 use serde_json::json;
 use std::io::Write;
 use std::path::Path;
@@ -35,20 +36,24 @@ fn io_err(path: &Path) -> impl FnOnce(std::io::Error) -> Error + '_ {
     move |source| Error::Io { path: path.to_path_buf(), source }
 }
 
-/// Writes the PLY bytes for `scene` and `solution`.
-pub fn ply_bytes(scene: &PreparedScene, solution: &Solution) -> Vec<u8> {
+/// Binary little-endian PLY of `scene`'s mesh: the float vertex
+/// properties `names`, whose values `vertex(v)` gives in that order, and
+/// the triangles (the one PLY writer of the project).
+fn ply_with(scene: &PreparedScene, names: &[&str], vertex: impl Fn(usize) -> Vec<Vec3>) -> Vec<u8> {
     let n = scene.vertex_count();
-    let mut out = Vec::with_capacity(300 + n * 60 + scene.triangles.len() * 13);
-    let mut header = format!("ply\nformat binary_little_endian 1.0\ncomment linkgi scene {}\n", scene.name);
+    let mut out = Vec::with_capacity(300 + n * 4 * names.len() + scene.triangles.len() * 13);
+    let mut header = format!(
+        "ply\nformat binary_little_endian 1.0\ncomment linkgi scene {}\n",
+        scene.name.replace(['\n', '\r'], " ")
+    );
     header += &format!("element vertex {n}\n");
-    for p in PLY_VERTEX_PROPERTIES {
+    for p in names {
         header += &format!("property float {p}\n");
     }
     header += &format!("element face {}\nproperty list uchar uint vertex_indices\nend_header\n", scene.triangles.len());
     out.extend_from_slice(header.as_bytes());
     for v in 0..n {
-        for vec in [scene.positions[v], scene.normals[v], scene.albedo[v], solution.e_direct[v], solution.e_indirect[v]]
-        {
+        for vec in vertex(v) {
             for c in vec.to_array() {
                 out.extend_from_slice(&c.to_le_bytes());
             }
@@ -61,6 +66,20 @@ pub fn ply_bytes(scene: &PreparedScene, solution: &Solution) -> Vec<u8> {
         }
     }
     out
+}
+
+/// Writes the PLY bytes for `scene` and `solution`.
+pub fn ply_bytes(scene: &PreparedScene, solution: &Solution) -> Vec<u8> {
+    ply_with(scene, &PLY_VERTEX_PROPERTIES, |v| {
+        vec![scene.positions[v], scene.normals[v], scene.albedo[v], solution.e_direct[v], solution.e_indirect[v]]
+    })
+}
+
+/// The PLY of the mesh alone (`x y z nx ny nz` per vertex and the
+/// triangles), in the solver's vertex order: what other programs that only
+/// need the geometry read (the Embree peer of `linkgi bench`).
+pub fn mesh_ply_bytes(scene: &PreparedScene) -> Vec<u8> {
+    ply_with(scene, &PLY_VERTEX_PROPERTIES[..6], |v| vec![scene.positions[v], scene.normals[v]])
 }
 
 /// `x` as a JSON number, or null when it is NaN or infinite (e.g. no BVH was built).

@@ -48,7 +48,7 @@ fn torso_deforms_every_frame() {
     let rows = animate("torso", 2, &dir);
     assert_eq!(col(&rows, 4), vec![2, 3]);
     // Frame 0 is at t = 0, where the deformers are the identity: no rebuild.
-    assert_eq!(col(&rows, 7), vec![1, 2], "kd builds: one per deformed frame");
+    assert_eq!(col(&rows, 7), vec![1, 2], "structure updates (build or BVH refit): one per deformed frame");
 }
 
 #[test]

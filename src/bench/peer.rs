@@ -70,35 +70,7 @@ fn is_executable(path: &Path) -> bool {
     path.is_file()
 }
 
-/// The scene's mesh as a binary little-endian PLY the peer reads: per solver
-/// vertex `x y z nx ny nz` (`float`), triangles as `uchar`-counted `uint`
-/// lists, in the solver's vertex order (the same mesh `export::ply_bytes`
-/// writes, without the solution).
-pub fn mesh_ply_bytes(scene: &PreparedScene) -> Vec<u8> {
-    let n = scene.vertex_count();
-    let mut out = Vec::with_capacity(256 + n * 24 + scene.triangles.len() * 13);
-    let header = format!(
-        "ply\nformat binary_little_endian 1.0\ncomment linkgi scene {}\nelement vertex {n}\n\
-         property float x\nproperty float y\nproperty float z\n\
-         property float nx\nproperty float ny\nproperty float nz\n\
-         element face {}\nproperty list uchar uint vertex_indices\nend_header\n",
-        scene.name.replace('\n', " "),
-        scene.triangles.len()
-    );
-    out.extend_from_slice(header.as_bytes());
-    for v in 0..n {
-        for c in scene.positions[v].to_array().into_iter().chain(scene.normals[v].to_array()) {
-            out.extend_from_slice(&c.to_le_bytes());
-        }
-    }
-    for t in &scene.triangles {
-        out.push(3u8);
-        for i in t {
-            out.extend_from_slice(&i.to_le_bytes());
-        }
-    }
-    out
-}
+pub use crate::export::mesh_ply_bytes;
 
 fn other(path: &Path, message: String) -> Error {
     Error::Io { path: path.to_path_buf(), source: std::io::Error::other(message) }

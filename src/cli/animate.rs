@@ -89,7 +89,7 @@ pub fn run(args: AnimateArgs) -> Result<()> {
 
     let params = RenderParams { width, height, exposure: args.exposure, ..Default::default() };
     let mut csv = String::from(
-        "frame,time_s,frame_ms,render_ms,gi_version,gi_age_ms,gi_updates,kd_builds,light_link_updates,gathers\n",
+        "frame,time_s,frame_ms,render_ms,gi_version,gi_age_ms,gi_updates,accel_updates,light_link_updates,gathers,refits\n",
     );
     let bar = ProgressBar::new(args.frames as u64);
     bar.set_style(
@@ -153,8 +153,14 @@ pub fn run(args: AnimateArgs) -> Result<()> {
         let age = gi.published.elapsed().as_secs_f64() * 1e3;
         writeln!(
             csv,
-            "{k},{time:.4},{frame_ms:.2},{:.2},{},{age:.1},{},{},{},{}",
-            stats.ms, gi.version, c.published, c.kd_builds, c.light_link_updates, c.gathers
+            "{k},{time:.4},{frame_ms:.2},{:.2},{},{age:.1},{},{},{},{},{}",
+            stats.ms,
+            gi.version,
+            c.published,
+            c.kd_builds + c.refits,
+            c.light_link_updates,
+            c.gathers,
+            c.refits
         )?;
         bar.set_message(format!("GI v{} age {age:.0} ms", gi.version));
         bar.inc(1);
@@ -168,7 +174,7 @@ pub fn run(args: AnimateArgs) -> Result<()> {
     let mean = |v: &[f64]| if v.is_empty() { 0.0 } else { v.iter().sum::<f64>() / v.len() as f64 };
     println!(
         "{} frames in {secs:.2} s ({:.1} fps); GI updates seen {} ({:.1}/s), mean update {:.1} ms; \
-         engine: {} updates, {} kd builds, {} light-link updates, {} gathers, {} changes in {} batches",
+         engine: {} updates, {} structure builds, {} BVH refits, {} light-link updates, {} gathers, {} changes in {} batches",
         args.frames,
         args.frames as f64 / secs,
         update_ms.len(),
@@ -176,6 +182,7 @@ pub fn run(args: AnimateArgs) -> Result<()> {
         mean(&update_ms),
         c.published,
         c.kd_builds,
+        c.refits,
         c.light_link_updates,
         c.gathers,
         c.changes,
