@@ -64,18 +64,24 @@ impl GroupRun {
     }
 }
 
-/// Stitches runs covering vertices `0..n` (in any order) into CSR links;
-/// `shoot_ms` is the time the caller spent, ms. Missing or overlapping runs
-/// are an error naming the first gap.
-pub fn assemble(n: usize, mut runs: Vec<GroupRun>, shoot_ms: f64) -> Result<Links, String> {
-    runs.sort_by_key(|r| r.first);
-    let total: usize = runs.iter().map(|r| r.targets.len()).sum();
-    let mut links = Links { offsets: Vec::with_capacity(n + 1), ..Default::default() };
-    links.targets.reserve(total);
-    links.weights.reserve(total);
-    links.offsets.push(0);
-    let mut stats = LinkStats::default();
-    for r in runs {
+/// CSR links built from runs pushed in vertex order; each run's links
+/// are copied once into the final arrays, so a caller that pushes batch
+/// by batch never holds more than one batch beside the links.
+#[derive(Debug)]
+pub struct CsrBuilder {
+    links: Links,
+}
+
+impl CsrBuilder {
+    pub fn new(n: usize) -> CsrBuilder {
+        let mut links = Links { offsets: Vec::with_capacity(n + 1), ..Default::default() };
+        links.offsets.push(0);
+        CsrBuilder { links }
+    }
+
+    /// Appends `run`, which must start at the next vertex.
+    pub fn push(&mut self, r: GroupRun) -> Result<(), String> {
+        let links = &mut self.links;
         let at = links.offsets.len() - 1;
         if r.first != at {
             return Err(format!("link groups of vertices {at}..{} are missing or overlap", r.first.max(at)));
@@ -86,15 +92,36 @@ pub fn assemble(n: usize, mut runs: Vec<GroupRun>, shoot_ms: f64) -> Result<Link
         }
         links.targets.extend(r.targets);
         links.weights.extend(r.weights);
-        stats.add(&r.stats);
+        links.stats.add(&r.stats);
+        Ok(())
     }
-    if links.offsets.len() != n + 1 {
-        return Err(format!("link groups cover {} of {n} vertices", links.offsets.len() - 1));
+
+    /// The links of vertices `0..n`, with their counters and sizes;
+    /// `shoot_ms` is the time the caller spent, ms.
+    pub fn finish(self, n: usize, shoot_ms: f64) -> Result<Links, String> {
+        let mut links = self.links;
+        if links.offsets.len() != n + 1 {
+            return Err(format!("link groups cover {} of {n} vertices", links.offsets.len() - 1));
+        }
+        links.targets.shrink_to_fit();
+        links.weights.shrink_to_fit();
+        let stats = &mut links.stats;
+        stats.merged_links = links.targets.len() as u64;
+        stats.raw_bytes = stats.raw_links * RAW_LINK_BYTES;
+        stats.merged_bytes = merged_bytes(stats.merged_links, n);
+        stats.shoot_ms = shoot_ms;
+        Ok(links)
     }
-    stats.merged_links = links.targets.len() as u64;
-    stats.raw_bytes = stats.raw_links * RAW_LINK_BYTES;
-    stats.merged_bytes = merged_bytes(stats.merged_links, n);
-    stats.shoot_ms = shoot_ms;
-    links.stats = stats;
-    Ok(links)
+}
+
+/// Stitches runs covering vertices `0..n` (in any order) into CSR links;
+/// `shoot_ms` is the time the caller spent, ms. Missing or overlapping runs
+/// are an error naming the first gap.
+pub fn assemble(n: usize, mut runs: Vec<GroupRun>, shoot_ms: f64) -> Result<Links, String> {
+    runs.sort_by_key(|r| r.first);
+    let mut csr = CsrBuilder::new(n);
+    for r in runs {
+        csr.push(r)?;
+    }
+    csr.finish(n, shoot_ms)
 }

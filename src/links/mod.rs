@@ -21,7 +21,7 @@ pub mod shoot;
 
 use half::f16;
 
-pub use assemble::{assemble, merged_bytes, GroupRun};
+pub use assemble::{assemble, merged_bytes, CsrBuilder, GroupRun};
 pub use merge::{merge_vertex, HitRecord, MergeScratch, HIT_BACK, HIT_MISS};
 pub use shoot::{shoot_links, LinkParams, RaySetup, Wedge};
 

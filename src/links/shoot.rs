@@ -17,7 +17,7 @@
 //! self link): a grazing ray in a concave region meets the surface right
 //! next to its origin, where the radiosity is the vertex's own.
 
-use super::assemble::{assemble, GroupRun};
+use super::assemble::{CsrBuilder, GroupRun};
 use super::merge::{HitRecord, HIT_BACK, HIT_MISS};
 use super::Links;
 use crate::kdtree::Hit;
@@ -214,7 +214,7 @@ pub fn shoot_links(
     let setup = RaySetup::new(scene, params);
     let n = scene.vertex_count();
     let weight_per_ray = std::f64::consts::PI / setup.directions.len() as f64;
-    let mut runs: Vec<GroupRun> = Vec::new();
+    let mut csr = CsrBuilder::new(n);
     const CHUNK: usize = 32;
     for batch_start in (0..n).step_by(params.batch_vertices.max(1)) {
         let batch_end = (batch_start + params.batch_vertices.max(1)).min(n);
@@ -233,9 +233,11 @@ pub fn shoot_links(
                 run
             })
             .collect();
-        // Kept as they are: `assemble` copies every link once, into the CSR arrays.
-        runs.extend(chunks);
+        // Into the CSR arrays batch by batch: only one batch's runs are held beside them.
+        for c in chunks {
+            csr.push(c).expect("chunks come in vertex order");
+        }
         progress(batch_end, n);
     }
-    assemble(n, runs, start.elapsed().as_secs_f64() * 1e3).expect("the runs cover every vertex once")
+    csr.finish(n, start.elapsed().as_secs_f64() * 1e3).expect("the runs cover every vertex once")
 }
