@@ -199,10 +199,7 @@ impl Solver {
     /// Builds the acceleration structure (`params.tracer`), the vertex
     /// links (reporting `progress(done, total)` vertices) and the light links.
     pub fn new(scene: PreparedScene, params: SolveParams, progress: &(dyn Fn(usize, usize) + Sync)) -> Solver {
-        let accel = match params.tracer {
-            TracerKind::Bvh => Accel::Bvh(crate::bvh::Bvh::build(&scene.positions, &scene.triangles, &params.bvh)),
-            TracerKind::Kd => Accel::Kd(KdTree::build(&scene.positions, &scene.triangles, &params.kd)),
-        };
+        let accel = Accel::build(params.tracer, &scene.positions, &scene.triangles, &params.bvh, &params.kd);
         let links = links::shoot_links(&scene, &accel, &params.links, progress);
         let light_links = LightLinks::compute(&scene, &accel, &params.light);
         Solver { scene, params, accel, links, light_links, gpu: None, compute: Compute::Cpu }

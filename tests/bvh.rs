@@ -10,22 +10,10 @@ use linkgi::kdtree::{Hit, KdBuildParams, KdTree, Ray};
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg32;
 
-fn rvec(rng: &mut Pcg32, lo: f32, hi: f32) -> Vec3 {
-    Vec3::new(rng.random_range(lo..hi), rng.random_range(lo..hi), rng.random_range(lo..hi))
-}
+mod common;
+use common::{rvec, soup};
 
 type Mesh = (Vec<Vec3>, Vec<[u32; 3]>);
-
-fn soup(rng: &mut Pcg32, n: usize, size: f32) -> Mesh {
-    let mut pos = Vec::new();
-    let mut tris = Vec::new();
-    for i in 0..n as u32 {
-        let c = rvec(rng, 0.0, 1.0);
-        pos.extend([c + rvec(rng, -size, size), c + rvec(rng, -size, size), c + rvec(rng, -size, size)]);
-        tris.push([3 * i, 3 * i + 1, 3 * i + 2]);
-    }
-    (pos, tris)
-}
 
 /// A regular grid of `n x n` quads on a plane of constant `axis`
 /// coordinate `at`, sharing vertices (a flat, regular mesh).

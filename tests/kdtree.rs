@@ -7,21 +7,8 @@ use linkgi::kdtree::{Hit, KdBuildParams, KdTree, Ray};
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg32;
 
-fn rvec(rng: &mut Pcg32, lo: f32, hi: f32) -> Vec3 {
-    Vec3::new(rng.random_range(lo..hi), rng.random_range(lo..hi), rng.random_range(lo..hi))
-}
-
-/// Random triangle soup: `n` triangles of size ~`size` in a unit cube.
-fn soup(rng: &mut Pcg32, n: usize, size: f32) -> (Vec<Vec3>, Vec<[u32; 3]>) {
-    let mut pos = Vec::new();
-    let mut tris = Vec::new();
-    for i in 0..n as u32 {
-        let c = rvec(rng, 0.0, 1.0);
-        pos.extend([c + rvec(rng, -size, size), c + rvec(rng, -size, size), c + rvec(rng, -size, size)]);
-        tris.push([3 * i, 3 * i + 1, 3 * i + 2]);
-    }
-    (pos, tris)
-}
+mod common;
+use common::{rvec, soup};
 
 /// Axis-aligned quads on a grid of planes (many planar events, coincident bounds).
 fn axis_aligned(n: u32) -> (Vec<Vec3>, Vec<[u32; 3]>) {

@@ -298,7 +298,7 @@ pub fn run_once(
 /// stage does) without merging them into links; best of `passes`.
 pub fn trace_rate(scene: &prep::PreparedScene, params: &SolveParams, passes: u32) -> f64 {
     use rayon::prelude::*;
-    let accel = crate::trace::Accel::build(params.tracer, &scene.positions, &scene.triangles, &params.kd);
+    let accel = crate::trace::Accel::build(params.tracer, &scene.positions, &scene.triangles, &params.bvh, &params.kd);
     let setup = crate::links::RaySetup::new(scene, &params.links);
     let n = scene.vertex_count();
     let mut best = 0f64;

@@ -11,7 +11,7 @@
 //! refitted SAH cost exceeds `rebuild_factor` times the last build's.
 
 use super::leaf::{LANES, UNUSED};
-use super::{is_leaf, leaf_range, Bvh, Node8, EMPTY};
+use super::{is_leaf, leaf_range, Bvh, EMPTY};
 use glam::Vec3;
 use rayon::prelude::*;
 use std::time::Instant;
@@ -130,10 +130,4 @@ impl Bvh {
         }
         cost as f32
     }
-}
-
-/// The empty node's box is inverted; checks need it.
-pub(super) fn is_inverted(n: &Node8, slot: usize) -> bool {
-    let (lo, hi) = n.slot_box(slot);
-    lo.cmpgt(hi).all()
 }

@@ -9,12 +9,13 @@
 //! Node test: the eight slabs of each axis in one SIMD operation, near and
 //! far planes picked per ray by the direction's sign, so
 //! `t_near = max(t_min, (near - o) / d)` and
-//! `t_far = min(t_best, (far - o) / d) * (1 + 2 gamma_3)` (pbrt's robust
-//! bound, which keeps rounding from culling a box the ray touches; ties at
-//! `t_best` are visited since equal distances are ordered by triangle id).
+//! `t_far = min(t_best * (1 + 1e-5), (far - o) / d) * (1 + 2 gamma_3)`
+//! (pbrt's robust bound keeps rounding from culling a box the ray touches;
+//! the margin on `t_best` keeps boxes holding a hit tied with the best,
+//! since equal distances are ordered by triangle id: see `CULL`).
 //! A zero direction component is replaced by `±1e-30`, so no `0 * inf`
-//! NaN arises. Three builds of the same arithmetic, chosen once per call by
-//! [`Isa::detect`]: AVX-512 (mask compares, and compress to pack the hit
+//! NaN arises. Three builds of the same arithmetic, picked per tree
+//! ([`Bvh::isa`], [`Isa::detect`] by default): AVX-512 (mask compares, and compress to pack the hit
 //! children), AVX2 (movemask), and portable loops. min and max are exact
 //! and Rust never fuses a multiply and an add, so all three find the same
 //! boxes and return the same hits.
@@ -26,6 +27,7 @@
 
 use super::leaf::{intersect8_portable, Block8, Hits8};
 use super::{is_leaf, leaf_range, Bvh, Node8};
+use crate::kdtree::traverse::closer;
 use crate::kdtree::triangle::{Hit, RayShear};
 use crate::kdtree::Ray;
 use glam::Vec3;
@@ -137,7 +139,7 @@ pub(super) struct Walker {
     pub(super) best: Option<Hit>,
     tbest: f32,
     cur: u32,
-    /// The leaf holding `best` (a leaf word), or `EMPTY`.
+    /// Any-hit walks: the leaf that answered the ray (a leaf word), or `EMPTY`.
     pub(super) hit_leaf: u32,
     overflow: bool,
     st: Stack,
@@ -349,18 +351,10 @@ impl NodeTest for Avx512 {
         }
     }
 
+    /// The AVX2 block test (AVX-512 adds nothing to eight lanes).
     #[inline(always)]
     fn block(b: &Block8, ray: &Ray, s: &RayShear, tmax: f32) -> Hits8 {
-        super::leaf::intersect8_avx(b, ray.origin, s, ray.skip, ray.tmin, tmax)
-    }
-}
-
-/// Nearer of two hits: smaller `t`, ties by triangle id.
-#[inline(always)]
-fn closer(t: f32, tri: u32, best: &Option<Hit>) -> bool {
-    match best {
-        None => true,
-        Some(b) => t < b.t || (t == b.t && tri < b.tri),
+        Avx2::block(b, ray, s, tmax)
     }
 }
 
@@ -402,11 +396,7 @@ impl Bvh {
                 w.hit_leaf = w.cur;
                 return true;
             }
-            let t = w.best.map_or(w.ray.tmax, |b| b.t);
-            if t != w.tbest {
-                w.hit_leaf = w.cur;
-                w.tbest = t;
-            }
+            w.tbest = w.best.map_or(w.ray.tmax, |b| b.t);
         } else {
             if w.st.sp + 8 > STACK {
                 // Cannot happen for trees this builder makes (see `STACK`).
@@ -431,20 +421,14 @@ impl Bvh {
         }
     }
 
-    /// Tests `leaf` (a leaf word: the leaf a nearby ray hit) before the
-    /// walk, so the walk starts with that hit's distance and culls every
-    /// box beyond it. Returns true when that already answers the ray (an
-    /// any-hit query that hit). The walk still visits every box nearer
-    /// than the hit, so the result is the one without the hint.
+    /// Any-hit walks: tests `leaf` (a leaf word: the leaf that answered a
+    /// nearby ray) before the walk; true when it answers this ray too.
+    /// Otherwise nothing changed and the walk runs as without the hint.
     #[inline(always)]
-    pub(super) fn prime<N: NodeTest, const ANY: bool>(&self, w: &mut Walker, leaf: u32) -> bool {
-        if self.test_leaf::<N, ANY>(leaf, &w.ray, &w.shear, &mut w.best) {
+    pub(super) fn prime_any<N: NodeTest>(&self, w: &mut Walker, leaf: u32) -> bool {
+        if self.test_leaf::<N, true>(leaf, &w.ray, &w.shear, &mut w.best) {
             w.hit_leaf = leaf;
             return true;
-        }
-        if let Some(b) = w.best {
-            w.tbest = b.t;
-            w.hit_leaf = leaf;
         }
         false
     }
@@ -553,19 +537,4 @@ impl Bvh {
     pub fn occluded(&self, ray: &Ray) -> bool {
         self.occluded_with(ray, self.isa)
     }
-}
-
-/// Nearest hit by testing every block of every leaf (test oracle of the BVH's own layout).
-pub fn brute_force(bvh: &Bvh, ray: &Ray) -> Option<Hit> {
-    let shear = RayShear::new(ray.dir);
-    let mut best = None;
-    for blk in &bvh.blocks {
-        let h = intersect8_portable(blk, ray.origin, &shear, ray.skip, ray.tmin, ray.tmax);
-        for i in 0..super::leaf::LANES {
-            if h.mask >> i & 1 == 1 && closer(h.t[i], blk.tri[i], &best) {
-                best = Some(Hit { tri: blk.tri[i], u: h.u[i], v: h.v[i], t: h.t[i], front: h.front >> i & 1 == 1 });
-            }
-        }
-    }
-    best
 }

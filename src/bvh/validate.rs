@@ -2,7 +2,6 @@
 //! that builds one.
 
 use super::leaf::{LANES, UNUSED};
-use super::refit::is_inverted;
 use super::{is_leaf, leaf_range, Bvh, EMPTY};
 use glam::Vec3;
 
@@ -31,7 +30,7 @@ impl Bvh {
                 let c = n.child[slot];
                 let (lo, hi) = n.slot_box(slot);
                 if c == EMPTY {
-                    if !is_inverted(n, slot) {
+                    if !n.slot_box(slot).0.cmpgt(n.slot_box(slot).1).all() {
                         return Err(format!("node {i} slot {slot}: empty slot with a real box"));
                     }
                     continue;

@@ -101,8 +101,10 @@ enum Start<'a> {
     Near(&'a mut LeafHint),
 }
 
+/// Nearer of two hits: smaller `t`, ties by triangle id (the order every
+/// tracer and brute force use, so they all return the same hit).
 #[inline(always)]
-fn closer(t: f32, tri: u32, best: &Option<Hit>) -> bool {
+pub(crate) fn closer(t: f32, tri: u32, best: &Option<Hit>) -> bool {
     match best {
         None => true,
         Some(b) => t < b.t || (t == b.t && tri < b.tri),

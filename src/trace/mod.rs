@@ -42,8 +42,12 @@ pub trait Tracer: Sync {
 /// Rays in a run of this many share start hints (nearby shadow rays).
 const RUN: usize = 64;
 
-/// Single rays and rays of one origin, answered on the CPU.
+/// Single rays and rays of one origin, answered on the CPU. Every CPU
+/// tracer is a [`Tracer`] too: batches are split over rayon threads.
 pub trait CpuTracer: Sync {
+    /// Short name for figures ("bvh", "kd").
+    fn name(&self) -> &'static str;
+
     /// Nearest hit of one ray (see [`Tracer::closest_hits`]).
     fn intersect(&self, ray: &Ray) -> Option<Hit>;
 
@@ -71,22 +75,28 @@ pub trait CpuTracer: Sync {
     }
 }
 
-/// [`Tracer::closest_hits`] of a CPU tracer: rays split over rayon threads.
-pub fn cpu_closest_hits<T: CpuTracer + ?Sized>(t: &T, rays: &[Ray]) -> Vec<Option<Hit>> {
-    let mut out = vec![None; rays.len()];
-    out.par_chunks_mut(RUN).zip(rays.par_chunks(RUN)).for_each(|(o, r)| {
-        for (o, r) in o.iter_mut().zip(r) {
-            *o = t.intersect(r);
-        }
-    });
-    out
-}
+impl<T: CpuTracer> Tracer for T {
+    fn name(&self) -> &'static str {
+        CpuTracer::name(self)
+    }
 
-/// [`Tracer::visible`] of a CPU tracer: runs of nearby rays over rayon threads.
-pub fn cpu_visible<T: CpuTracer + ?Sized>(t: &T, rays: &[Ray]) -> Vec<bool> {
-    let mut out = vec![false; rays.len()];
-    out.par_chunks_mut(RUN).zip(rays.par_chunks(RUN)).for_each(|(o, r)| t.visible_run(r, o));
-    out
+    /// Rays split over rayon threads in runs of `RUN`.
+    fn closest_hits(&self, rays: &[Ray]) -> crate::Result<Vec<Option<Hit>>> {
+        let mut out = vec![None; rays.len()];
+        out.par_chunks_mut(RUN).zip(rays.par_chunks(RUN)).for_each(|(o, r)| {
+            for (o, r) in o.iter_mut().zip(r) {
+                *o = self.intersect(r);
+            }
+        });
+        Ok(out)
+    }
+
+    /// Runs of `RUN` nearby rays ([`CpuTracer::visible_run`]) over rayon threads.
+    fn visible(&self, rays: &[Ray]) -> crate::Result<Vec<bool>> {
+        let mut out = vec![false; rays.len()];
+        out.par_chunks_mut(RUN).zip(rays.par_chunks(RUN)).for_each(|(o, r)| self.visible_run(r, o));
+        Ok(out)
+    }
 }
 
 /// The CPU acceleration structure a solver traces with.
@@ -97,15 +107,17 @@ pub enum Accel {
 }
 
 impl Accel {
-    /// Builds the structure `kind` names over `triangles` (vertex ids into `positions`).
+    /// Builds the structure `kind` names over `triangles` (vertex ids into
+    /// `positions`) with its parameters.
     pub fn build(
         kind: TracerKind,
         positions: &[Vec3],
         triangles: &[[u32; 3]],
+        bvh: &crate::bvh::BvhBuildParams,
         kd: &crate::kdtree::KdBuildParams,
     ) -> Accel {
         match kind {
-            TracerKind::Bvh => Accel::Bvh(Bvh::build(positions, triangles, &crate::bvh::BvhBuildParams::default())),
+            TracerKind::Bvh => Accel::Bvh(Bvh::build(positions, triangles, bvh)),
             TracerKind::Kd => Accel::Kd(KdTree::build(positions, triangles, kd)),
         }
     }
@@ -159,6 +171,10 @@ impl Accel {
 }
 
 impl CpuTracer for Accel {
+    fn name(&self) -> &'static str {
+        self.kind().name()
+    }
+
     #[inline]
     fn intersect(&self, ray: &Ray) -> Option<Hit> {
         match self {
@@ -190,19 +206,11 @@ impl CpuTracer for Accel {
     }
 }
 
-impl Tracer for Accel {
-    fn name(&self) -> &'static str {
-        self.kind().name()
-    }
-    fn closest_hits(&self, rays: &[Ray]) -> crate::Result<Vec<Option<Hit>>> {
-        Ok(cpu_closest_hits(self, rays))
-    }
-    fn visible(&self, rays: &[Ray]) -> crate::Result<Vec<bool>> {
-        Ok(cpu_visible(self, rays))
-    }
-}
-
 impl CpuTracer for KdTree {
+    fn name(&self) -> &'static str {
+        "kd"
+    }
+
     #[inline]
     fn intersect(&self, ray: &Ray) -> Option<Hit> {
         KdTree::intersect(self, ray)
@@ -250,19 +258,11 @@ fn kd_origin_avx2(kd: &KdTree, origin: Vec3, skip: u32, dirs: &[Vec3], out: &mut
     kd_origin(kd, origin, skip, dirs, out)
 }
 
-impl Tracer for KdTree {
-    fn name(&self) -> &'static str {
-        "kd"
-    }
-    fn closest_hits(&self, rays: &[Ray]) -> crate::Result<Vec<Option<Hit>>> {
-        Ok(cpu_closest_hits(self, rays))
-    }
-    fn visible(&self, rays: &[Ray]) -> crate::Result<Vec<bool>> {
-        Ok(cpu_visible(self, rays))
-    }
-}
-
 impl CpuTracer for Bvh {
+    fn name(&self) -> &'static str {
+        "bvh"
+    }
+
     #[inline]
     fn intersect(&self, ray: &Ray) -> Option<Hit> {
         Bvh::intersect(self, ray)
@@ -279,17 +279,5 @@ impl CpuTracer for Bvh {
 
     fn visible_run(&self, rays: &[Ray], out: &mut [bool]) {
         Bvh::visible_run(self, rays, out)
-    }
-}
-
-impl Tracer for Bvh {
-    fn name(&self) -> &'static str {
-        "bvh"
-    }
-    fn closest_hits(&self, rays: &[Ray]) -> crate::Result<Vec<Option<Hit>>> {
-        Ok(cpu_closest_hits(self, rays))
-    }
-    fn visible(&self, rays: &[Ray]) -> crate::Result<Vec<bool>> {
-        Ok(cpu_visible(self, rays))
     }
 }

@@ -45,3 +45,21 @@ pub fn mesh_area(s: &prep::PreparedScene) -> f32 {
         })
         .sum()
 }
+
+/// A random point in `[lo, hi)^3`.
+pub fn rvec(rng: &mut rand_pcg::Pcg32, lo: f32, hi: f32) -> Vec3 {
+    use rand::Rng;
+    Vec3::new(rng.random_range(lo..hi), rng.random_range(lo..hi), rng.random_range(lo..hi))
+}
+
+/// Random triangle soup: `n` triangles of size ~`size` in a unit cube.
+pub fn soup(rng: &mut rand_pcg::Pcg32, n: usize, size: f32) -> (Vec<Vec3>, Vec<[u32; 3]>) {
+    let mut pos = Vec::new();
+    let mut tris = Vec::new();
+    for i in 0..n as u32 {
+        let c = rvec(rng, 0.0, 1.0);
+        pos.extend([c + rvec(rng, -size, size), c + rvec(rng, -size, size), c + rvec(rng, -size, size)]);
+        tris.push([3 * i, 3 * i + 1, 3 * i + 2]);
+    }
+    (pos, tris)
+}
