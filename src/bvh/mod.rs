@@ -55,7 +55,7 @@ const FIRST_MASK: u32 = (1 << 27) - 1;
 /// Encodes a leaf child: `blocks` blocks from `first`.
 #[inline]
 pub fn leaf_ref(first: u32, blocks: u32) -> u32 {
-    debug_assert!(blocks >= 1 && blocks <= MAX_LEAF_BLOCKS && first <= FIRST_MASK);
+    debug_assert!((1..=MAX_LEAF_BLOCKS).contains(&blocks) && first <= FIRST_MASK);
     LEAF_BIT | (blocks - 1) << 27 | first
 }
 
