@@ -29,7 +29,7 @@
 //! scene on the next change. Irradiance in W/m^2, positions in metres,
 //! times in ms.
 
-use crate::scene::deform::vertex_normals;
+use crate::scene::deform::moved_normals;
 use crate::scene::prep::PreparedScene;
 use crate::scene::{Light, Settings};
 use crate::solver::{Compute, SolveParams, Solver};
@@ -407,7 +407,7 @@ impl Worker {
         }
         // Positions identical to the current ones are no geometry change.
         if let Some(p) = positions.filter(|p| *p != scene.positions) {
-            scene.normals = vertex_normals(&scene, &p, &scene.normals);
+            scene.normals = moved_normals(&scene, &scene.positions, &p, &scene.normals);
             scene.positions = p;
             dirty.geometry = true;
         }

@@ -25,6 +25,7 @@
 
 use crate::kdtree::traverse::Ray;
 use crate::links::shoot::ray_origin;
+use crate::scene::motion::Motion;
 use crate::scene::{prep::PreparedScene, Light};
 use crate::trace::Tracer;
 use glam::Vec3;
@@ -217,42 +218,26 @@ impl LightLinks {
         light: &Light,
         params: &LightLinkParams,
     ) -> crate::Result<(Vec<f32>, u64)> {
-        let n = scene.vertex_count();
-        let mut factors = Vec::with_capacity(n);
+        let all: Vec<u32> = (0..scene.vertex_count() as u32).collect();
+        Self::compute_light_at(scene, tracer, light, params, &all)
+    }
+
+    /// One light's factors at `vertices` only (in that order), and the shadow rays traced.
+    pub fn compute_light_at(
+        scene: &PreparedScene,
+        tracer: &dyn Tracer,
+        light: &Light,
+        params: &LightLinkParams,
+        vertices: &[u32],
+    ) -> crate::Result<(Vec<f32>, u64)> {
+        let mut factors = Vec::with_capacity(vertices.len());
         let mut traced = 0u64;
-        for c0 in (0..n).step_by(CHUNK_VERTICES) {
+        for chunk in vertices.chunks(CHUNK_VERTICES) {
             // Per vertex: geometry term, sample count, points visible without a
             // ray, and its shadow rays (appended to one flat list).
-            let per_vertex: Vec<(f32, u32, u32, Vec<Ray>)> = (c0..(c0 + CHUNK_VERTICES).min(n))
-                .into_par_iter()
-                .map_init(Vec::new, |pts, v| {
-                    let min_d = params.min_distance * scene.mean_edge_length(v);
-                    let g = geometry(light, scene.positions[v], scene.normals[v], min_d.max(f32::MIN_POSITIVE.sqrt()));
-                    if g <= 0.0 {
-                        return (0.0, 1, 0, Vec::new());
-                    }
-                    sample_points(scene, v, params, pts);
-                    let eps = params.eps * scene.mean_edge_length(v).max(f32::MIN_POSITIVE);
-                    let mut free = 0u32;
-                    let mut rays = Vec::with_capacity(pts.len());
-                    for &s in pts.iter() {
-                        let (dir, dist) = match *light {
-                            Light::Point { position, .. } => {
-                                let d = position - s;
-                                let len = d.length();
-                                (d / len.max(f32::MIN_POSITIVE), len)
-                            }
-                            Light::Directional { direction, .. } => (-direction.normalize(), f32::INFINITY),
-                        };
-                        if dist <= 2.0 * eps || !dir.is_finite() {
-                            // The light sits on the surface at this point: nothing can be in between.
-                            free += 1;
-                            continue;
-                        }
-                        rays.push(Ray { origin: s, dir, tmin: eps, tmax: dist - eps, skip: v as u32 });
-                    }
-                    (g, pts.len() as u32, free, rays)
-                })
+            let per_vertex: Vec<(f32, u32, u32, Vec<Ray>)> = chunk
+                .par_iter()
+                .map_init(Vec::new, |pts, &v| shadow_rays(scene, light, params, v as usize, pts))
                 .collect();
             let rays: Vec<Ray> = per_vertex.iter().flat_map(|p| p.3.iter().copied()).collect();
             let visible = tracer.visible(&rays)?;
@@ -265,6 +250,107 @@ impl LightLinks {
             }
         }
         Ok((factors, traced))
+    }
+
+    /// Brings the columns up to date after a deformation (`motion`, from
+    /// the positions the columns were computed with to `scene`'s): a
+    /// column of a light that kept its place is recomputed only at remade
+    /// vertices and at vertices whose shadow segments meet a moved mesh's
+    /// box (before or after the move); other columns (new or moved lights,
+    /// previews, other parameters) are computed in full. Returns the
+    /// (vertex, light) entries recomputed.
+    pub fn update_deformed(
+        &mut self,
+        scene: &PreparedScene,
+        tracer: &dyn Tracer,
+        params: &LightLinkParams,
+        motion: &Motion,
+    ) -> crate::Result<u64> {
+        let start = Instant::now();
+        let valid = self.params == Some(*params) && self.positions.len() == scene.vertex_count();
+        let n = scene.vertex_count();
+        let mut used = vec![!valid; self.lights.len()];
+        let (mut factors, mut traced, mut entries) = (Vec::with_capacity(scene.lights.len()), 0, 0u64);
+        for light in &scene.lights {
+            let kept = (0..self.lights.len()).find(|&i| !used[i] && !self.coarse[i] && same_column(&self.lights[i], light));
+            let column = match kept {
+                Some(i) => {
+                    used[i] = true;
+                    let mut column = std::mem::take(&mut self.factors[i]);
+                    let redo: Vec<u32> = (0..n as u32)
+                        .into_par_iter()
+                        .filter(|&v| motion.remade[v as usize] || shadow_meets(scene, light, params, v as usize, motion))
+                        .collect();
+                    let (f, rays) = Self::compute_light_at(scene, tracer, light, params, &redo)?;
+                    for (&v, f) in redo.iter().zip(f) {
+                        column[v as usize] = f;
+                    }
+                    traced += rays;
+                    entries += redo.len() as u64;
+                    column
+                }
+                None => {
+                    let (f, rays) = Self::compute_light(scene, tracer, light, params)?;
+                    traced += rays;
+                    entries += n as u64;
+                    f
+                }
+            };
+            factors.push(column);
+        }
+        self.coarse = vec![false; factors.len()];
+        self.factors = factors;
+        self.lights = scene.lights.clone();
+        self.params = Some(*params);
+        self.positions = scene.positions.clone();
+        self.shadow_rays = traced;
+        self.ms = start.elapsed().as_secs_f64() * 1e3;
+        Ok(entries)
+    }
+
+    /// The preview of [`LightLinks::update_deformed`]: columns of lights
+    /// that kept their place are recomputed at `remade` vertices only and
+    /// from the vertices alone (no one-ring oversampling); other columns
+    /// in full, also without oversampling. All columns are then marked
+    /// [`LightLinks::coarse`]. Returns the shadow rays traced.
+    pub fn preview_deformed(
+        &mut self,
+        scene: &PreparedScene,
+        tracer: &dyn Tracer,
+        params: &LightLinkParams,
+        remade: &[u32],
+    ) -> crate::Result<u64> {
+        let start = Instant::now();
+        let coarse_params = LightLinkParams { oversample: false, ..*params };
+        let mut used = vec![self.positions.len() != scene.vertex_count(); self.lights.len()];
+        let (mut factors, mut traced) = (Vec::with_capacity(scene.lights.len()), 0);
+        for light in &scene.lights {
+            let kept = (0..self.lights.len()).find(|&i| !used[i] && same_column(&self.lights[i], light));
+            let column = match kept {
+                Some(i) => {
+                    used[i] = true;
+                    let mut column = std::mem::take(&mut self.factors[i]);
+                    let (f, rays) = Self::compute_light_at(scene, tracer, light, &coarse_params, remade)?;
+                    for (&v, f) in remade.iter().zip(f) {
+                        column[v as usize] = f;
+                    }
+                    traced += rays;
+                    column
+                }
+                None => {
+                    let (f, rays) = Self::compute_light(scene, tracer, light, &coarse_params)?;
+                    traced += rays;
+                    f
+                }
+            };
+            factors.push(column);
+        }
+        self.coarse = vec![true; factors.len()];
+        self.factors = factors;
+        self.lights = scene.lights.clone();
+        self.shadow_rays = traced;
+        self.ms = start.elapsed().as_secs_f64() * 1e3;
+        Ok(traced)
     }
 
     /// Direct irradiance per vertex, W/m^2: `sum_l I_l * factor_l(v)`.
@@ -281,4 +367,52 @@ impl LightLinks {
         }
         e
     }
+}
+
+/// Vertex `v`'s shadow rays toward `light`: `(G, sample count, samples
+/// visible without a ray, rays)`; no rays where `G = 0`.
+fn shadow_rays(
+    scene: &PreparedScene,
+    light: &Light,
+    params: &LightLinkParams,
+    v: usize,
+    pts: &mut Vec<Vec3>,
+) -> (f32, u32, u32, Vec<Ray>) {
+    let min_d = params.min_distance * scene.mean_edge_length(v);
+    let g = geometry(light, scene.positions[v], scene.normals[v], min_d.max(f32::MIN_POSITIVE.sqrt()));
+    if g <= 0.0 {
+        return (0.0, 1, 0, Vec::new());
+    }
+    sample_points(scene, v, params, pts);
+    let eps = params.eps * scene.mean_edge_length(v).max(f32::MIN_POSITIVE);
+    let mut free = 0u32;
+    let mut rays = Vec::with_capacity(pts.len());
+    for &s in pts.iter() {
+        let (dir, dist) = match *light {
+            Light::Point { position, .. } => {
+                let d = position - s;
+                let len = d.length();
+                (d / len.max(f32::MIN_POSITIVE), len)
+            }
+            Light::Directional { direction, .. } => (-direction.normalize(), f32::INFINITY),
+        };
+        if dist <= 2.0 * eps || !dir.is_finite() {
+            // The light sits on the surface at this point: nothing can be in between.
+            free += 1;
+            continue;
+        }
+        rays.push(Ray { origin: s, dir, tmin: eps, tmax: dist - eps, skip: v as u32 });
+    }
+    (g, pts.len() as u32, free, rays)
+}
+
+/// True if one of vertex `v`'s shadow segments toward `light` meets a box
+/// of `motion` (so its visibility may have changed).
+fn shadow_meets(scene: &PreparedScene, light: &Light, params: &LightLinkParams, v: usize, motion: &Motion) -> bool {
+    let mut pts = Vec::new();
+    let (_, _, _, rays) = shadow_rays(scene, light, params, v, &mut pts);
+    rays.iter().any(|r| {
+        let inv = r.dir.recip();
+        motion.boxes.iter().any(|b| b.meets_segment(r.origin, inv, r.tmin, r.tmax))
+    })
 }

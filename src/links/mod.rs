@@ -17,13 +17,15 @@
 
 pub mod assemble;
 pub mod merge;
+pub mod selective;
 pub mod shoot;
 
 use half::f16;
 
 pub use assemble::{assemble, merged_bytes, CsrBuilder, GroupRun};
 pub use merge::{merge_vertex, HitRecord, MergeScratch, HIT_BACK, HIT_MISS};
-pub use shoot::{shoot_links, LinkParams, RaySetup, Wedge};
+pub use selective::{RayHits, ReshootStats};
+pub use shoot::{shoot_links, shoot_links_recording, LinkParams, RaySetup, TraceScratch, Wedge};
 
 /// Counters of one link generation.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]

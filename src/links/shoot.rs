@@ -19,6 +19,7 @@
 
 use super::assemble::{CsrBuilder, GroupRun};
 use super::merge::{HitRecord, HIT_BACK, HIT_MISS};
+use super::selective::RayHits;
 use super::Links;
 use crate::kdtree::Hit;
 use crate::sampling::{vertex_frame, vertex_rotations, DirectionSet};
@@ -210,34 +211,54 @@ pub fn shoot_links(
     params: &LinkParams,
     progress: &(dyn Fn(usize, usize) + Sync),
 ) -> Links {
+    shoot_links_recording(scene, tracer, params, false, progress).0
+}
+
+/// [`shoot_links`], also returning every ray's hit id when `record` is set
+/// (the state of selective updates, [`super::selective`]).
+pub fn shoot_links_recording(
+    scene: &PreparedScene,
+    tracer: &dyn CpuTracer,
+    params: &LinkParams,
+    record: bool,
+    progress: &(dyn Fn(usize, usize) + Sync),
+) -> (Links, Option<RayHits>) {
     let start = Instant::now();
     let setup = RaySetup::new(scene, params);
     let n = scene.vertex_count();
-    let weight_per_ray = std::f64::consts::PI / setup.directions.len() as f64;
+    let rays = setup.directions.len();
+    let weight_per_ray = std::f64::consts::PI / rays as f64;
     let mut csr = CsrBuilder::new(n);
+    let mut ids = Vec::with_capacity(if record { n * rays } else { 0 });
     const CHUNK: usize = 32;
     for batch_start in (0..n).step_by(params.batch_vertices.max(1)) {
         let batch_end = (batch_start + params.batch_vertices.max(1)).min(n);
-        let chunks: Vec<GroupRun> = (batch_start..batch_end)
+        let chunks: Vec<(GroupRun, Vec<u32>)> = (batch_start..batch_end)
             .step_by(CHUNK)
             .collect::<Vec<_>>()
             .into_par_iter()
             .map(|c0| {
-                let mut hits = Vec::with_capacity(setup.directions.len());
+                let mut hits = Vec::with_capacity(rays);
                 let mut scratch = TraceScratch::default();
                 let mut run = GroupRun::new(c0);
+                let mut chunk_ids = Vec::new();
                 for v in c0..(c0 + CHUNK).min(batch_end) {
                     setup.trace_vertex_with(tracer, v, &mut scratch, &mut hits);
+                    if record {
+                        chunk_ids.extend(hits.iter().map(|h| h.tri));
+                    }
                     run.push_vertex(&hits, &scene.triangles, weight_per_ray);
                 }
-                run
+                (run, chunk_ids)
             })
             .collect();
         // Into the CSR arrays batch by batch: only one batch's runs are held beside them.
-        for c in chunks {
+        for (c, chunk_ids) in chunks {
             csr.push(c).expect("chunks come in vertex order");
+            ids.extend(chunk_ids);
         }
         progress(batch_end, n);
     }
-    csr.finish(n, start.elapsed().as_secs_f64() * 1e3).expect("the runs cover every vertex once")
+    let links = csr.finish(n, start.elapsed().as_secs_f64() * 1e3).expect("the runs cover every vertex once");
+    (links, record.then_some(RayHits { rays_per_vertex: rays, ids }))
 }

@@ -52,7 +52,7 @@ use glam::{Vec2, Vec3};
 use std::f32::consts::{FRAC_PI_2, PI, TAU};
 
 /// Names accepted by [`builtin`].
-pub const NAMES: &[&str] = &["cornell", "furnace", "colorlamp", "torso", "tearoom", "sculpture", "conference"];
+pub const NAMES: &[&str] = &["cornell", "furnace", "colorlamp", "torso", "tearoom", "dancer", "sculpture", "conference"];
 
 /// The built-in scene of this name, if there is one.
 pub fn builtin(name: &str) -> Option<SceneDesc> {
@@ -62,6 +62,7 @@ pub fn builtin(name: &str) -> Option<SceneDesc> {
         "colorlamp" => colorlamp(),
         "torso" => torso(),
         "tearoom" => tearoom(),
+        "dancer" => dancer(),
         "sculpture" => sculpture(),
         "conference" => conference(),
         _ => return None,
@@ -291,18 +292,11 @@ fn spow(x: f32, e: f32) -> f32 {
     x.signum() * x.abs().powf(e)
 }
 
-fn torso() -> SceneDesc {
-    let mut r = MeshBuilder::new();
-    let wall = r.add_material("wall", Vec3::new(0.7, 0.7, 0.68));
-    let floor = r.add_material("floor", Vec3::new(0.45, 0.45, 0.5));
-    room(
-        &mut r,
-        Vec3::new(-2.0, 0.0, -2.0),
-        Vec3::new(2.0, 2.8, 2.0),
-        [20, 14, 20],
-        [wall, wall, floor, wall, wall, wall],
-    );
-
+/// The deformable figure of `torso` and `dancer` (body, head, arms, legs;
+/// about 5k vertices) standing on the floor at `at`, with its deformers: a
+/// twist about its vertical axis (40 deg/m, 4 s) and a bend above the hips
+/// (12 deg/m, 6 s) toward +x.
+fn figure(name: &str, at: Vec3) -> MeshDesc {
     let mut b = MeshBuilder::new();
     let skin = b.add_material("skin", Vec3::new(0.75, 0.55, 0.45));
     let cloth = b.add_material("cloth", Vec3::new(0.2, 0.35, 0.6));
@@ -355,17 +349,37 @@ fn torso() -> SceneDesc {
     for side in [-1.0f32, 1.0] {
         b.cylinder_caps(Vec3::new(0.085 * side, 0.0, 0.0), 0.07, 1.1, 24, 22, trousers, false, false);
     }
-    let mut figure = b.finish("torso/figure", 60.0);
+    if at != Vec3::ZERO {
+        b.transform_from(0, |p| p + at);
+    }
+    let mut figure = b.finish(name, 60.0);
     figure.dynamic = true;
     // The figure twists about its vertical axis and sways a little.
     let mut twist = super::deform::Deform::new(super::deform::DeformKind::Twist, 40.0);
     twist.period_s = 4.0;
     twist.toward = Vec3::X;
+    twist.center = at;
     let mut bend = super::deform::Deform::new(super::deform::DeformKind::Bend, 12.0);
-    bend.center = Vec3::new(0.0, 0.6, 0.0);
+    bend.center = Vec3::new(0.0, 0.6, 0.0) + at;
     bend.toward = Vec3::X;
     bend.period_s = 6.0;
     figure.deform = vec![twist, bend];
+    figure
+}
+
+fn torso() -> SceneDesc {
+    let mut r = MeshBuilder::new();
+    let wall = r.add_material("wall", Vec3::new(0.7, 0.7, 0.68));
+    let floor = r.add_material("floor", Vec3::new(0.45, 0.45, 0.5));
+    room(
+        &mut r,
+        Vec3::new(-2.0, 0.0, -2.0),
+        Vec3::new(2.0, 2.8, 2.0),
+        [20, 14, 20],
+        [wall, wall, floor, wall, wall, wall],
+    );
+
+    let figure = figure("torso/figure", Vec3::ZERO);
 
     scene(
         "torso",
@@ -526,6 +540,18 @@ fn tearoom() -> SceneDesc {
             point(Vec3::new(-1.8, 1.9, 1.6), Vec3::new(1.2, 1.0, 0.8)),
         ],
     )
+}
+
+/// The deformable figure of `torso` standing in the furnished tearoom,
+/// between the table and the corner, lit by the tearoom's lights (about
+/// 17k vertices): the scene of selective updates, where most of the
+/// room's rays never meet the figure.
+fn dancer() -> SceneDesc {
+    let mut s = tearoom();
+    s.name = "dancer".into();
+    s.meshes.push(figure("dancer/figure", Vec3::new(1.4, 0.0, -1.1)));
+    s.camera = camera(Vec3::new(-0.9, 1.6, 2.0), Vec3::new(0.7, 0.95, -0.7), 60.0);
+    s
 }
 
 fn sculpture() -> SceneDesc {
@@ -813,6 +839,7 @@ mod tests {
             ("colorlamp", 1600),
             ("torso", 7100),
             ("tearoom", 11900),
+            ("dancer", 16900),
             ("sculpture", 76500),
             ("conference", 122800),
         ];
@@ -955,7 +982,7 @@ mod tests {
             let s = builtin(name).unwrap();
             let floor = s.meshes[0].positions.iter().map(|p| p.y).fold(f32::INFINITY, f32::min);
             let slabs = supports(name);
-            if matches!(name, "tearoom" | "conference") {
+            if matches!(name, "tearoom" | "dancer" | "conference") {
                 assert!(!slabs.is_empty(), "{name}: no supports");
             }
             let on = |y: f32, h: f32| (y - h).abs() <= EPS;

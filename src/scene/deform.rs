@@ -157,9 +157,30 @@ pub fn vertex_normals(scene: &PreparedScene, positions: &[Vec3], fallback: &[Vec
         .collect()
 }
 
+/// Normals after the vertices moved from `old` to `new` positions: vertices
+/// with a moved incident triangle get [`vertex_normals`] at `new`; the
+/// others keep `normals` bit for bit (so their rays are unchanged, which
+/// selective updates rely on).
+pub fn moved_normals(scene: &PreparedScene, old: &[Vec3], new: &[Vec3], normals: &[Vec3]) -> Vec<Vec3> {
+    let fresh = vertex_normals(scene, new, normals);
+    (0..new.len())
+        .map(|v| {
+            let moved = scene.vertex_triangles.row(v).iter().any(|&t| {
+                scene.triangles[t as usize].iter().any(|&i| old[i as usize] != new[i as usize])
+            });
+            if moved {
+                fresh[v]
+            } else {
+                normals[v]
+            }
+        })
+        .collect()
+}
+
 /// Positions of the whole prepared scene at time `t`: every dynamic mesh
 /// with deformers is deformed from `rest` (the positions as prepared);
-/// other vertices keep their rest positions. Returns `(positions, normals)`.
+/// other vertices keep their rest positions and normals ([`moved_normals`]).
+/// Returns `(positions, normals)`.
 pub fn deform_scene(scene: &PreparedScene, rest: &[Vec3], rest_normals: &[Vec3], t: f32) -> (Vec<Vec3>, Vec<Vec3>) {
     let mut positions = rest.to_vec();
     let mut any = false;
@@ -175,7 +196,7 @@ pub fn deform_scene(scene: &PreparedScene, rest: &[Vec3], rest_normals: &[Vec3],
     if !any {
         return (positions, rest_normals.to_vec());
     }
-    let normals = vertex_normals(scene, &positions, rest_normals);
+    let normals = moved_normals(scene, rest, &positions, rest_normals);
     (positions, normals)
 }
 

@@ -10,6 +10,7 @@
 pub mod builtin;
 pub mod deform;
 pub mod file;
+pub mod motion;
 pub mod obj;
 pub mod prep;
 pub mod shapes;

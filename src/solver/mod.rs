@@ -17,6 +17,9 @@ use glam::Vec3;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
+mod deform;
+pub use deform::{DeformStats, PREVIEW_RAYS};
+
 /// Where links, light links and bounces are computed.
 #[derive(Clone, Debug, Default)]
 pub enum Compute {
@@ -165,6 +168,8 @@ pub struct SolveStats {
     pub shadow_rays_per_second: f64,
     /// Link generation per logical device (GPU path only).
     pub devices: Vec<DeviceShare>,
+    /// Bytes of the per-ray state kept for selective updates (0 without dynamic meshes).
+    pub ray_state_bytes: u64,
 }
 
 /// Per-vertex results.
@@ -193,6 +198,9 @@ pub struct Solver {
     /// Present when links, light links and bounces run on a GPU.
     pub gpu: Option<GpuState>,
     pub compute: Compute,
+    /// Every link ray's hit id, kept on the CPU path for scenes with
+    /// dynamic meshes only (selective updates, [`Solver::deform`]).
+    pub ray_hits: Option<links::RayHits>,
 }
 
 impl Solver {
@@ -200,9 +208,10 @@ impl Solver {
     /// links (reporting `progress(done, total)` vertices) and the light links.
     pub fn new(scene: PreparedScene, params: SolveParams, progress: &(dyn Fn(usize, usize) + Sync)) -> Solver {
         let accel = Accel::build(params.tracer, &scene.positions, &scene.triangles, &params.bvh, &params.kd);
-        let links = links::shoot_links(&scene, &accel, &params.links, progress);
+        let record = scene.meshes.iter().any(|m| m.dynamic);
+        let (links, ray_hits) = links::shoot_links_recording(&scene, &accel, &params.links, record, progress);
         let light_links = LightLinks::compute(&scene, &accel, &params.light);
-        Solver { scene, params, accel, links, light_links, gpu: None, compute: Compute::Cpu }
+        Solver { scene, params, accel, links, light_links, gpu: None, compute: Compute::Cpu, ray_hits }
     }
 
     /// The solver of `scene`, a deformation of this solver's scene (same
@@ -232,9 +241,10 @@ impl Solver {
         }
         let refitted = bvh.update(&scene.positions, &scene.triangles) == crate::bvh::refit::Update::Refit;
         let accel = Accel::Bvh(bvh);
-        let links = links::shoot_links(&scene, &accel, &params.links, progress);
+        let record = scene.meshes.iter().any(|m| m.dynamic);
+        let (links, ray_hits) = links::shoot_links_recording(&scene, &accel, &params.links, record, progress);
         let light_links = LightLinks::compute(&scene, &accel, &params.light);
-        (Solver { scene, params, accel, links, light_links, gpu: None, compute: Compute::Cpu }, refitted)
+        (Solver { scene, params, accel, links, light_links, gpu: None, compute: Compute::Cpu, ray_hits }, refitted)
     }
 
     /// Builds everything on `compute`: the kd-tree on the CPU (with
@@ -269,7 +279,16 @@ impl Solver {
         let light_links = LightLinks::compute_with(&scene, &tracer, &params.light)?;
         let gpu_links = GpuLinks::new(tracer.dev.clone(), &links, &scene.albedo)?;
         let gpu = GpuState { tracer, links: gpu_links, shares };
-        Ok(Solver { scene, params, accel: Accel::Kd(kd), links, light_links, gpu: Some(gpu), compute: compute.clone() })
+        Ok(Solver {
+            scene,
+            params,
+            accel: Accel::Kd(kd),
+            links,
+            light_links,
+            gpu: Some(gpu),
+            compute: compute.clone(),
+            ray_hits: None,
+        })
     }
 
     /// Brings the light links up to date with `scene.lights` (after lights
@@ -303,6 +322,11 @@ impl Solver {
             }
         }
         update(&mut self.light_links, &self.scene, &self.accel).expect("the CPU tracer cannot fail");
+    }
+
+    /// Bytes of the per-ray state kept for selective updates ([`Solver::ray_hits`]).
+    pub fn ray_state_bytes(&self) -> u64 {
+        self.ray_hits.as_ref().map_or(0, |h| h.bytes())
     }
 
     /// The tracer the rays go through: "bvh", "kd" or "gpu-kd".
@@ -372,6 +396,7 @@ impl Solver {
             bvh_build_ms: self.bvh_build_ms(),
             shadow_rays_per_second: self.light_links.shadow_rays as f64 / (self.light_links.ms.max(1e-9) * 1e-3),
             devices: self.gpu.as_ref().map(|g| g.shares.clone()).unwrap_or_default(),
+            ray_state_bytes: self.ray_state_bytes(),
         }
     }
 }

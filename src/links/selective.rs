@@ -1,0 +1,392 @@
+//! Selective re-shooting of vertex links after a deformation (DESIGN.md
+//! §6): only the rays a deformation can have changed are traced again, and
+//! only the link groups whose hits changed are rebuilt. Selective photon
+//! tracing (Dmitriev et al. 2002) does this for photon paths; here it is
+//! done for vertex links, exactly: the result equals a full re-shoot with
+//! the same seed (same hits, so the same merged groups bit for bit).
+//!
+//! Per-ray state ([`RayHits`]): the id of every ray's hit (triangle id,
+//! `| HIT_BACK` for a back face, or `HIT_MISS`), 4 bytes a ray, kept only
+//! for scenes with dynamic meshes. Barycentrics and distances are not
+//! stored: a kept hit on an unmoved triangle is recomputed with one
+//! watertight triangle test ([`crate::kdtree::triangle::intersect`]), which
+//! every tracer uses, so it is bit for bit the traced one.
+//!
+//! Which rays ([`reshoot`], with a [`Motion`]):
+//! - a remade vertex (moved, or next to something that moved) traces all
+//!   its rays;
+//! - any other vertex keeps its directions, origin and wedges. Its ray can
+//!   only change if the old hit lies on a moved triangle, or if a moved
+//!   triangle in its new place lies on the segment from the origin to the
+//!   old hit (`t` in `[0, t_old]`, to infinity for a miss). A moved
+//!   triangle's old place need not be tested: had it been on the segment,
+//!   the old hit would be on it. The segment is tested against the box of
+//!   the moved triangles first, then against a small BVH over them;
+//!   vertices that see the boxes only below their tangent plane are
+//!   skipped whole. Rays that dive under an incident triangle (self hits)
+//!   depend on nothing that moved.
+//!
+//! A vertex whose re-traced rays all hit what they hit before (same
+//! unmoved triangle) keeps its group. The others get their group rebuilt
+//! from all their rays' hit records in ray order ([`super::merge_vertex`]).
+
+use super::merge::{merge_vertex, HitRecord, MergeScratch, HIT_BACK, HIT_MISS};
+use super::shoot::{RaySetup, TraceScratch};
+use super::{LinkParams, Links};
+use crate::bvh::{Bvh, BvhBuildParams};
+use crate::kdtree::traverse::Ray;
+use crate::kdtree::triangle::{intersect, RayShear};
+use crate::kdtree::{Hit, KdTriangle};
+use crate::scene::motion::Motion;
+use crate::scene::prep::PreparedScene;
+use crate::trace::CpuTracer;
+use glam::Vec3;
+use half::f16;
+use rayon::prelude::*;
+use std::time::Instant;
+
+/// The hit id of every ray, `ids[v * rays_per_vertex + k]` for ray `k` of
+/// vertex `v` (triangle id, `| HIT_BACK`, or `HIT_MISS`).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct RayHits {
+    pub rays_per_vertex: usize,
+    pub ids: Vec<u32>,
+}
+
+impl RayHits {
+    /// Bytes held.
+    pub fn bytes(&self) -> u64 {
+        std::mem::size_of_val(self.ids.as_slice()) as u64
+    }
+
+    /// The ids of vertex `v`'s rays.
+    pub fn row(&self, v: usize) -> &[u32] {
+        &self.ids[v * self.rays_per_vertex..(v + 1) * self.rays_per_vertex]
+    }
+}
+
+/// Figures of one selective update.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct ReshootStats {
+    /// Rays traced (remade vertices' and static ones').
+    pub rays_reshot: u64,
+    /// Rays of the vertices that were not remade.
+    pub static_rays: u64,
+    /// Of those, rays traced again.
+    pub static_rays_reshot: u64,
+    /// Vertices whose rays were all traced.
+    pub remade_vertices: u64,
+    /// Link groups rebuilt.
+    pub groups_patched: u64,
+    pub ms: f64,
+}
+
+/// What one vertex's update produced: its new group and hit counts, and
+/// the old hit counts (for the link statistics).
+struct Patch {
+    targets: Vec<u32>,
+    weights: Vec<f16>,
+    new: [u64; 3],
+    old: [u64; 3],
+}
+
+/// `[front, back, miss]` of hit ids.
+fn id_counts(ids: &[u32]) -> [u64; 3] {
+    let mut c = [0u64; 3];
+    for &id in ids {
+        c[if id == HIT_MISS { 2 } else if id & HIT_BACK != 0 { 1 } else { 0 }] += 1;
+    }
+    c
+}
+
+fn record_of(hit: Option<Hit>) -> HitRecord {
+    match hit {
+        None => HitRecord { tri: HIT_MISS, u: 0.0, v: 0.0, t: f32::INFINITY },
+        Some(h) => HitRecord { tri: if h.front { h.tri } else { h.tri | HIT_BACK }, u: h.u, v: h.v, t: h.t },
+    }
+}
+
+fn triangle(scene: &PreparedScene, t: u32) -> KdTriangle {
+    let [a, b, c] = scene.triangles[t as usize];
+    let p = |i: u32| scene.positions[i as usize].to_array();
+    KdTriangle { v0: p(a), ia: a, v1: p(b), ib: b, v2: p(c), ic: c }
+}
+
+/// The hit record of a kept hit `id` (a triangle that did not move) of the
+/// ray `o + t d`, recomputed; `None` if the triangle test no longer meets
+/// it (never for an unmoved triangle and ray: then the ray is re-traced).
+fn kept_record(scene: &PreparedScene, id: u32, o: Vec3, d: Vec3) -> Option<HitRecord> {
+    if id == HIT_MISS {
+        return Some(record_of(None));
+    }
+    let tri = id & !HIT_BACK;
+    let (t, u, v, front) = intersect(&triangle(scene, tri), o, &RayShear::new(d), 0.0, f32::INFINITY)?;
+    (front == (id & HIT_BACK == 0)).then_some(HitRecord { tri: id, u, v, t })
+}
+
+/// Everything the per-vertex work shares.
+struct Context<'a> {
+    scene: &'a PreparedScene,
+    motion: &'a Motion,
+    tracer: &'a dyn CpuTracer,
+    setup: RaySetup,
+    probe: Option<Bvh>,
+    union_box: crate::scene::motion::Aabb,
+    weight_per_ray: f64,
+}
+
+impl Context<'_> {
+    /// True if ray `d` of a kept vertex at `o` must be traced again.
+    fn must_retrace(&self, v: usize, id: u32, o: Vec3, d: Vec3, kept: &mut Option<HitRecord>) -> bool {
+        if id != HIT_MISS && self.motion.moved_triangle[(id & !HIT_BACK) as usize] {
+            return true;
+        }
+        let Some(probe) = &self.probe else { return false };
+        let inv = d.recip();
+        if !self.motion.new_box.meets_segment(o, inv, 0.0, f32::INFINITY) {
+            return false;
+        }
+        let t_old = if id == HIT_MISS {
+            f32::INFINITY
+        } else {
+            match kept_record(self.scene, id, o, d) {
+                Some(r) => {
+                    *kept = Some(r);
+                    r.t
+                }
+                None => return true,
+            }
+        };
+        self.motion.new_box.meets_segment(o, inv, 0.0, t_old)
+            && probe.occluded(&Ray { origin: o, dir: d, tmin: 0.0, tmax: t_old, skip: v as u32 })
+    }
+
+    /// Updates vertex `v` whose hit ids are `row`.
+    fn vertex(&self, v: usize, row: &mut [u32], scratch: &mut Scratch) -> (Option<Patch>, u64) {
+        if self.motion.remade[v] {
+            self.setup.trace_vertex_with(self.tracer, v, &mut scratch.trace, &mut scratch.records);
+            let old = id_counts(row);
+            for (id, r) in row.iter_mut().zip(&scratch.records) {
+                *id = r.tri;
+            }
+            let (targets, weights, new) = self.merge(scratch);
+            return (Some(Patch { targets, weights, new, old }), row.len() as u64);
+        }
+        let o = self.setup.origins[v];
+        if self.union_box.below_plane(o, self.setup.normals[v], self.union_box.rounding_margin()) {
+            return (None, 0);
+        }
+        let wedges = self.setup.wedges(v);
+        scratch.records.clear();
+        scratch.retrace.clear();
+        scratch.dirs.clear();
+        for (k, d) in self.setup.world_directions(v).enumerate() {
+            if let Some(w) = wedges.iter().find(|w| w.dives_under(d)) {
+                scratch.records.push(w.self_hit());
+                continue;
+            }
+            let mut kept = None;
+            if self.must_retrace(v, row[k], o, d, &mut kept) {
+                scratch.retrace.push(k as u32);
+                scratch.dirs.push(d);
+                // Placeholder, filled from the trace below.
+                scratch.records.push(HitRecord::default());
+            } else {
+                // Filled below if the group is rebuilt.
+                scratch.records.push(kept.unwrap_or(HitRecord { tri: TO_RECOMPUTE, ..Default::default() }));
+            }
+        }
+        let traced = scratch.retrace.len() as u64;
+        if traced == 0 {
+            return (None, 0);
+        }
+        scratch.hits.clear();
+        scratch.hits.resize(scratch.dirs.len(), None);
+        self.tracer.intersect_origin(o, v as u32, &scratch.dirs, &mut scratch.hits);
+        let old = id_counts(row);
+        let mut changed = false;
+        for (&k, &h) in scratch.retrace.iter().zip(&scratch.hits) {
+            let r = record_of(h);
+            let old_id = row[k as usize];
+            changed |= r.tri != old_id || (old_id != HIT_MISS && self.motion.moved_triangle[(old_id & !HIT_BACK) as usize]);
+            scratch.records[k as usize] = r;
+            row[k as usize] = r.tri;
+        }
+        if !changed {
+            return (None, traced);
+        }
+        // Recompute the kept hits the group needs.
+        for (k, d) in self.setup.world_directions(v).enumerate() {
+            if scratch.records[k].tri == TO_RECOMPUTE {
+                let r = kept_record(self.scene, row[k], o, d);
+                // An unmoved triangle on an unchanged ray is met again; a
+                // failure here would be a bug, so trace the ray then.
+                scratch.records[k] = r.unwrap_or_else(|| {
+                    record_of(self.tracer.intersect(&Ray { origin: o, dir: d, tmin: 0.0, tmax: f32::INFINITY, skip: v as u32 }))
+                });
+                row[k] = scratch.records[k].tri;
+            }
+        }
+        let (targets, weights, new) = self.merge(scratch);
+        (Some(Patch { targets, weights, new, old }), traced)
+    }
+
+    fn merge(&self, scratch: &mut Scratch) -> (Vec<u32>, Vec<f16>, [u64; 3]) {
+        let (mut t, mut w) = (Vec::new(), Vec::new());
+        let c = merge_vertex(&scratch.records, &self.scene.triangles, self.weight_per_ray, &mut scratch.merge, &mut t, &mut w);
+        (t, w, [c.front as u64, c.back as u64, c.miss as u64])
+    }
+}
+
+/// Marks a kept record not yet recomputed (never a triangle id).
+const TO_RECOMPUTE: u32 = HIT_BACK - 2;
+
+#[derive(Default)]
+struct Scratch {
+    trace: TraceScratch,
+    records: Vec<HitRecord>,
+    retrace: Vec<u32>,
+    dirs: Vec<Vec3>,
+    hits: Vec<Option<Hit>>,
+    merge: MergeScratch,
+}
+
+/// Updates `links` and `hits` (the state of `scene` before `motion`) to
+/// `scene` after it, tracing with `tracer` (built over the new positions).
+/// `params` must be the ones the links were shot with. Returns the new
+/// links and the figures.
+pub fn reshoot(
+    scene: &PreparedScene,
+    motion: &Motion,
+    tracer: &dyn CpuTracer,
+    params: &LinkParams,
+    links: &Links,
+    hits: &mut RayHits,
+) -> (Links, ReshootStats) {
+    let start = Instant::now();
+    let n = scene.vertex_count();
+    let setup = RaySetup::new(scene, params);
+    let rays = setup.directions.len();
+    assert_eq!(hits.rays_per_vertex, rays, "ray state of another ray count");
+    assert_eq!(hits.ids.len(), n * rays, "ray state of another scene");
+    let probe = (!motion.moved_triangles.is_empty())
+        .then(|| Bvh::build(&scene.positions, &motion.moved_triangles, &BvhBuildParams::default()));
+    let ctx = Context {
+        scene,
+        motion,
+        tracer,
+        setup,
+        probe,
+        union_box: motion.union_box(),
+        weight_per_ray: std::f64::consts::PI / rays as f64,
+    };
+    const CHUNK: usize = 16;
+    let results: Vec<(Vec<Option<Patch>>, u64, u64)> = hits
+        .ids
+        .par_chunks_mut(rays * CHUNK)
+        .enumerate()
+        .map_init(Scratch::default, |scratch, (c, rows)| {
+            let mut patches = Vec::with_capacity(CHUNK);
+            let (mut remade_rays, mut static_rays) = (0, 0);
+            for (i, row) in rows.chunks_mut(rays).enumerate() {
+                let v = c * CHUNK + i;
+                let (p, traced) = ctx.vertex(v, row, scratch);
+                if motion.remade[v] {
+                    remade_rays += traced;
+                } else {
+                    static_rays += traced;
+                }
+                patches.push(p);
+            }
+            (patches, remade_rays, static_rays)
+        })
+        .collect();
+    let mut stats = ReshootStats { remade_vertices: motion.remade_count as u64, ..Default::default() };
+    let mut out = Links { offsets: Vec::with_capacity(n + 1), ..Default::default() };
+    out.offsets.push(0);
+    let mut link_stats = links.stats;
+    let extra: usize = results.iter().flat_map(|r| r.0.iter().flatten()).map(|p| p.targets.len()).sum();
+    out.targets.reserve(links.targets.len() + extra);
+    out.weights.reserve(links.targets.len() + extra);
+    let mut v = 0;
+    for (patches, remade_rays, static_rays) in results {
+        stats.rays_reshot += remade_rays + static_rays;
+        stats.static_rays_reshot += static_rays;
+        for p in patches {
+            match p {
+                Some(p) => {
+                    out.targets.extend_from_slice(&p.targets);
+                    out.weights.extend_from_slice(&p.weights);
+                    let s = &mut link_stats;
+                    s.front_hits = s.front_hits + p.new[0] - p.old[0];
+                    s.back_hits = s.back_hits + p.new[1] - p.old[1];
+                    s.misses = s.misses + p.new[2] - p.old[2];
+                    stats.groups_patched += 1;
+                }
+                None => {
+                    let (t, w) = links.group(v);
+                    out.targets.extend_from_slice(t);
+                    out.weights.extend_from_slice(w);
+                }
+            }
+            out.offsets.push(out.targets.len() as u32);
+            v += 1;
+        }
+    }
+    stats.static_rays = (n - motion.remade_count) as u64 * rays as u64;
+    link_stats.raw_links = 3 * link_stats.front_hits;
+    link_stats.raw_bytes = link_stats.raw_links * super::assemble::RAW_LINK_BYTES;
+    link_stats.merged_links = out.targets.len() as u64;
+    link_stats.merged_bytes = super::merged_bytes(link_stats.merged_links, n);
+    stats.ms = start.elapsed().as_secs_f64() * 1e3;
+    link_stats.shoot_ms = stats.ms;
+    out.stats = link_stats;
+    (out, stats)
+}
+
+/// The link groups of `vertices` shot with `params` (used for previews at
+/// few rays); returns `(vertex, targets, weights)` per vertex.
+pub fn shoot_groups(
+    scene: &PreparedScene,
+    tracer: &dyn CpuTracer,
+    params: &LinkParams,
+    vertices: &[u32],
+) -> Vec<(u32, Vec<u32>, Vec<f16>)> {
+    let setup = RaySetup::new(scene, params);
+    let weight_per_ray = std::f64::consts::PI / setup.directions.len() as f64;
+    vertices
+        .par_iter()
+        .map_init(Scratch::default, |s, &v| {
+            setup.trace_vertex_with(tracer, v as usize, &mut s.trace, &mut s.records);
+            let (mut t, mut w) = (Vec::new(), Vec::new());
+            merge_vertex(&s.records, &scene.triangles, weight_per_ray, &mut s.merge, &mut t, &mut w);
+            (v, t, w)
+        })
+        .collect()
+}
+
+/// `links` with the groups of the listed vertices replaced (sorted by vertex).
+pub fn with_groups(links: &Links, groups: &[(u32, Vec<u32>, Vec<f16>)]) -> Links {
+    let n = links.vertex_count();
+    let mut out = Links { offsets: Vec::with_capacity(n + 1), stats: links.stats, ..Default::default() };
+    out.offsets.push(0);
+    let mut next = groups.iter().peekable();
+    for v in 0..n {
+        match next.peek() {
+            Some((g, t, w)) if *g as usize == v => {
+                out.targets.extend_from_slice(t);
+                out.weights.extend_from_slice(w);
+                next.next();
+            }
+            _ => {
+                let (t, w) = links.group(v);
+                out.targets.extend_from_slice(t);
+                out.weights.extend_from_slice(w);
+            }
+        }
+        out.offsets.push(out.targets.len() as u32);
+    }
+    out.stats.merged_links = out.targets.len() as u64;
+    out.stats.merged_bytes = super::merged_bytes(out.stats.merged_links, n);
+    out
+}
