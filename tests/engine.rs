@@ -200,7 +200,7 @@ fn a_failed_batch_after_a_preview_still_ends_in_a_full_result() {
     let params = SolveParams::from_settings(&scene.settings);
     let (p, i) = first_point(&scene);
     for bad in [Change::RemoveLight(99), Change::Panic] {
-        let opts = EngineParams { delay: Duration::from_millis(400), light_preview: true };
+        let opts = EngineParams { delay: Duration::from_millis(400), light_preview: true, ..Default::default() };
         let mut e = Engine::start(scene.clone(), params, Compute::Cpu, opts);
         assert!(e.wait_idle(WAIT));
         let moved = |k: f32| Change::MoveLight {
@@ -220,5 +220,41 @@ fn a_failed_batch_after_a_preview_still_ends_in_a_full_result() {
         assert!(!r.preview, "a preview was left standing: {c:?}");
         assert_eq!((c.changes, c.errors), (3, 1), "{c:?}");
         assert!(e.last_error().is_some());
+    }
+}
+
+/// A deformation with `deform_preview` publishes a preview, then a full
+/// result equal to a fresh solve of the deformed scene; the counters carry
+/// the selective update's figures and `wait_idle` waits for the full one.
+#[test]
+fn deformation_preview_then_selective_full_result() {
+    use linkgi::solver::Solver;
+    let mut desc = builtin::builtin("torso").unwrap();
+    desc.settings.rays_per_vertex = 16;
+    let rest = prep::prepare(&desc).unwrap();
+    let params = SolveParams::from_settings(&rest.settings);
+    let opts = EngineParams { deform_preview: true, ..Default::default() };
+    let mut e = Engine::start(rest.clone(), params, Compute::Cpu, opts);
+    assert!(e.wait_idle(WAIT));
+    let c0 = e.counters();
+    assert!(c0.deform.is_none());
+    for (k, t) in [0.4f32, 1.1].into_iter().enumerate() {
+        let (positions, normals) = deform_scene(&rest, &rest.positions, &rest.normals, t);
+        e.send(Change::Deform { positions: positions.clone() });
+        assert!(e.wait_idle(WAIT));
+        let c = e.counters();
+        assert_eq!(c.previews, k as u64 + 1, "one preview per deformation");
+        assert_eq!(c.published, c0.published + 2 * (k as u64 + 1));
+        let d = c.deform.expect("deformation figures");
+        assert!(d.selective && d.links.rays_reshot > 0 && d.links.groups_patched > 0, "{d:?}");
+        assert!(d.ray_state_bytes > 0 && d.light_links_recomputed > 0);
+        assert!(c.preview_ms > 0.0 && c.preview_ms <= c.update_ms + 1e-9, "{} vs {}", c.preview_ms, c.update_ms);
+        let latest = e.latest().unwrap();
+        assert!(!latest.preview, "wait_idle returned on a preview");
+        let fresh = Solver::new(prep::PreparedScene { positions, normals, ..rest.clone() }, params, &|_, _| {});
+        let sol = fresh.solve();
+        for (a, b) in latest.e_indirect.iter().zip(&sol.e_indirect) {
+            assert!((*a - *b).abs().max_element() <= 1e-5 * b.max_element().max(1e-12), "{a} vs {b}");
+        }
     }
 }

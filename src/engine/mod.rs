@@ -11,15 +11,19 @@
 //! |---|---|
 //! | light moved / added / removed | light links of the lights at a new position or direction + gather |
 //! | light intensity changed | gather (its light links are kept) |
+//! | mesh deformed (new positions; static meshes must not move) | CPU: BVH refit + selective re-shooting of links and light links ([`Solver::deform`]) + gather; GPU: everything |
+//! | settings: rays or seed | kd-tree + links + light links + gather |
+//! | settings: bounces or smoothing | gather |
+//! | deform to the current positions, or nothing | nothing (the worker sleeps on the channel) |
 //!
 //! With [`EngineParams::light_preview`] (the viewer's choice), a light edit
 //! that needs tracing publishes a preview first (new light links from the
 //! vertices alone, [`GiResult::preview`]), then the full result unless more
 //! changes are already queued; the next batch then refines the preview.
-//! | mesh deformed (new positions; static meshes must not move) | kd-tree + links + light links + gather |
-//! | settings: rays or seed | kd-tree + links + light links + gather |
-//! | settings: bounces or smoothing | gather |
-//! | deform to the current positions, or nothing | nothing (the worker sleeps on the channel) |
+//! With [`EngineParams::deform_preview`], a selective deformation update
+//! publishes a preview first (the remade vertices' links at
+//! [`PREVIEW_RAYS`] rays), then the full result at once; `wait_idle` (and
+//! the viewer's `wait_gi`) wait for the full one.
 //!
 //! Each finished update is published as a new `Arc<GiResult>` with a version
 //! one higher than the last. A change that fails (bad light index, wrong
@@ -32,7 +36,7 @@
 use crate::scene::deform::moved_normals;
 use crate::scene::prep::PreparedScene;
 use crate::scene::{Light, Settings};
-use crate::solver::{Compute, SolveParams, Solver};
+use crate::solver::{Compute, DeformStats, SolveParams, Solver, PREVIEW_RAYS};
 use crossbeam_channel::{Receiver, Sender};
 use glam::Vec3;
 use std::panic::AssertUnwindSafe;
@@ -114,6 +118,12 @@ pub struct Counters {
     pub gather_ms: f64,
     /// Last whole update, ms.
     pub update_ms: f64,
+    /// Figures of the last deformation update (rays re-shot, link groups
+    /// patched, light links recomputed, bytes of per-ray state), if any.
+    pub deform: Option<DeformStats>,
+    /// Time from taking the last deformation to publishing its preview, ms
+    /// (0 when it had none).
+    pub preview_ms: f64,
 }
 
 /// Engine options.
@@ -128,6 +138,12 @@ pub struct EngineParams {
     /// handled ([`Counters::changes`]) only with the full result. Default
     /// off; the viewer turns it on.
     pub light_preview: bool,
+    /// A deformation handled selectively first publishes a preview: the
+    /// remade vertices' links shot at [`PREVIEW_RAYS`] rays and their light
+    /// links from the vertices alone, everything else as before; the full
+    /// result follows at once. Default off; the viewer and `animate` turn
+    /// it on.
+    pub deform_preview: bool,
 }
 
 struct Shared {
@@ -187,6 +203,12 @@ fn publish(shared: &Shared, s: &Solver, c: &mut Counters, t0: Instant, preview: 
     total.batches += batch_done as u64;
     if c.kd_builds + c.refits > 0 {
         total.rebuild_ms = c.rebuild_ms;
+    }
+    if c.deform.is_some() {
+        total.deform = c.deform;
+    }
+    if preview && c.preview_ms > 0.0 {
+        total.preview_ms = c.preview_ms;
     }
     if c.light_link_updates > 0 {
         total.light_links_ms = c.light_links_ms;
@@ -437,6 +459,7 @@ impl Worker {
         let compute = self.compute.clone();
         let shared = self.shared.clone();
         let light_preview = self.options.light_preview;
+        let deform_preview = self.options.deform_preview;
         let pending = self.pending;
         let outcome = std::panic::catch_unwind(AssertUnwindSafe(|| -> Result<(Solver, bool), String> {
             if dirty.panic {
@@ -445,19 +468,26 @@ impl Worker {
             let mut c = Counters::default();
             let mut s = match solver.take() {
                 Some(s) if !dirty.geometry => s,
-                // A deformation on the CPU: refit the BVH, trace anew.
+                // A deformation on the CPU: refit the BVH, re-shoot what moved.
                 Some(s) if matches!(compute, crate::solver::Compute::Cpu) && s.gpu.is_none() => {
                     let t = Instant::now();
-                    let (s, refitted) = s.deformed(scene.clone(), params, &|_, _| {});
+                    let mut show = |p: &Solver| {
+                        c.preview_ms = t0.elapsed().as_secs_f64() * 1e3;
+                        publish(&shared, p, &mut c, t0, true, 0, false);
+                    };
+                    let preview: Option<(u32, &mut dyn FnMut(&Solver))> =
+                        if deform_preview { Some((PREVIEW_RAYS, &mut show)) } else { None };
+                    let (s, d) = s.deform(scene.clone(), params, preview, &|_, _| {});
                     c.rebuild_ms = t.elapsed().as_secs_f64() * 1e3;
-                    if refitted {
+                    if d.refitted {
                         c.refits += 1;
                     } else {
                         c.kd_builds += 1;
                     }
                     c.link_builds += 1;
                     c.light_link_updates += 1;
-                    c.light_links_ms = s.light_links.ms;
+                    c.light_links_ms = d.light_links_ms;
+                    c.deform = Some(d);
                     s
                 }
                 _ => {
