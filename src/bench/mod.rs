@@ -129,6 +129,17 @@ pub struct RunTimes {
     /// The same move, full: that light's light links plus bounces and
     /// smoothing ([`Solver::update_lights`]); NaN without lights.
     pub light_move_ms: f64,
+    /// Scenes with deformers, CPU ([`time_deformation`]): the selective
+    /// update from the rest pose to [`DEFORM_TIME_S`] with bounces and
+    /// smoothing, ms; NaN otherwise.
+    pub deform_update_ms: f64,
+    /// The full update after the same deformation (BVH refit, every link
+    /// ray and light link traced again) with bounces and smoothing, ms.
+    pub deform_full_ms: f64,
+    /// Time to the preview's smoothed `E_i` of a selective update ([`crate::solver::PREVIEW_RAYS`] rays), ms.
+    pub deform_preview_ms: f64,
+    /// Share of the static vertices' rays the selective update traced again.
+    pub deform_static_rays_fraction: f64,
 }
 
 /// One scene's figures (sizes from the last run; times over all measured runs).
@@ -157,6 +168,17 @@ pub struct BenchRow {
     pub first_solution_ms: Stat,
     pub light_preview_ms: Stat,
     pub light_move_ms: Stat,
+    /// Scenes with deformers (CPU): selective update after a deformation
+    /// with bounces and smoothing, ms ([`time_deformation`]); NaN otherwise.
+    pub deform_update_ms: Stat,
+    /// The full update after the same deformation, ms.
+    pub deform_full_ms: Stat,
+    /// Time to the preview of a selective update, ms.
+    pub deform_preview_ms: Stat,
+    /// Share of static vertices' rays the selective update traced again (median).
+    pub deform_static_rays_fraction: f64,
+    /// Per-ray state kept for selective updates, MB (0 without dynamic meshes).
+    pub ray_state_mb: f64,
     /// Offscreen frames per second of the renderer with the solved GI (NaN: not measured).
     pub render_fps: f64,
     /// The renderer used ("gpu: <adapter>" or "cpu fallback").
@@ -206,6 +228,11 @@ impl BenchRow {
             first_solution_ms: st(|r| r.first_solution_ms),
             light_preview_ms: st(|r| r.light_preview_ms),
             light_move_ms: st(|r| r.light_move_ms),
+            deform_update_ms: st(|r| r.deform_update_ms),
+            deform_full_ms: st(|r| r.deform_full_ms),
+            deform_preview_ms: st(|r| r.deform_preview_ms),
+            deform_static_rays_fraction: st(|r| r.deform_static_rays_fraction).median,
+            ray_state_mb: sizes.ray_state_bytes as f64 / 1e6,
             render_fps: f64::NAN,
             renderer: String::new(),
             peak_mb: f64::NAN,
@@ -231,6 +258,8 @@ pub struct Sizes {
     pub bytes_merged: u64,
     /// Bytes one gather bounce moves at least.
     pub gather_bytes: u64,
+    /// Bytes of the per-ray state of selective updates (0 without dynamic meshes).
+    pub ray_state_bytes: u64,
 }
 
 /// Moves light 0 a little and times the preview and the full update, each
@@ -255,6 +284,45 @@ fn time_light_move(solver: &mut Solver) -> (f64, f64) {
     (preview, t.elapsed().as_secs_f64() * 1e3)
 }
 
+/// Deformer time of the deformed pose the deformation benchmark moves to,
+/// from the rest pose (one update at 4 updates per second of animation).
+pub const DEFORM_TIME_S: f32 = 0.25;
+
+/// Deformation figures of [`RunTimes`]: `(selective ms, full ms, preview
+/// ms, static rays fraction, per-ray state bytes)`. The solver (at rest,
+/// CPU) is moved to [`DEFORM_TIME_S`] by a full update, back by a
+/// selective one with a preview (timing the preview), and to
+/// [`DEFORM_TIME_S`] again by a selective one (timed); each time with
+/// bounces and smoothing. `None` without deformers or on the GPU path.
+pub fn time_deformation(solver: Solver) -> (Solver, Option<(f64, f64, f64, f64, u64)>) {
+    use crate::scene::deform::{deform_scene, has_deformers};
+    if !has_deformers(&solver.scene) || solver.gpu.is_some() {
+        return (solver, None);
+    }
+    let rest = solver.scene.clone();
+    let (positions, normals) = deform_scene(&rest, &rest.positions, &rest.normals, DEFORM_TIME_S);
+    let moved = prep::PreparedScene { positions, normals, ..rest.clone() };
+    let params = solver.params;
+    let t = Instant::now();
+    let (solver, _) = solver.deformed(moved.clone(), params, &|_, _| {});
+    let _ = solver.solve();
+    let full_ms = t.elapsed().as_secs_f64() * 1e3;
+    let t = Instant::now();
+    let mut preview_ms = f64::NAN;
+    let mut show = |s: &Solver| {
+        let _ = s.solve();
+        preview_ms = t.elapsed().as_secs_f64() * 1e3;
+    };
+    let (solver, _) = solver.deform(rest, params, Some((crate::solver::PREVIEW_RAYS, &mut show)), &|_, _| {});
+    let t = Instant::now();
+    let (solver, stats) = solver.deform(moved, params, None, &|_, _| {});
+    let _ = solver.solve();
+    let update_ms = t.elapsed().as_secs_f64() * 1e3;
+    let fraction = stats.static_rays_fraction();
+    let bytes = stats.ray_state_bytes;
+    (solver, Some((update_ms, full_ms, preview_ms, fraction, bytes)))
+}
+
 /// One complete build and solve of `scene`, timed.
 pub fn run_once(
     scene: &prep::PreparedScene,
@@ -268,18 +336,7 @@ pub fn run_once(
     // Read before the light move below replaces them.
     let (light_links_ms, shadow_rays) = (solver.light_links.ms, solver.light_links.shadow_rays);
     let (light_preview_ms, light_move_ms) = time_light_move(&mut solver);
-    let l = &solver.links.stats;
-    let times = RunTimes {
-        kd_ms: solver.accel_build_ms(),
-        links_ms: l.shoot_ms,
-        rays_per_s: l.rays_per_second(),
-        light_links_ms,
-        shadow_rays_per_s: shadow_rays as f64 / (light_links_ms.max(1e-9) * 1e-3),
-        bounces_ms: solution.gather.ms,
-        first_solution_ms,
-        light_preview_ms,
-        light_move_ms,
-    };
+    let l = solver.links.stats;
     let sizes = Sizes {
         vertices: solver.scene.vertex_count(),
         triangles: solver.scene.triangles.len(),
@@ -289,6 +346,27 @@ pub fn run_once(
         bytes_raw: l.raw_bytes,
         bytes_merged: l.merged_bytes,
         gather_bytes: bandwidth::gather_bytes(&solver.links),
+        ray_state_bytes: solver.ray_state_bytes(),
+    };
+    let accel_build_ms = solver.accel_build_ms();
+    let (_, deform) = time_deformation(solver);
+    let nan = f64::NAN;
+    let (deform_update_ms, deform_full_ms, deform_preview_ms, deform_static_rays_fraction, _) =
+        deform.unwrap_or((nan, nan, nan, nan, 0));
+    let times = RunTimes {
+        kd_ms: accel_build_ms,
+        links_ms: l.shoot_ms,
+        rays_per_s: l.rays_per_second(),
+        light_links_ms,
+        shadow_rays_per_s: shadow_rays as f64 / (light_links_ms.max(1e-9) * 1e-3),
+        bounces_ms: solution.gather.ms,
+        first_solution_ms,
+        light_preview_ms,
+        light_move_ms,
+        deform_update_ms,
+        deform_full_ms,
+        deform_preview_ms,
+        deform_static_rays_fraction,
     };
     Ok((times, sizes, solution.e_indirect))
 }

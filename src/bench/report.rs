@@ -117,6 +117,34 @@ pub fn markdown(rows: &[BenchRow]) -> String {
             stat(&r.light_move_ms, 1)
         );
     }
+    let deforming: Vec<&BenchRow> = rows.iter().filter(|r| r.deform_update_ms.median.is_finite()).collect();
+    if !deforming.is_empty() {
+        let _ = writeln!(
+            out,
+            "\n### Deformation from rest to t = {} s (median [min, max] of {runs} runs), with bounces and smoothing\n",
+            super::DEFORM_TIME_S
+        );
+        let _ = writeln!(
+            out,
+            "| scene | source | preview ms | selective ms | full ms | speed-up | static rays re-shot | ray state MB |"
+        );
+        let _ = writeln!(out, "|---|---|---|---|---|---|---|---|");
+        for r in deforming {
+            let _ = writeln!(
+                out,
+                "| {} | linkgi {} | {} | {} | {} | {:.1}x | {:.1}% | {:.1} |",
+                r.scene,
+                r.backend,
+                stat(&r.deform_preview_ms, 1),
+                stat(&r.deform_update_ms, 1),
+                stat(&r.deform_full_ms, 1),
+                r.deform_full_ms.median / r.deform_update_ms.median,
+                100.0 * r.deform_static_rays_fraction,
+                r.ray_state_mb
+            );
+        }
+        let _ = writeln!(out, "\nPaper (TORSO, two GPUs): a full update every 0.4 s; no selective updates.");
+    }
     let cpu: Vec<&BenchRow> = rows.iter().filter(|r| r.backend == "CPU" && r.read_gbps.is_finite()).collect();
     if let Some(first) = cpu.first() {
         let _ = writeln!(
@@ -211,6 +239,10 @@ mod tests {
                 first_solution_ms: 100.0 * k,
                 light_preview_ms: k / 20.0,
                 light_move_ms: k / 4.0,
+                deform_update_ms: f64::NAN,
+                deform_full_ms: f64::NAN,
+                deform_preview_ms: f64::NAN,
+                deform_static_rays_fraction: f64::NAN,
             })
             .collect();
         let sizes = Sizes {
@@ -222,6 +254,7 @@ mod tests {
             bytes_raw: 24_000_000,
             bytes_merged: 6_000_000,
             gather_bytes: 6_500_000,
+            ray_state_bytes: 0,
         };
         BenchRow::from_runs(scene, &sizes, 256, &runs)
     }

@@ -1,0 +1,50 @@
+//! Times the stages of a selective deformation update against a full one
+//! on a built-in scene with deformers: `cargo run --release --example
+//! deform_probe -- [scene] [rays] [t0] [t1]`.
+
+use linkgi::scene::deform::deform_scene;
+use linkgi::scene::{builtin, prep};
+use linkgi::solver::{SolveParams, Solver};
+use std::time::Instant;
+
+fn main() {
+    let args: Vec<String> = std::env::args().collect();
+    let name = args.get(1).map_or("dancer", |s| s.as_str());
+    let rays: u32 = args.get(2).and_then(|s| s.parse().ok()).unwrap_or(256);
+    let t0: f32 = args.get(3).and_then(|s| s.parse().ok()).unwrap_or(0.0);
+    let t1: f32 = args.get(4).and_then(|s| s.parse().ok()).unwrap_or(0.25);
+    let mut desc = builtin::builtin(name).expect("a built-in scene");
+    desc.settings.rays_per_vertex = rays;
+    let rest = prep::prepare(&desc).expect("prepares");
+    let at = |t: f32| {
+        let (positions, normals) = deform_scene(&rest, &rest.positions, &rest.normals, t);
+        prep::PreparedScene { positions, normals, ..rest.clone() }
+    };
+    let params = SolveParams::from_settings(&rest.settings);
+    let solver = Solver::new(at(t0), params, &|_, _| {});
+    let solver = Solver::new(at(t0), params, &|_, _| {});
+    let t = Instant::now();
+    let (solver, refit) = solver.deformed(at(t1), params, &|_, _| {});
+    let full_ms = t.elapsed().as_secs_f64() * 1e3;
+    println!("full: {full_ms:.1} ms (refit {refit}, links {:.1} ms, light {:.1} ms)", solver.links.stats.shoot_ms, solver.light_links.ms);
+    let solver = Solver::new(at(t0), params, &|_, _| {});
+    let t = Instant::now();
+    let (solver, d) = solver.deform(at(t1), params, None, &|_, _| {});
+    let ms = t.elapsed().as_secs_f64() * 1e3;
+    let g = Instant::now();
+    let _ = solver.solve();
+    println!(
+        "selective: {ms:.1} ms: accel {:.1}, links {:.1} ({} rays re-shot, {} remade vertices of {}, {} groups patched, static fraction {:.4}), light {:.1} ({} entries); gather+smooth {:.1} ms; state {:.1} MB",
+        d.accel_ms,
+        d.links.ms,
+        d.links.rays_reshot,
+        d.links.remade_vertices,
+        solver.scene.vertex_count(),
+        d.links.groups_patched,
+        d.static_rays_fraction(),
+        d.light_links_ms,
+        d.light_links_recomputed,
+        g.elapsed().as_secs_f64() * 1e3,
+        d.ray_state_bytes as f64 / 1e6
+    );
+}
