@@ -30,6 +30,7 @@ mod orbit;
 mod panel;
 mod script;
 
+use super::setup::{compute, setup, Overrides, Setup};
 use anyhow::{bail, Context, Result};
 use display::{Capture, Display};
 use glam::{Vec2, Vec3};
@@ -40,8 +41,8 @@ use linkgi::kdtree::Ray;
 use linkgi::render::{Frame, RenderParams, View};
 use linkgi::scene::deform::{deform_scene, has_deformers};
 use linkgi::scene::prep::PreparedScene;
-use linkgi::scene::{self, prep, Light, Settings, TracerKind};
-use linkgi::solver::{Compute, SolveParams};
+use linkgi::scene::{Light, Settings};
+use linkgi::solver::SolveParams;
 use orbit::{cursor_on_plane, project, Orbit};
 use panel::{strength, PanelModel, UiAction};
 use script::{parse_script, Action, ScriptLine};
@@ -60,9 +61,6 @@ use winit::window::{Window, WindowId};
 pub struct ViewArgs {
     /// Scene file or built-in name.
     pub scene: String,
-    /// auto/gpu: rasterize on the first adapter, else the CPU; cpu: CPU fallback. GI as in `render`.
-    #[arg(long, default_value = "auto")]
-    pub backend: String,
     /// Initial window size, WIDTHxHEIGHT.
     #[arg(long, default_value = "800x600")]
     pub size: String,
@@ -75,12 +73,8 @@ pub struct ViewArgs {
     /// Radiance scale before tone mapping.
     #[arg(long, default_value_t = 0.6)]
     pub exposure: f32,
-    /// Rays per vertex of the GI (a square number); overrides the scene's setting.
-    #[arg(long)]
-    pub rays: Option<u32>,
-    /// CPU ray tracer: bvh (wide BVH) or kd (kd-tree with ropes); overrides the scene's setting.
-    #[arg(long, value_name = "bvh|kd", value_parser = crate::cli::parse_tracer)]
-    pub tracer: Option<TracerKind>,
+    #[command(flatten)]
+    pub overrides: Overrides,
     /// Present without waiting for the display's refresh (measures the real frame rate).
     #[arg(long)]
     pub no_vsync: bool,
@@ -728,7 +722,6 @@ impl ApplicationHandler for Viewer {
 
 pub fn run(args: ViewArgs) -> Result<()> {
     let (width, height) = super::render::parse_size(&args.size)?;
-    let backend: Backend = args.backend.parse()?;
     if !(args.exposure.is_finite() && args.exposure > 0.0) {
         bail!("--exposure must be positive");
     }
@@ -742,18 +735,8 @@ pub fn run(args: ViewArgs) -> Result<()> {
     // Before the scene and the engine: no display fails fast.
     let event_loop = EventLoop::new().context("opening the window system (is DISPLAY or WAYLAND_DISPLAY set?)")?;
     event_loop.set_control_flow(ControlFlow::Poll);
-    let mut desc = scene::load(&args.scene)?;
-    for w in &desc.warnings {
-        eprintln!("warning: {w}");
-    }
-    if let Some(r) = args.rays {
-        desc.settings.rays_per_vertex = r;
-    }
-    if let Some(t) = args.tracer {
-        desc.settings.tracer = t;
-    }
-    desc.settings.validate()?;
-    let prepared = prep::prepare(&desc)?;
+    let Setup { desc, prepared, settings } = setup(&args.scene, &args.overrides)?;
+    let backend = settings.backend;
     for step in &script {
         if let Action::MoveLight { index, .. } | Action::SetIntensity { index, .. } = step.action {
             if index >= prepared.lights.len() {
@@ -766,15 +749,12 @@ pub fn run(args: ViewArgs) -> Result<()> {
             }
         }
     }
-    let (compute, note) = Compute::from_backend(backend, 1)?;
-    if let Some(n) = note {
-        eprintln!("{n}");
-    }
+    let compute = compute(backend, 1)?;
     let gi_device = compute.describe();
     let extent = Frame::of(&prepared, &prepared.positions, desc.camera).extent();
     let engine = Engine::start(
         prepared.clone(),
-        SolveParams::from_settings(&prepared.settings),
+        SolveParams::from_settings(&settings),
         compute,
         // Moving a light shows a quick preview first (see EngineParams).
         EngineParams { light_preview: true, ..Default::default() },
@@ -788,7 +768,6 @@ pub fn run(args: ViewArgs) -> Result<()> {
             (base * 1e-2, base * 1e2)
         })
         .collect();
-    let settings = prepared.settings;
     let mut viewer = Viewer {
         rest: prepared.positions.clone(),
         rest_normals: prepared.normals.clone(),
