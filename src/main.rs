@@ -23,45 +23,9 @@ enum Command {
     /// Build links and solve a scene (a .toml or .obj file, or a built-in name), print figures.
     Solve(cli::solve::SolveArgs),
     /// Benchmark scenes (default: all built-ins) as the paper's two tables.
-    Bench {
-        /// Scene files or built-in names.
-        scenes: Vec<String>,
-        /// Ray-shooting backend: cpu, gpu or both.
-        #[arg(long, default_value = "cpu")]
-        backend: String,
-        /// Rays per vertex (a square number).
-        #[arg(long, default_value_t = 256)]
-        rays: u32,
-        /// CPU ray tracer: bvh (wide BVH) or kd (kd-tree with ropes); overrides the scenes' setting.
-        #[arg(long, value_name = "bvh|kd", value_parser = cli::parse_tracer)]
-        tracer: Option<scene::TracerKind>,
-        /// Measured runs per scene (after one warm-up run); the median is reported.
-        #[arg(long, default_value_t = 5)]
-        runs: u32,
-        /// Write the figures as JSON.
-        #[arg(long, value_name = "FILE")]
-        json: Option<PathBuf>,
-        /// Write the tables as markdown.
-        #[arg(long, value_name = "FILE")]
-        markdown: Option<PathBuf>,
-    },
+    Bench(cli::bench::BenchArgs),
     /// Error against the Monte Carlo reference over rays (16..1024), bounces (1..6, auto) and smoothing.
-    Error {
-        /// Scene file or built-in name.
-        scene: String,
-        /// Output folder for errors.csv and errors.png.
-        #[arg(long, default_value = "out/error")]
-        out: PathBuf,
-        /// Reference paths per vertex.
-        #[arg(long, default_value_t = 4096)]
-        ref_samples: u32,
-        /// Reference cache folder (default target/reference-cache).
-        #[arg(long)]
-        cache: Option<PathBuf>,
-        /// CPU ray tracer: bvh (wide BVH) or kd (kd-tree with ropes); overrides the scene's setting.
-        #[arg(long, value_name = "bvh|kd", value_parser = cli::parse_tracer)]
-        tracer: Option<scene::TracerKind>,
-    },
+    Error(cli::error::ErrorArgs),
     /// Render a scene (GI solved first) to a PNG.
     Render(cli::render::RenderArgs),
     /// Animate: move the first light, run deformers, render every frame with the async engine's GI.
@@ -84,21 +48,15 @@ fn main() -> Result<()> {
             exr: None,
             size: "640x480".into(),
             view: linkgi::render::View::Combined,
-            backend: "auto".into(),
+            overrides: cli::setup::Overrides::default(),
             exposure: 0.6,
-            rays: None,
-            tracer: None,
         }),
         Some(Command::Solve(args)) => cli::solve::run(args),
         Some(Command::Render(args)) => cli::render::run(args),
         Some(Command::Animate(args)) => cli::animate::run(args),
         Some(Command::View(args)) => cli::view::run(args),
-        Some(Command::Bench { scenes, backend, rays, tracer, runs, json, markdown }) => {
-            cli::bench::run(cli::bench::Args { scenes, backend, rays, tracer, runs, json, markdown })
-        }
-        Some(Command::Error { scene, out, ref_samples, cache, tracer }) => {
-            cli::error::run(cli::error::Args { scene, out, ref_samples, cache, tracer })
-        }
+        Some(Command::Bench(args)) => cli::bench::run(args),
+        Some(Command::Error(args)) => cli::error::run(args),
         Some(Command::Scenes { dir }) => {
             for name in scene::builtin::NAMES {
                 let s = scene::builtin::builtin(name).expect("built-in exists");

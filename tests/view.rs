@@ -192,9 +192,9 @@ fn mouse_drags_light_and_orbits_panel_shows() {
     // Cornell's geometry with a camera that looks up at the light, which hangs off-centre.
     let scenes = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes");
     let toml = dir.join("lamp.toml");
-    let mut text = format!(
+    let mut text = String::from(
         "[settings]\nrays_per_vertex = 64\n[camera]\nposition = [0.0, 1.0, 0.95]\ntarget = [0.0, 1.5, -0.5]\n\
-         fov_deg = 80.0\n[[light]]\nkind = \"point\"\nposition = [0.35, 1.8, -0.1]\nintensity = [4.0, 4.0, 4.0]\n"
+         fov_deg = 80.0\n[[light]]\nkind = \"point\"\nposition = [0.35, 1.8, -0.1]\nintensity = [4.0, 4.0, 4.0]\n",
     );
     for obj in ["cornell_0.obj", "cornell_1.obj"] {
         text += &format!("[[mesh]]\nobj = {:?}\n", scenes.join(obj).display().to_string());

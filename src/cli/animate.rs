@@ -5,14 +5,14 @@
 //! `DIR/frame_NNNN.png` and `DIR/frames.csv` (frame time, GI version and age,
 //! engine counters).
 
+use super::setup::{compute, setup, Overrides, Setup};
 use anyhow::{Context, Result};
 use indicatif::{ProgressBar, ProgressStyle};
 use linkgi::engine::{Change, Engine, EngineParams};
-use linkgi::gpu::Backend;
 use linkgi::render::{write_png, Frame, RenderParams, Renderer};
 use linkgi::scene::deform::{deform_scene, has_deformers};
-use linkgi::scene::{self, prep, Light, TracerKind};
-use linkgi::solver::{Compute, SolveParams};
+use linkgi::scene::Light;
+use linkgi::solver::SolveParams;
 use std::fmt::Write as _;
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
@@ -37,15 +37,8 @@ pub struct AnimateArgs {
     /// Image size, WIDTHxHEIGHT.
     #[arg(long, default_value = "320x240")]
     pub size: String,
-    /// auto/gpu: rasterize on the first adapter, else the CPU; cpu: CPU fallback. GI as in `render`.
-    #[arg(long, default_value = "auto")]
-    pub backend: String,
-    /// Rays per vertex of the GI (a square number); overrides the scene's setting.
-    #[arg(long)]
-    pub rays: Option<u32>,
-    /// CPU ray tracer: bvh (wide BVH) or kd (kd-tree with ropes); overrides the scene's setting.
-    #[arg(long, value_name = "bvh|kd", value_parser = crate::cli::parse_tracer)]
-    pub tracer: Option<TracerKind>,
+    #[command(flatten)]
+    pub overrides: Overrides,
     /// Radiance scale before tone mapping.
     #[arg(long, default_value_t = 0.6)]
     pub exposure: f32,
@@ -53,23 +46,12 @@ pub struct AnimateArgs {
 
 pub fn run(args: AnimateArgs) -> Result<()> {
     let (width, height) = super::render::parse_size(&args.size)?;
-    let backend: Backend = args.backend.parse()?;
     if args.frames == 0 || !(args.fps.is_finite() && args.fps > 0.0) {
         anyhow::bail!("--frames must be at least 1 and --fps positive");
     }
-    let mut desc = scene::load(&args.scene)?;
-    if let Some(r) = args.rays {
-        desc.settings.rays_per_vertex = r;
-    }
-    if let Some(t) = args.tracer {
-        desc.settings.tracer = t;
-    }
-    let prepared = prep::prepare(&desc)?;
-    let (compute, note) = Compute::from_backend(backend, 1)?;
-    if let Some(n) = note {
-        eprintln!("{n}");
-    }
-    let renderer = Renderer::open(backend);
+    let Setup { desc, prepared, settings } = setup(&args.scene, &args.overrides)?;
+    let compute = compute(settings.backend, 1)?;
+    let renderer = Renderer::open(settings.backend);
     std::fs::create_dir_all(&args.out).with_context(|| format!("creating {}", args.out.display()))?;
     let rest = prepared.positions.clone();
     let rest_normals = prepared.normals.clone();
@@ -78,7 +60,7 @@ pub fn run(args: AnimateArgs) -> Result<()> {
     let extent = Frame::of(&prepared, &rest, desc.camera).extent();
     let mut engine = Engine::start(
         prepared.clone(),
-        SolveParams::from_settings(&prepared.settings),
+        SolveParams::from_settings(&settings),
         compute.clone(),
         EngineParams::default(),
     );

@@ -1,24 +1,39 @@
 //! `linkgi bench`: the paper's two tables for each scene (src/bench),
 //! printed as markdown, optionally written as JSON and markdown files.
 
+use super::setup::{self, Overrides};
 use anyhow::{Context, Result};
 use indicatif::{ProgressBar, ProgressStyle};
 use linkgi::bench::{self, Backend, BenchParams};
 use linkgi::scene::{self, TracerKind};
 use std::path::PathBuf;
 
-pub struct Args {
+/// Arguments of `linkgi bench`.
+#[derive(clap::Args, Debug)]
+pub struct BenchArgs {
+    /// Scene files or built-in names.
     pub scenes: Vec<String>,
+    /// Ray-shooting backend: cpu, gpu or both.
+    #[arg(long, default_value = "cpu")]
     pub backend: String,
+    /// Rays per vertex (a square number).
+    #[arg(long, default_value_t = 256)]
     pub rays: u32,
-    /// Overrides each scene's `tracer` setting.
+    /// CPU ray tracer: bvh (wide BVH) or kd (kd-tree with ropes); overrides the scenes' setting.
+    #[arg(long, value_name = "bvh|kd", value_parser = super::parse_tracer)]
     pub tracer: Option<TracerKind>,
+    /// Measured runs per scene (after one warm-up run); the median is reported.
+    #[arg(long, default_value_t = 5)]
     pub runs: u32,
+    /// Write the figures as JSON.
+    #[arg(long, value_name = "FILE")]
     pub json: Option<PathBuf>,
+    /// Write the tables as markdown.
+    #[arg(long, value_name = "FILE")]
     pub markdown: Option<PathBuf>,
 }
 
-pub fn run(args: Args) -> Result<()> {
+pub fn run(args: BenchArgs) -> Result<()> {
     let backend: Backend = args.backend.parse()?;
     let computes = backend.computes()?;
     let names: Vec<String> = if args.scenes.is_empty() {
@@ -29,11 +44,9 @@ pub fn run(args: Args) -> Result<()> {
     let params = BenchParams { rays_per_vertex: args.rays, runs: args.runs.max(1), ..Default::default() };
     let mut descs = Vec::new();
     for n in &names {
-        let mut d = scene::load(n).with_context(|| format!("loading scene {n}"))?;
-        if let Some(t) = args.tracer {
-            d.settings.tracer = t;
-        }
-        descs.push(d);
+        // Each run prepares the scene itself (src/bench); rays and backend come from the flags above.
+        let overrides = Overrides { rays: Some(args.rays), tracer: args.tracer, ..Default::default() };
+        descs.push(setup::load(n, &overrides)?);
     }
     let per_scene = (params.warmup + params.runs) as u64;
     let bar = ProgressBar::new(per_scene * (descs.len() * computes.len()) as u64);

@@ -2,29 +2,37 @@
 //! Carlo reference (src/accuracy, src/reference); write errors.csv and
 //! errors.png into the output folder and print a summary.
 
+use super::setup::{setup, Overrides, Setup};
 use anyhow::{Context, Result};
 use indicatif::{ProgressBar, ProgressStyle};
 use linkgi::accuracy::{self, SweepParams};
 use linkgi::reference::{self, ReferenceParams};
-use linkgi::scene::{self, prep, TracerKind};
+use linkgi::scene::TracerKind;
 use std::path::PathBuf;
 use std::time::Instant;
 
-pub struct Args {
+/// Arguments of `linkgi error`.
+#[derive(clap::Args, Debug)]
+pub struct ErrorArgs {
+    /// Scene file or built-in name.
     pub scene: String,
+    /// Output folder for errors.csv and errors.png.
+    #[arg(long, default_value = "out/error")]
     pub out: PathBuf,
+    /// Reference paths per vertex.
+    #[arg(long, default_value_t = 4096)]
     pub ref_samples: u32,
+    /// Reference cache folder (default target/reference-cache).
+    #[arg(long)]
     pub cache: Option<PathBuf>,
-    /// Overrides the scene's `tracer` setting.
+    /// CPU ray tracer: bvh (wide BVH) or kd (kd-tree with ropes); overrides the scene's setting.
+    #[arg(long, value_name = "bvh|kd", value_parser = super::parse_tracer)]
     pub tracer: Option<TracerKind>,
 }
 
-pub fn run(args: Args) -> Result<()> {
-    let mut desc = scene::load(&args.scene)?;
-    if let Some(t) = args.tracer {
-        desc.settings.tracer = t;
-    }
-    let prepared = prep::prepare(&desc)?;
+pub fn run(args: ErrorArgs) -> Result<()> {
+    // The sweep sets rays and bounces itself and runs on the CPU.
+    let Setup { prepared, .. } = setup(&args.scene, &Overrides { tracer: args.tracer, ..Default::default() })?;
     std::fs::create_dir_all(&args.out).with_context(|| format!("creating {}", args.out.display()))?;
     let cache = args.cache.clone().unwrap_or_else(reference::cache::default_dir);
     let rp = ReferenceParams { samples_per_vertex: args.ref_samples, ..Default::default() };

@@ -1,10 +1,11 @@
 //! `linkgi solve`: build links for a scene, solve, print the figures table,
 //! optionally export PLY + JSON.
 
+use super::setup::{compute, setup, Overrides, Setup};
 use anyhow::{Context, Result};
 use indicatif::{ProgressBar, ProgressStyle};
-use linkgi::scene::{self, prep, Bounces, TracerKind};
-use linkgi::solver::{Compute, SolveParams, Solver};
+use linkgi::scene::Bounces;
+use linkgi::solver::{SolveParams, Solver};
 use std::path::PathBuf;
 use std::time::Instant;
 
@@ -21,9 +22,8 @@ pub fn parse_bounces(s: &str) -> Result<Bounces> {
 pub struct SolveArgs {
     /// Scene file or built-in name (cornell, furnace, colorlamp, torso, tearoom, sculpture, conference).
     pub scene: String,
-    /// Rays per vertex (a square number); overrides the scene's setting.
-    #[arg(long)]
-    pub rays: Option<u32>,
+    #[command(flatten)]
+    pub overrides: Overrides,
     /// Number of bounces or "auto"; overrides the scene's setting.
     #[arg(long)]
     pub bounces: Option<String>,
@@ -33,50 +33,18 @@ pub struct SolveArgs {
     /// Write DIR/mesh.ply and DIR/scene.json.
     #[arg(long, value_name = "DIR")]
     pub export: Option<PathBuf>,
-    /// auto (a hardware GPU, else the CPU), gpu (any adapter, software ones too) or cpu; overrides the scene.
-    #[arg(long)]
-    pub backend: Option<String>,
-    /// CPU ray tracer: bvh (wide BVH) or kd (kd-tree with ropes); overrides the scene's setting.
-    #[arg(long, value_name = "bvh|kd", value_parser = super::parse_tracer)]
-    pub tracer: Option<TracerKind>,
     /// Logical devices per adapter (exercises the multi-device scheduler on one GPU).
     #[arg(long, default_value_t = 1)]
     pub devices: usize,
 }
 
 pub fn run(args: SolveArgs) -> Result<()> {
-    let SolveArgs { scene: scene_name, rays, bounces, seed, export, backend, tracer, devices } = args;
+    let SolveArgs { scene: scene_name, mut overrides, bounces, seed, export, devices } = args;
     let t0 = Instant::now();
-    let mut desc = scene::load(&scene_name)?;
-    for w in &desc.warnings {
-        eprintln!("warning: {w}");
-    }
-    if let Some(r) = rays {
-        desc.settings.rays_per_vertex = r;
-    }
-    if let Some(b) = bounces {
-        desc.settings.bounces = parse_bounces(&b)?;
-    }
-    if let Some(s) = seed {
-        desc.settings.seed = s;
-    }
-    if let Some(b) = backend {
-        desc.settings.backend = b.parse()?;
-    }
-    if let Some(t) = tracer {
-        desc.settings.tracer = t;
-    }
-    let (compute, note) = Compute::from_backend(desc.settings.backend, devices)?;
-    if let Some(note) = note {
-        eprintln!("{note}");
-    }
-    let prepared = prep::prepare(&desc)?;
-    if prepared.dropped_triangles > 0 {
-        eprintln!("warning: dropped {} zero-area triangles", prepared.dropped_triangles);
-    }
-    if prepared.lights.is_empty() {
-        eprintln!("warning: the scene has no lights: all irradiance is zero");
-    }
+    overrides.bounces = bounces.as_deref().map(parse_bounces).transpose()?;
+    overrides.seed = seed;
+    let Setup { prepared, settings, .. } = setup(&scene_name, &overrides)?;
+    let compute = compute(settings.backend, devices)?;
     let prep_ms = t0.elapsed().as_secs_f64() * 1e3;
     let n = prepared.vertex_count() as u64;
     let bar = ProgressBar::new(n).with_message("shooting rays");

@@ -86,6 +86,49 @@ pub enum Light {
     Directional { direction: Vec3, irradiance: Vec3 },
 }
 
+/// Edits of a light (the viewer's keys, panel and script, `animate`).
+impl Light {
+    /// Its strength: the largest channel of a point light's intensity (W/sr)
+    /// or a directional light's irradiance (W/m^2).
+    pub fn strength(&self) -> f32 {
+        match self {
+            Light::Point { intensity, .. } => intensity.max_element(),
+            Light::Directional { irradiance, .. } => irradiance.max_element(),
+        }
+    }
+
+    /// A point light moved by `delta` (metres); a directional light's
+    /// direction offset by `delta` and renormalised (kept when the sum is zero).
+    pub fn moved(self, delta: Vec3) -> Light {
+        match self {
+            Light::Point { position, intensity } => Light::Point { position: position + delta, intensity },
+            Light::Directional { direction, irradiance } => {
+                let d = (direction + delta).normalize_or_zero();
+                Light::Directional { direction: if d == Vec3::ZERO { direction } else { d }, irradiance }
+            }
+        }
+    }
+
+    /// The light with its [`strength`](Light::strength) set to `value`, its
+    /// colour kept (a black light becomes grey, all channels `value`).
+    pub fn with_strength(self, value: f32) -> Light {
+        let rescale = |c: Vec3| {
+            let m = c.max_element();
+            if m > 0.0 {
+                c * (value / m)
+            } else {
+                Vec3::splat(value)
+            }
+        };
+        match self {
+            Light::Point { position, intensity } => Light::Point { position, intensity: rescale(intensity) },
+            Light::Directional { direction, irradiance } => {
+                Light::Directional { direction, irradiance: rescale(irradiance) }
+            }
+        }
+    }
+}
+
 /// How many bounces the gather runs.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Bounces {
@@ -266,4 +309,42 @@ pub fn load(name_or_path: &str) -> crate::Result<SceneDesc> {
         });
     }
     Err(crate::Error::UnknownScene(name_or_path.to_string(), builtin::NAMES.join(", ")))
+}
+
+#[cfg(test)]
+mod light_tests {
+    use super::Light;
+    use glam::Vec3;
+
+    #[test]
+    fn point_light_moves_and_keeps_its_intensity() {
+        let l = Light::Point { position: Vec3::new(1.0, 2.0, 3.0), intensity: Vec3::new(2.0, 1.0, 0.5) };
+        let m = l.moved(Vec3::new(0.5, -1.0, 0.0));
+        assert_eq!(m, Light::Point { position: Vec3::new(1.5, 1.0, 3.0), intensity: Vec3::new(2.0, 1.0, 0.5) });
+    }
+
+    #[test]
+    fn directional_light_turns_and_stays_unit() {
+        let l = Light::Directional { direction: Vec3::NEG_Y, irradiance: Vec3::ONE };
+        let Light::Directional { direction, irradiance } = l.moved(Vec3::new(1.0, 0.0, 0.0)) else { panic!() };
+        assert!((direction - Vec3::new(1.0, -1.0, 0.0).normalize()).length() < 1e-6, "{direction}");
+        assert_eq!(irradiance, Vec3::ONE);
+        // Offsetting by the opposite direction would leave no direction: it is kept.
+        assert_eq!(l.moved(Vec3::Y), l);
+    }
+
+    #[test]
+    fn strength_scales_the_colour() {
+        let l = Light::Point { position: Vec3::ZERO, intensity: Vec3::new(4.0, 2.0, 1.0) };
+        assert_eq!(l.strength(), 4.0);
+        let s = l.with_strength(8.0);
+        assert_eq!(s, Light::Point { position: Vec3::ZERO, intensity: Vec3::new(8.0, 4.0, 2.0) });
+        assert_eq!(s.strength(), 8.0);
+        let black = Light::Directional { direction: Vec3::NEG_Y, irradiance: Vec3::ZERO };
+        assert_eq!(black.strength(), 0.0);
+        assert_eq!(
+            black.with_strength(3.0),
+            Light::Directional { direction: Vec3::NEG_Y, irradiance: Vec3::splat(3.0) }
+        );
+    }
 }

@@ -68,14 +68,6 @@ pub enum UiAction {
     RemoveLight,
 }
 
-/// Strongest channel of a light.
-pub fn strength(light: &Light) -> f32 {
-    match light {
-        Light::Point { intensity, .. } => intensity.max_element(),
-        Light::Directional { irradiance, .. } => irradiance.max_element(),
-    }
-}
-
 fn light_name(i: usize, l: &Light) -> String {
     match l {
         Light::Point { .. } => format!("{i}: point"),
@@ -159,7 +151,7 @@ pub fn panel(ctx: &egui::Context, m: &PanelModel) -> Vec<UiAction> {
                     }
                 });
                 let (lo, hi) = m.intensity_range[sel];
-                let mut value = strength(&m.lights[sel]);
+                let mut value = m.lights[sel].strength();
                 let unit =
                     if matches!(m.lights[sel], Light::Point { .. }) { "intensity W/sr" } else { "irradiance W/m²" };
                 if ui.add(egui::Slider::new(&mut value, lo..=hi).logarithmic(true).text(unit)).changed() {

@@ -26,11 +26,19 @@
 //! - `quit`.
 //!
 //! Screenshot names and `wait_file` names are relative to `--screenshot-dir`.
+//!
+//! [`parse_script`] reads the file before the window opens (so a bad line
+//! fails at once, naming file and line); the runner (`Viewer::run_script`)
+//! runs due actions at the start of every frame and stops at one that must
+//! wait or at a screenshot (written after that frame is drawn).
 
+use super::Viewer;
 use anyhow::{bail, Context, Result};
 use glam::Vec3;
 use linkgi::render::View;
+use linkgi::scene::Light;
 use std::path::Path;
+use std::time::{Duration, Instant};
 
 /// One scripted action.
 #[derive(Clone, Debug, PartialEq)]
@@ -169,6 +177,111 @@ pub fn parse_script(text: &str, file: &Path) -> Result<Vec<ScriptLine>> {
         out.push(ScriptLine { at, action, line });
     }
     Ok(out)
+}
+
+/// A running `wait_gi`.
+pub(super) struct GiWait {
+    since: Instant,
+    /// Changes sent when the wait began: all must be handled.
+    target: u64,
+    /// The result version that then had to be drawn.
+    need: Option<u64>,
+}
+
+impl Viewer {
+    /// Runs due script actions; stops at one that must wait or at a screenshot.
+    pub(super) fn run_script(&mut self) -> Result<()> {
+        let Some(opened) = self.opened else { return Ok(()) };
+        while self.pending.scene.is_none() && self.pending.window.is_none() && !self.quit {
+            let Some(step) = self.script.get(self.script_pos).cloned() else { return Ok(()) };
+            if opened.elapsed().as_secs_f64() < step.at {
+                return Ok(());
+            }
+            let here = format!("{}:{}", self.script_file.display(), step.line);
+            match step.action {
+                Action::MoveLight { index, delta } => self.move_light(index, delta).with_context(|| here.clone())?,
+                Action::SetIntensity { index, value } => {
+                    self.set_intensity(index, value).with_context(|| here.clone())?
+                }
+                Action::SetRays(n) => self.set_rays(n),
+                Action::AddLight => self.add_light().with_context(|| here.clone())?,
+                Action::RemoveLight(i) => self.remove_light(i).with_context(|| here.clone())?,
+                Action::Deform(on) => {
+                    if on && !self.deforms {
+                        eprintln!("note: {here}: the scene has no deformers");
+                    }
+                    self.playing = on && self.deforms;
+                }
+                Action::View(v) => self.view = v,
+                Action::WaitGi => {
+                    if !self.wait_gi(&here)? {
+                        return Ok(());
+                    }
+                }
+                Action::Screenshot(name) => self.pending.scene = Some(self.screenshot_path(Some(&name))),
+                Action::WindowShot(name) => self.pending.window = Some(self.screenshot_path(Some(&name))),
+                Action::WaitFile(name) => {
+                    let since = *self.wait_file_since.get_or_insert_with(Instant::now);
+                    if !self.shot_dir.join(&name).exists() {
+                        if since.elapsed() > Duration::from_secs(300) {
+                            bail!(
+                                "{here}: wait_file: {} did not appear within 300 s",
+                                self.shot_dir.join(&name).display()
+                            );
+                        }
+                        return Ok(());
+                    }
+                    self.wait_file_since = None;
+                }
+                Action::Quit => self.quit = true,
+            }
+            self.script_pos += 1;
+        }
+        Ok(())
+    }
+
+    /// One step of `wait_gi`: true once every change sent before the wait
+    /// is in a published result and that result has been drawn.
+    fn wait_gi(&mut self, here: &str) -> Result<bool> {
+        let sent = self.engine.sent();
+        let w = self.wait.get_or_insert_with(|| GiWait { since: Instant::now(), target: sent, need: None });
+        let c = self.engine.counters();
+        if w.need.is_none() && c.changes >= w.target && (c.published > 0 || c.errors > 0) {
+            if c.published == 0 {
+                bail!(
+                    "{here}: wait_gi: the GI engine published no result: {}",
+                    self.engine.last_error().unwrap_or_default()
+                );
+            }
+            w.need = Some(c.published);
+        }
+        if w.need.is_some_and(|v| self.shown_version >= v) {
+            self.wait = None;
+            if let Some(g) = self.engine.latest() {
+                let light0 = match g.lights.first() {
+                    Some(Light::Point { position: p, intensity: i }) => {
+                        format!(", light0 point {} {} {} intensity {}", p.x, p.y, p.z, i.max_element())
+                    }
+                    Some(Light::Directional { direction: d, irradiance: e }) => {
+                        format!(", light0 directional {} {} {} irradiance {}", d.x, d.y, d.z, e.max_element())
+                    }
+                    None => String::new(),
+                };
+                println!(
+                    "gi: version {}, links {}, bounces {}, rays {}{light0}",
+                    g.version, g.links, g.bounces, self.settings.rays_per_vertex
+                );
+            }
+            return Ok(true);
+        }
+        if w.since.elapsed() > Duration::from_secs(300) {
+            bail!(
+                "{here}: wait_gi: the GI did not catch up within 300 s{}",
+                self.engine.last_error().map(|e| format!(" (last error: {e})")).unwrap_or_default()
+            );
+        }
+        Ok(false)
+    }
 }
 
 #[cfg(test)]

@@ -1,0 +1,72 @@
+//! Every scene-running subcommand goes through the CLI's one setup
+//! (src/cli/setup.rs): the loader's warnings reach stderr and the shared
+//! overrides apply, whichever subcommand loaded the scene.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+/// A folder with `s.toml`: a floor quad whose material's Kd 1.5 is clamped
+/// with a warning, lit by a point light above it.
+fn warned_scene(name: &str) -> PathBuf {
+    let d = Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("cli-{name}"));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    std::fs::write(d.join("hot.mtl"), "newmtl hot\nKd 1.5 0.5 0.2\n").unwrap();
+    std::fs::write(
+        d.join("floor.obj"),
+        "mtllib hot.mtl\nusemtl hot\nv -1 0 -1\nv 1 0 -1\nv 1 0 1\nv -1 0 1\nf 1 3 2\nf 1 4 3\n",
+    )
+    .unwrap();
+    std::fs::write(
+        d.join("s.toml"),
+        "[[mesh]]\nobj = \"floor.obj\"\n[[light]]\nkind = \"point\"\nposition = [0, 1, 0]\nintensity = [1, 1, 1]\n",
+    )
+    .unwrap();
+    d
+}
+
+fn run(args: &[&str]) -> (bool, String) {
+    let out = Command::new(env!("CARGO_BIN_EXE_linkgi")).args(args).output().unwrap();
+    (out.status.success(), String::from_utf8_lossy(&out.stderr).into_owned())
+}
+
+#[test]
+fn every_subcommand_reports_the_loaders_warnings() {
+    let d = warned_scene("warnings");
+    let path = |name: &str| d.join(name).to_str().unwrap().to_string();
+    let (scene, out, png, cache) = (path("s.toml"), path("out"), path("out/r.png"), path("cache"));
+    let tiny = ["--rays", "4", "--backend", "cpu"];
+    for (name, args) in [
+        ("solve", vec![]),
+        ("render", vec!["--size", "8x6", "--out", &png]),
+        ("animate", vec!["--size", "8x6", "--frames", "1", "--sync", "--out", &out]),
+        ("error", vec!["--ref-samples", "16", "--cache", &cache, "--out", &out]),
+        ("bench", vec!["--runs", "1"]),
+    ] {
+        let shared: &[&str] = if name == "error" { &[] } else { &tiny };
+        let (ok, stderr) = run(&[&[name, scene.as_str()], shared, &args].concat());
+        assert!(ok, "{name} failed: {stderr}");
+        let warning = stderr.lines().find(|l| l.starts_with("warning: ") && l.contains("'hot'"));
+        assert!(warning.is_some_and(|w| w.contains("floor.obj") && w.contains("clamped")), "{name}: {stderr}");
+    }
+}
+
+#[test]
+fn overrides_are_checked_before_any_work() {
+    let d = warned_scene("overrides");
+    let scene = d.join("s.toml");
+    let scene = scene.to_str().unwrap();
+    for args in [
+        vec!["solve", scene, "--rays", "5"],
+        vec!["render", scene, "--rays", "5", "--backend", "cpu"],
+        vec!["animate", scene, "--rays", "5", "--backend", "cpu", "--frames", "1"],
+        vec!["bench", scene, "--rays", "5", "--backend", "cpu"],
+    ] {
+        let (ok, stderr) = run(&args);
+        assert!(!ok, "{args:?} accepted 5 rays per vertex");
+        assert!(stderr.contains("rays_per_vertex = 5") && stderr.contains("s.toml"), "{args:?}: {stderr}");
+        assert!(!stderr.contains("panicked"), "{args:?}: {stderr}");
+    }
+    let (ok, stderr) = run(&["solve", scene, "--backend", "tpu"]);
+    assert!(!ok && stderr.contains("tpu") && stderr.contains("expected auto, gpu or cpu"), "{stderr}");
+}
