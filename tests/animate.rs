@@ -49,6 +49,13 @@ fn torso_deforms_every_frame() {
     assert_eq!(col(&rows, 4), vec![2, 3]);
     // Frame 0 is at t = 0, where the deformers are the identity: no rebuild.
     assert_eq!(col(&rows, 7), vec![1, 2], "structure updates (build or BVH refit): one per deformed frame");
+    // The deformed frame's selective update: rays re-shot, groups patched,
+    // light links recomputed, per-ray state kept; --sync shows no previews.
+    assert_eq!(col(&rows, 12), vec![0, 0], "previews");
+    let (reshot, patched, light, state) = (col(&rows, 14), col(&rows, 16), col(&rows, 17), col(&rows, 18));
+    assert!(reshot[1] > 0 && patched[1] > 0 && light[1] > 0 && state[1] > 0, "{:?}", rows[1]);
+    let fraction: f64 = rows[1][15].parse().unwrap();
+    assert!((0.0..1.0).contains(&fraction), "static rays re-shot fraction {fraction}");
 }
 
 #[test]

@@ -3,7 +3,10 @@
 //! background; each frame is rendered with whatever GI is published at that
 //! moment (`--sync` waits for every update instead). Writes
 //! `DIR/frame_NNNN.png` and `DIR/frames.csv` (frame time, GI version and age,
-//! engine counters).
+//! engine counters, and the last deformation update's figures: rays
+//! re-shot, share of static rays re-shot, link groups patched, light links
+//! recomputed, bytes of per-ray state). Deformations publish a preview
+//! first ([`EngineParams::deform_preview`]) unless `--sync` is given.
 
 use super::setup::{compute, setup, Overrides, Setup};
 use anyhow::{Context, Result};
@@ -62,7 +65,8 @@ pub fn run(args: AnimateArgs) -> Result<()> {
         prepared.clone(),
         SolveParams::from_settings(&settings),
         compute.clone(),
-        EngineParams::default(),
+        // Previews of deformations, except when every frame waits for its full GI.
+        EngineParams { deform_preview: !args.sync, ..Default::default() },
     );
     let t_first = Instant::now();
     engine.wait_idle(Duration::from_secs(3600));
@@ -71,7 +75,9 @@ pub fn run(args: AnimateArgs) -> Result<()> {
 
     let params = RenderParams { width, height, exposure: args.exposure, ..Default::default() };
     let mut csv = String::from(
-        "frame,time_s,frame_ms,render_ms,gi_version,gi_age_ms,gi_updates,accel_updates,light_link_updates,gathers,refits\n",
+        "frame,time_s,frame_ms,render_ms,gi_version,gi_age_ms,gi_updates,accel_updates,light_link_updates,gathers,refits,\
+         gi_preview,previews,gi_update_ms,rays_reshot,static_rays_reshot_fraction,groups_patched,light_links_recomputed,\
+         ray_state_bytes\n",
     );
     let bar = ProgressBar::new(args.frames as u64);
     bar.set_style(
@@ -114,7 +120,7 @@ pub fn run(args: AnimateArgs) -> Result<()> {
             anyhow::bail!("the GI engine published no result: {}", engine.last_error().unwrap_or_default());
         };
         if gi.version != last_version {
-            if last_version != 0 {
+            if last_version != 0 && !gi.preview {
                 update_ms.push(gi.update_ms);
             }
             last_version = gi.version;
@@ -133,16 +139,25 @@ pub fn run(args: AnimateArgs) -> Result<()> {
         let c = engine.counters();
         let frame_ms = tf.elapsed().as_secs_f64() * 1e3;
         let age = gi.published.elapsed().as_secs_f64() * 1e3;
+        let d = c.deform.unwrap_or_default();
         writeln!(
             csv,
-            "{k},{time:.4},{frame_ms:.2},{:.2},{},{age:.1},{},{},{},{},{}",
+            "{k},{time:.4},{frame_ms:.2},{:.2},{},{age:.1},{},{},{},{},{},{},{},{:.2},{},{:.5},{},{},{}",
             stats.ms,
             gi.version,
             c.published,
             c.kd_builds + c.refits,
             c.light_link_updates,
             c.gathers,
-            c.refits
+            c.refits,
+            gi.preview as u8,
+            c.previews,
+            gi.update_ms,
+            d.links.rays_reshot,
+            d.static_rays_fraction(),
+            d.links.groups_patched,
+            d.light_links_recomputed,
+            d.ray_state_bytes
         )?;
         bar.set_message(format!("GI v{} age {age:.0} ms", gi.version));
         bar.inc(1);
@@ -155,14 +170,15 @@ pub fn run(args: AnimateArgs) -> Result<()> {
     std::fs::write(&csv_path, csv).with_context(|| format!("writing {}", csv_path.display()))?;
     let mean = |v: &[f64]| if v.is_empty() { 0.0 } else { v.iter().sum::<f64>() / v.len() as f64 };
     println!(
-        "{} frames in {secs:.2} s ({:.1} fps); GI updates seen {} ({:.1}/s), mean update {:.1} ms; \
-         engine: {} updates, {} structure builds, {} BVH refits, {} light-link updates, {} gathers, {} changes in {} batches",
+        "{} frames in {secs:.2} s ({:.1} fps); full GI updates seen {} ({:.1}/s), mean update {:.1} ms; \
+         engine: {} updates ({} previews), {} structure builds, {} BVH refits, {} light-link updates, {} gathers, {} changes in {} batches",
         args.frames,
         args.frames as f64 / secs,
         update_ms.len(),
         update_ms.len() as f64 / secs,
         mean(&update_ms),
         c.published,
+        c.previews,
         c.kd_builds,
         c.refits,
         c.light_link_updates,
@@ -174,6 +190,18 @@ pub fn run(args: AnimateArgs) -> Result<()> {
         "last stages: rebuild {:.1} ms, light links {:.1} ms, gather {:.1} ms",
         c.rebuild_ms, c.light_links_ms, c.gather_ms
     );
+    if let Some(d) = c.deform {
+        println!(
+            "last deformation: {} rays re-shot ({:.2}% of the static rays), {} link groups patched, \
+             {} light links recomputed, ray state {:.1} MB, preview after {:.1} ms",
+            d.links.rays_reshot,
+            100.0 * d.static_rays_fraction(),
+            d.links.groups_patched,
+            d.light_links_recomputed,
+            d.ray_state_bytes as f64 / 1e6,
+            c.preview_ms
+        );
+    }
     println!("wrote {} frames and {}", args.frames, csv_path.display());
     Ok(())
 }

@@ -4,6 +4,7 @@
 use super::setup::{compute, setup, Overrides, Setup};
 use anyhow::{Context, Result};
 use indicatif::{ProgressBar, ProgressStyle};
+use linkgi::scene::deform::{deform_scene, has_deformers};
 use linkgi::scene::Bounces;
 use linkgi::solver::{SolveParams, Solver};
 use std::path::PathBuf;
@@ -20,8 +21,11 @@ pub fn parse_bounces(s: &str) -> Result<Bounces> {
 /// Arguments of `linkgi solve`.
 #[derive(clap::Args, Debug, Default)]
 pub struct SolveArgs {
-    /// Scene file or built-in name (cornell, furnace, colorlamp, torso, tearoom, sculpture, conference).
+    /// Scene file or built-in name (cornell, furnace, colorlamp, torso, tearoom, dancer, sculpture, conference).
     pub scene: String,
+    /// Evaluate the scene's deformers at this time, seconds, and solve that pose (default: the rest pose).
+    #[arg(long, value_name = "T")]
+    pub time: Option<f32>,
     #[command(flatten)]
     pub overrides: Overrides,
     /// Number of bounces or "auto"; overrides the scene's setting.
@@ -39,11 +43,23 @@ pub struct SolveArgs {
 }
 
 pub fn run(args: SolveArgs) -> Result<()> {
-    let SolveArgs { scene: scene_name, mut overrides, bounces, seed, export, devices } = args;
+    let SolveArgs { scene: scene_name, time, mut overrides, bounces, seed, export, devices } = args;
     let t0 = Instant::now();
     overrides.bounces = bounces.as_deref().map(parse_bounces).transpose()?;
     overrides.seed = seed;
-    let Setup { prepared, settings, .. } = setup(&scene_name, &overrides)?;
+    let Setup { mut prepared, settings, .. } = setup(&scene_name, &overrides)?;
+    if let Some(t) = time {
+        if !t.is_finite() {
+            anyhow::bail!("--time {t}: expected a finite number of seconds");
+        }
+        if has_deformers(&prepared) {
+            let (positions, normals) = deform_scene(&prepared, &prepared.positions, &prepared.normals, t);
+            prepared.positions = positions;
+            prepared.normals = normals;
+        } else {
+            eprintln!("warning: scene {scene_name} has no deformers: --time {t} solves the rest pose");
+        }
+    }
     let compute = compute(settings.backend, devices)?;
     let prep_ms = t0.elapsed().as_secs_f64() * 1e3;
     let n = prepared.vertex_count() as u64;
@@ -92,6 +108,9 @@ pub fn run(args: SolveArgs) -> Result<()> {
         s.links.raw_links as f64 / s.links.merged_links.max(1) as f64
     );
     println!("rays             {} ({} missed, {} back faces)", s.links.rays, s.links.misses, s.links.back_hits);
+    if s.ray_state_bytes > 0 {
+        println!("ray state        {:.2} MB (hit id per ray, for selective updates of dynamic meshes)", mb(s.ray_state_bytes));
+    }
     println!("prep ms          {prep_ms:.1}");
     println!("{} build ms     {:.1}", if s.bvh.is_some() { "bvh" } else { "kd " }, s.accel_build_ms);
     println!("links ms         {:.1} ({:.2} M rays/s)", s.links.shoot_ms, s.links.rays_per_second() / 1e6);

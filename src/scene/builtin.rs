@@ -747,7 +747,7 @@ fn conference() -> SceneDesc {
 #[cfg(test)]
 fn supports(name: &str) -> Vec<Slab> {
     match name {
-        "tearoom" => vec![tearoom_table()],
+        "tearoom" | "dancer" => vec![tearoom_table()],
         "conference" => {
             let (tables, chairs) = conference_layout();
             tables.into_iter().map(table_top).chain(chairs.into_iter().map(chair_seat)).collect()

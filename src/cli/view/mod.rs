@@ -177,8 +177,8 @@ pub fn run(args: ViewArgs) -> Result<()> {
         prepared.clone(),
         SolveParams::from_settings(&settings),
         compute,
-        // Moving a light shows a quick preview first (see EngineParams).
-        EngineParams { light_preview: true, ..Default::default() },
+        // Moving a light or deforming shows a quick preview first (see EngineParams).
+        EngineParams { light_preview: true, deform_preview: true, ..Default::default() },
     );
     let n = prepared.positions.len();
     let intensity_range = prepared

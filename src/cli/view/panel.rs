@@ -31,6 +31,8 @@ pub struct PanelModel<'a> {
     pub stage_ms: [f64; 3],
     /// The engine has changes it has not published yet.
     pub busy: bool,
+    /// The last deformation update's figures, if any.
+    pub deform: Option<linkgi::solver::DeformStats>,
     pub last_error: Option<String>,
     pub view: View,
     pub playing: bool,
@@ -116,6 +118,16 @@ pub fn panel(ctx: &egui::Context, m: &PanelModel) -> Vec<UiAction> {
                 "last update ms: rebuild {:.0} · lights {:.0} · gather {:.0}",
                 m.stage_ms[0], m.stage_ms[1], m.stage_ms[2]
             ));
+            if let Some(d) = &m.deform {
+                ui.label(format!(
+                    "last deformation: {} rays re-shot ({:.1}% of static) · {} groups patched · {} light links · state {:.1} MB",
+                    d.links.rays_reshot,
+                    100.0 * d.static_rays_fraction(),
+                    d.links.groups_patched,
+                    d.light_links_recomputed,
+                    d.ray_state_bytes as f64 / 1e6
+                ));
+            }
             if let Some(e) = &m.last_error {
                 ui.colored_label(egui::Color32::from_rgb(255, 120, 100), format!("last GI error: {e}"));
             }

@@ -152,6 +152,7 @@ impl Viewer {
                 bounces: gi.as_ref().map_or(0, |g| g.bounces),
                 stage_ms: [counters.rebuild_ms, counters.light_links_ms, counters.gather_ms],
                 busy: counters.changes < self.engine.sent(),
+                deform: counters.deform,
                 last_error,
                 view: self.view,
                 playing: self.playing,
