@@ -21,7 +21,18 @@ fn main() {
         prep::PreparedScene { positions, normals, ..rest.clone() }
     };
     let params = SolveParams::from_settings(&rest.settings);
-    let solver = Solver::new(at(t0), params, &|_, _| {});
+    println!("ray setup: {:.1} ms", setup_ms(&rest, &params));
+    if args.get(5).is_some_and(|a| a == "loop") {
+        // Selective updates only (for profiles): back and forth six times.
+        let mut solver = Solver::new(at(t0), params, &|_, _| {});
+        for k in 0..6 {
+            let t = Instant::now();
+            let (s, d) = solver.deform(at(if k % 2 == 0 { t1 } else { t0 }), params, None, &|_, _| {});
+            println!("selective {k}: {:.1} ms (links {:.1})", t.elapsed().as_secs_f64() * 1e3, d.links.ms);
+            solver = s;
+        }
+        return;
+    }
     let solver = Solver::new(at(t0), params, &|_, _| {});
     let t = Instant::now();
     let (solver, refit) = solver.deformed(at(t1), params, &|_, _| {});
@@ -47,4 +58,11 @@ fn main() {
         g.elapsed().as_secs_f64() * 1e3,
         d.ray_state_bytes as f64 / 1e6
     );
+}
+
+fn setup_ms(scene: &prep::PreparedScene, params: &SolveParams) -> f64 {
+    let t = Instant::now();
+    let s = linkgi::links::RaySetup::new(scene, &params.links);
+    std::hint::black_box(&s);
+    t.elapsed().as_secs_f64() * 1e3
 }
