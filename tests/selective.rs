@@ -173,3 +173,35 @@ fn preview_shows_remade_vertices_at_few_rays() {
     assert!(next.light_links.coarse.iter().all(|&c| !c), "the full update replaces the preview columns");
     assert_equals_fresh(&next, "after a preview");
 }
+
+/// `linkgi bench` rows carry the deformation figures (`deform_update_ms`,
+/// `deform_full_ms`, `deform_static_rays_fraction`) for scenes with
+/// deformers and NaN (JSON null) for the others.
+#[test]
+fn bench_rows_report_deformation_figures() {
+    use linkgi::bench::{run_once, BenchRow};
+    use linkgi::solver::Compute;
+    for (name, deforms) in [("torso", true), ("cornell", false)] {
+        let scene = prepared(name, 16);
+        let params = SolveParams::from_settings(&scene.settings);
+        let (times, sizes, _) = run_once(&scene, &params, &Compute::Cpu).unwrap();
+        let row = BenchRow::from_runs(name, &sizes, 16, &[times]);
+        let json = serde_json::to_value(&row).unwrap();
+        for key in ["deform_update_ms", "deform_full_ms", "deform_preview_ms"] {
+            let median = &json[key]["median"];
+            if deforms {
+                assert!(median.as_f64().is_some_and(|m| m > 0.0), "{name}: {key} = {median}");
+            } else {
+                assert!(median.is_null(), "{name}: {key} = {median}");
+            }
+        }
+        let fraction = &json["deform_static_rays_fraction"];
+        if deforms {
+            assert!(fraction.as_f64().is_some_and(|f| (0.0..1.0).contains(&f)), "{fraction}");
+            assert!(sizes.ray_state_bytes > 0);
+        } else {
+            assert!(fraction.is_null(), "{fraction}");
+            assert_eq!(sizes.ray_state_bytes, 0);
+        }
+    }
+}

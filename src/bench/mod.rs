@@ -288,13 +288,25 @@ fn time_light_move(solver: &mut Solver) -> (f64, f64) {
 /// from the rest pose (one update at 4 updates per second of animation).
 pub const DEFORM_TIME_S: f32 = 0.25;
 
-/// Deformation figures of [`RunTimes`]: `(selective ms, full ms, preview
-/// ms, static rays fraction, per-ray state bytes)`. The solver (at rest,
+/// Deformation figures of one run ([`time_deformation`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct DeformTimes {
+    /// Selective update with bounces and smoothing, ms.
+    pub update_ms: f64,
+    /// Full update after the same deformation with bounces and smoothing, ms.
+    pub full_ms: f64,
+    /// From the start of a selective update to its preview's smoothed `E_i`, ms.
+    pub preview_ms: f64,
+    /// Share of the static vertices' rays the selective update traced again.
+    pub static_rays_fraction: f64,
+}
+
+/// Times deformation updates. The solver (at rest,
 /// CPU) is moved to [`DEFORM_TIME_S`] by a full update, back by a
 /// selective one with a preview (timing the preview), and to
 /// [`DEFORM_TIME_S`] again by a selective one (timed); each time with
 /// bounces and smoothing. `None` without deformers or on the GPU path.
-pub fn time_deformation(solver: Solver) -> (Solver, Option<(f64, f64, f64, f64, u64)>) {
+pub fn time_deformation(solver: Solver) -> (Solver, Option<DeformTimes>) {
     use crate::scene::deform::{deform_scene, has_deformers};
     if !has_deformers(&solver.scene) || solver.gpu.is_some() {
         return (solver, None);
@@ -318,9 +330,8 @@ pub fn time_deformation(solver: Solver) -> (Solver, Option<(f64, f64, f64, f64, 
     let (solver, stats) = solver.deform(moved, params, None, &|_, _| {});
     let _ = solver.solve();
     let update_ms = t.elapsed().as_secs_f64() * 1e3;
-    let fraction = stats.static_rays_fraction();
-    let bytes = stats.ray_state_bytes;
-    (solver, Some((update_ms, full_ms, preview_ms, fraction, bytes)))
+    let static_rays_fraction = stats.static_rays_fraction();
+    (solver, Some(DeformTimes { update_ms, full_ms, preview_ms, static_rays_fraction }))
 }
 
 /// One complete build and solve of `scene`, timed.
@@ -351,8 +362,7 @@ pub fn run_once(
     let accel_build_ms = solver.accel_build_ms();
     let (_, deform) = time_deformation(solver);
     let nan = f64::NAN;
-    let (deform_update_ms, deform_full_ms, deform_preview_ms, deform_static_rays_fraction, _) =
-        deform.unwrap_or((nan, nan, nan, nan, 0));
+    let d = deform.unwrap_or(DeformTimes { update_ms: nan, full_ms: nan, preview_ms: nan, static_rays_fraction: nan });
     let times = RunTimes {
         kd_ms: accel_build_ms,
         links_ms: l.shoot_ms,
@@ -363,10 +373,10 @@ pub fn run_once(
         first_solution_ms,
         light_preview_ms,
         light_move_ms,
-        deform_update_ms,
-        deform_full_ms,
-        deform_preview_ms,
-        deform_static_rays_fraction,
+        deform_update_ms: d.update_ms,
+        deform_full_ms: d.full_ms,
+        deform_preview_ms: d.preview_ms,
+        deform_static_rays_fraction: d.static_rays_fraction,
     };
     Ok((times, sizes, solution.e_indirect))
 }

@@ -36,7 +36,7 @@
 use crate::scene::deform::moved_normals;
 use crate::scene::prep::PreparedScene;
 use crate::scene::{Light, Settings};
-use crate::solver::{Compute, DeformStats, SolveParams, Solver, PREVIEW_RAYS};
+use crate::solver::{Compute, DeformStats, Preview, SolveParams, Solver, PREVIEW_RAYS};
 use crossbeam_channel::{Receiver, Sender};
 use glam::Vec3;
 use std::panic::AssertUnwindSafe;
@@ -475,7 +475,7 @@ impl Worker {
                         c.preview_ms = t0.elapsed().as_secs_f64() * 1e3;
                         publish(&shared, p, &mut c, t0, true, 0, false);
                     };
-                    let preview: Option<(u32, &mut dyn FnMut(&Solver))> =
+                    let preview: Preview<'_> =
                         if deform_preview { Some((PREVIEW_RAYS, &mut show)) } else { None };
                     let (s, d) = s.deform(scene.clone(), params, preview, &|_, _| {});
                     c.rebuild_ms = t.elapsed().as_secs_f64() * 1e3;

@@ -121,11 +121,8 @@ impl Motion {
         for m in &new.meshes {
             let mut b = Aabb::EMPTY;
             let mut nb = Aabb::EMPTY;
-            for t in m.triangles.start as usize..m.triangles.end as usize {
-                if !moved_triangle[t] {
-                    continue;
-                }
-                let tri = new.triangles[t];
+            let range = m.triangles.start as usize..m.triangles.end as usize;
+            for (&tri, _) in new.triangles[range.clone()].iter().zip(&moved_triangle[range]).filter(|(_, &m)| m) {
                 moved_triangles.push(tri);
                 for &i in &tri {
                     b.grow(old.positions[i as usize]);

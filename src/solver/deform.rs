@@ -22,6 +22,10 @@ use std::time::Instant;
 /// Rays per vertex of the remade vertices in a deformation preview.
 pub const PREVIEW_RAYS: u32 = 16;
 
+/// A preview request of [`Solver::deform`]: the rays per vertex of the
+/// remade vertices, and what to call with the solver in its preview state.
+pub type Preview<'a> = Option<(u32, &'a mut dyn FnMut(&Solver))>;
+
 /// Figures of one deformation update.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct DeformStats {
@@ -61,7 +65,7 @@ impl Solver {
         mut self,
         scene: PreparedScene,
         params: SolveParams,
-        preview: Option<(u32, &mut dyn FnMut(&Solver))>,
+        preview: Preview<'_>,
         progress: &(dyn Fn(usize, usize) + Sync),
     ) -> (Solver, DeformStats) {
         let start = Instant::now();

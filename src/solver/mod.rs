@@ -18,7 +18,7 @@ use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 mod deform;
-pub use deform::{DeformStats, PREVIEW_RAYS};
+pub use deform::{DeformStats, Preview, PREVIEW_RAYS};
 
 /// Where links, light links and bounces are computed.
 #[derive(Clone, Debug, Default)]
