@@ -1,4 +1,4 @@
-// One bounce of light exchange over the CSR link matrix (DESIGN.md §4):
+// One bounce of light exchange over the CSR link matrix (docs/DESIGN.md §4):
 // `gather_bounce`: E^(b)[v] = sum_j w_vj * B[target_j] (RGB, W/m^2), one
 // invocation per vertex, links summed in stored order as on the CPU.
 // `update_bounce`: E_i += E^(b); B = rho * E^(b) / pi; per-workgroup sums of

@@ -1,4 +1,4 @@
-// Ray shooting over the flattened rope kd-tree (DESIGN.md §1, §5).
+// Ray shooting over the flattened rope kd-tree (docs/DESIGN.md §1, §5).
 //
 // `shoot_rays`: one invocation per ray; ray `k` of batch vertex `i` is
 // invocation `i * rays + k`, and the direction table is in 4x4-block order,

@@ -1,4 +1,4 @@
-//! linkgi: explicit-visibility vertex link radiosity (DESIGN.md).
+//! linkgi: explicit-visibility vertex link radiosity (docs/DESIGN.md).
 //!
 //! Pipeline: [`scene`] (load and prepare) → [`kdtree`] (SAH kd-tree with
 //! ropes) → [`sampling`] (cosine ray directions) → [`links`] (vertex links)

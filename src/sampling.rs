@@ -1,4 +1,4 @@
-//! Ray directions (DESIGN.md §2): `k*k` cosine-weighted directions from a
+//! Ray directions (docs/DESIGN.md §2): `k*k` cosine-weighted directions from a
 //! stratified, jittered grid on the unit square, mapped to the disc by the
 //! concentric map of Shirley & Chiu (1997) and lifted to the hemisphere
 //! (Malley's method), so `pdf(w) = cos(theta) / pi` (per steradian).

@@ -1,4 +1,4 @@
-//! The paper's published figures (DESIGN.md, "The paper's figures"; 2008,
+//! The paper's published figures (docs/DESIGN.md, "The paper's figures"; 2008,
 //! Core2 2.4 GHz, one or two GeForce 8800 Ultra, 256 rays per vertex, 3
 //! bounces), keyed by the scene's upper-cased name. Our `sculpture` stands
 //! for the paper's IPHI; `cornell` and `furnace` have no paper row.

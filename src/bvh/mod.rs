@@ -1,4 +1,4 @@
-//! 8-wide BVH for the CPU path (DESIGN.md §1b): the structure the CPU
+//! 8-wide BVH for the CPU path (docs/DESIGN.md §1b): the structure the CPU
 //! traces link rays, shadow rays, reference paths and fallback renders
 //! with. The kd-tree with ropes ([`crate::kdtree`]) stays the GPU shader's
 //! structure and its CPU oracle.

@@ -1,4 +1,4 @@
-//! The asynchronous GI engine (DESIGN.md §6): a background worker thread
+//! The asynchronous GI engine (docs/DESIGN.md §6): a background worker thread
 //! owns the [`Solver`]; the application sends [`Change`]s over a crossbeam
 //! channel and reads the newest published [`GiResult`] without blocking.
 //!

@@ -1,4 +1,4 @@
-//! Bounce gathering over the link matrix `W` (DESIGN.md §4):
+//! Bounce gathering over the link matrix `W` (docs/DESIGN.md §4):
 //! `B_0 = rho/pi * E_d`, `E^(b) = W B_(b-1)`, `B_b = rho/pi * E^(b)`,
 //! `E_i = sum_b E^(b)`. One pass over all links is one bounce.
 //!

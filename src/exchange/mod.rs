@@ -1,4 +1,4 @@
-//! Light exchange (DESIGN.md §4): direct light through light links with
+//! Light exchange (docs/DESIGN.md §4): direct light through light links with
 //! one-ring oversampled visibility ([`light_links`]), bounces gathered over
 //! the vertex links ([`gather`]), feature-aware one-ring smoothing
 //! ([`smooth`]).

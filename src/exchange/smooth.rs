@@ -1,4 +1,4 @@
-//! Feature-aware one-ring smoothing (DESIGN.md §4):
+//! Feature-aware one-ring smoothing (docs/DESIGN.md §4):
 //! `E_s(v) = (E(v) + sum_{u in N'(v)} E(u)) / (|N'(v)| + 1)`, where `N'(v)`
 //! is the one-ring without neighbours whose normal differs by more than the
 //! feature angle (`n_v . n_u > cos alpha_f`). A feature angle of 0 turns it

@@ -1,4 +1,4 @@
-//! The GPU path (DESIGN.md §5), wgpu compute, headless:
+//! The GPU path (docs/DESIGN.md §5), wgpu compute, headless:
 //! - [`context`]: adapters and devices for the `backend` setting
 //!   ([`Backend`], defined in `crate::scene`);
 //! - [`tracer`]: the kd-tree on a device, `shoot_rays` and `light_visibility`

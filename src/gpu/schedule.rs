@@ -1,4 +1,4 @@
-//! Link generation on one or more devices (DESIGN.md §5): vertices are cut
+//! Link generation on one or more devices (docs/DESIGN.md §5): vertices are cut
 //! into batches handed to whichever device is free; a device's next batch
 //! is sized from its throughput on its last one (the paper's load
 //! balancing), capped by its memory limits. Hits stream back over a

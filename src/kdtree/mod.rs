@@ -1,4 +1,4 @@
-//! SAH kd-tree with ropes over the scene's triangles (DESIGN.md §1).
+//! SAH kd-tree with ropes over the scene's triangles (docs/DESIGN.md §1).
 //!
 //! Build ([`build`]): the top `log2(cores)` levels split at the object median
 //! of the longest axis, one subtree per core; each subtree is a full SAH

@@ -9,7 +9,7 @@
 //!
 //! Rays carry a `skip` vertex: triangles with that solver vertex as a corner
 //! are ignored (a ray leaving a smooth surface at vertex `p` cannot meet
-//! them anywhere but at `p`; DESIGN.md §3). Distances are metres along a unit
+//! them anywhere but at `p`; docs/DESIGN.md §3). Distances are metres along a unit
 //! direction; hits with equal `t` are ordered by triangle id so every path
 //! returns the same hit.
 

@@ -12,7 +12,7 @@
 //!
 //! Two-sided: the hit records whether the ray met the front
 //! (counter-clockwise) face. A back face blocks the ray and brings no light
-//! (DESIGN.md units and conventions).
+//! (docs/DESIGN.md, units and conventions).
 
 use super::KdTriangle;
 use glam::{Vec3, Vec4};

@@ -1,4 +1,4 @@
-//! Vertex links (DESIGN.md §3): every vertex shoots the shared direction set
+//! Vertex links (docs/DESIGN.md §3): every vertex shoots the shared direction set
 //! turned into its frame; a front-face hit on triangle `(A, B, C)` at
 //! barycentrics `(a, b, c)` gives three raw links `w(x, A) += a * pi / n_C`
 //! (same for B, C), since with cosine-distributed directions the geometry

@@ -2,7 +2,7 @@
 //! rotated frame from its origin; hits stream into merged link groups batch
 //! by batch, so raw hits for the whole scene are never held at once.
 //!
-//! Origins (DESIGN.md §3): a vertex inside a smooth surface shoots from its
+//! Origins (docs/DESIGN.md §3): a vertex inside a smooth surface shoots from its
 //! own position and skips its incident triangles. A crease or border vertex
 //! shoots from a point moved `nudge * l` (l: mean incident edge length)
 //! toward its own one-ring along the surface and the same distance off it

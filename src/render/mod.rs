@@ -1,5 +1,5 @@
 //! Display of a solved scene: direct light per pixel, indirect light from
-//! the vertices (DESIGN.md §6).
+//! the vertices (docs/DESIGN.md §6).
 //!
 //! Outgoing radiance per pixel, W/(m^2 sr): `L = rho / pi * (E_d + E_i)`,
 //! where `E_d` is the direct irradiance evaluated at the pixel (point lights

@@ -1,7 +1,7 @@
 //! Scene description: meshes, materials, lights, camera and solver settings,
 //! as read from a TOML scene file (with OBJ/MTL meshes) or built in code.
 //!
-//! Units (DESIGN.md): right-handed, y up, metres; albedo `rho` per RGB channel
+//! Units (docs/DESIGN.md, units and conventions): right-handed, y up, metres; albedo `rho` per RGB channel
 //! in [0, 1); point lights carry radiant intensity `I` in W/sr per channel;
 //! directional lights carry irradiance in W/m^2 on a surface facing them and a
 //! `direction` of travel. Nothing here is prepared for solving yet: see

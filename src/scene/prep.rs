@@ -11,7 +11,7 @@
 //!
 //! Solver vertices on a crease (their welded position has more than one
 //! solver vertex) or on an open border are flagged `boundary`: their ray
-//! origins are nudged into their own face group (DESIGN.md §3).
+//! origins are nudged into their own face group (docs/DESIGN.md §3).
 
 use super::{Light, SceneDesc, Settings};
 use crate::{Error, Result};

@@ -1,5 +1,5 @@
 //! The whole pipeline for one prepared scene: kd-tree, vertex links,
-//! light links, bounces, smoothing (DESIGN.md pipeline), with the figures
+//! light links, bounces, smoothing (docs/DESIGN.md, pipeline), with the figures
 //! of every stage, on the CPU or the GPU ([`Compute`]). The kd-tree is
 //! always built on the CPU; links, light links and bounces run where
 //! `Compute` says, and a GPU failure after setup falls back to the CPU
@@ -90,7 +90,7 @@ pub struct GpuState {
     pub shares: Vec<DeviceShare>,
 }
 
-/// All stage parameters, defaults from DESIGN.md.
+/// All stage parameters, defaults as listed in docs/DESIGN.md, "Defaults".
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SolveParams {
     /// The CPU structure rays go through (the GPU path always walks its kd-tree).

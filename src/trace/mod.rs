@@ -1,4 +1,4 @@
-//! One tracing interface for every stage that traces rays (DESIGN.md §1b):
+//! One tracing interface for every stage that traces rays (docs/DESIGN.md §1b):
 //! link shooting, light links, the reference path tracer and the CPU
 //! renderer ask a [`Tracer`] for closest hits (link rays) and any-hit
 //! visibility (shadow rays), whatever answers them: the CPU wide BVH
