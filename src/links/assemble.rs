@@ -9,7 +9,7 @@
 //! merged links as stored, [`MERGED_LINK_BYTES`] each plus a u32 offset
 //! per vertex ([`merged_bytes`]).
 
-use super::merge::{merge_vertex, HitRecord, MergeScratch};
+use super::merge::{merge_vertex_sums, HitRecord, MergeScratch};
 use super::{LinkStats, Links};
 use half::f16;
 
@@ -31,7 +31,11 @@ pub struct GroupRun {
     pub counts: Vec<u32>,
     pub targets: Vec<u32>,
     pub weights: Vec<f16>,
+    /// Fixed-point sums of the links ([`super::merge::fixed_scale`]), kept
+    /// only when the run records them ([`GroupRun::recording`]).
+    pub sums: Vec<u32>,
     pub stats: LinkStats,
+    record_sums: bool,
     scratch: MergeScratch,
 }
 
@@ -40,11 +44,25 @@ impl GroupRun {
         GroupRun { first, ..Default::default() }
     }
 
+    /// A run that also keeps every link's fixed-point sum (selective updates).
+    pub fn recording(first: usize) -> GroupRun {
+        GroupRun { first, record_sums: true, ..Default::default() }
+    }
+
     /// Appends the next vertex's group, merged from its hit records (one
     /// per ray; triangles give the hit triangles' corner vertices).
     pub fn push_vertex(&mut self, hits: &[HitRecord], triangles: &[[u32; 3]], weight_per_ray: f64) {
         let before = self.targets.len();
-        let c = merge_vertex(hits, triangles, weight_per_ray, &mut self.scratch, &mut self.targets, &mut self.weights);
+        let sums = self.record_sums.then_some(&mut self.sums);
+        let c = merge_vertex_sums(
+            hits,
+            triangles,
+            weight_per_ray,
+            &mut self.scratch,
+            &mut self.targets,
+            &mut self.weights,
+            sums,
+        );
         self.counts.push((self.targets.len() - before) as u32);
         let st = &mut self.stats;
         st.rays += hits.len() as u64;
@@ -60,6 +78,7 @@ impl GroupRun {
         self.counts.extend(next.counts);
         self.targets.extend(next.targets);
         self.weights.extend(next.weights);
+        self.sums.extend(next.sums);
         self.stats.add(&next.stats);
     }
 }
@@ -70,13 +89,14 @@ impl GroupRun {
 #[derive(Debug)]
 pub struct CsrBuilder {
     links: Links,
+    sums: Vec<u32>,
 }
 
 impl CsrBuilder {
     pub fn new(n: usize) -> CsrBuilder {
         let mut links = Links { offsets: Vec::with_capacity(n + 1), ..Default::default() };
         links.offsets.push(0);
-        CsrBuilder { links }
+        CsrBuilder { links, sums: Vec::new() }
     }
 
     /// Appends `run`, which must start at the next vertex.
@@ -92,8 +112,14 @@ impl CsrBuilder {
         }
         links.targets.extend(r.targets);
         links.weights.extend(r.weights);
+        self.sums.extend(r.sums);
         links.stats.add(&r.stats);
         Ok(())
+    }
+
+    /// The fixed-point sums pushed so far (runs that record them), taken out.
+    pub fn take_sums(&mut self) -> Vec<u32> {
+        std::mem::take(&mut self.sums)
     }
 
     /// The links of vertices `0..n`, with their counters and sizes;

@@ -11,9 +11,14 @@
 //! in W/(m^2 sr) and `E` in W/m^2; a closed scene's rows sum to pi.
 //!
 //! Storage: a link is a `u32` target plus an IEEE half-precision weight
-//! (6 bytes). Weights are rounded to f16 in target order with the rounding
-//! error carried to the next link (error diffusion), so a group's total stays
-//! within half an f16 ulp of its largest link (2^-11 relative) of the exact sum.
+//! (6 bytes). Per target, barycentric weights are summed in fixed point
+//! ([`merge::fixed_scale`]: 2^-23 of a ray's weight at 256 rays, so the sum
+//! does not depend on ray order); weights are then rounded to f16 in target
+//! order with the rounding error carried to the next link (error
+//! diffusion), so a group's total stays within half an f16 ulp of its
+//! largest link (2^-11 relative) of the exact sum. Scenes with dynamic
+//! meshes also keep each link's fixed-point sum and each ray's hit id for
+//! selective updates ([`selective`]).
 
 pub mod assemble;
 pub mod merge;

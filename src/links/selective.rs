@@ -5,12 +5,14 @@
 //! done for vertex links, exactly: the result equals a full re-shoot with
 //! the same seed (same hits, so the same merged groups bit for bit).
 //!
-//! Per-ray state ([`RayHits`]): the id of every ray's hit (triangle id,
-//! `| HIT_BACK` for a back face, or `HIT_MISS`), 4 bytes a ray, kept only
-//! for scenes with dynamic meshes. Barycentrics and distances are not
-//! stored: a kept hit on an unmoved triangle is recomputed with one
-//! watertight triangle test ([`crate::kdtree::triangle::intersect`]), which
-//! every tracer uses, so it is bit for bit the traced one.
+//! State ([`RayHits`]), kept only for scenes with dynamic meshes: the id of
+//! every ray's hit (triangle id, `| HIT_BACK` for a back face, or
+//! `HIT_MISS`), 4 bytes a ray, and every link's fixed-point sum
+//! ([`super::merge`]), 4 bytes a link. Barycentrics and distances are not
+//! stored: an old hit is recomputed with one watertight triangle test
+//! ([`crate::kdtree::triangle::intersect`], the test every tracer uses) on
+//! the triangle where it was (old positions for a moved triangle), so it
+//! is bit for bit the traced one.
 //!
 //! Which rays ([`reshoot`], with a [`Motion`]):
 //! - a remade vertex (moved, or next to something that moved) traces all
@@ -27,10 +29,17 @@
 //!   depend on nothing that moved.
 //!
 //! A vertex whose re-traced rays all hit what they hit before (same
-//! unmoved triangle) keeps its group. The others get their group rebuilt
-//! from all their rays' hit records in ray order ([`super::merge_vertex`]).
+//! triangle, same barycentrics) keeps its group. The others are patched:
+//! the changed rays' old corner weights are subtracted from the group's
+//! fixed-point sums and their new ones added (integer sums do not depend on
+//! the order of the rays), then the group is requantized to f16
+//! ([`super::merge::requantize`]): the group a full merge of all the rays
+//! gives, bit for bit. Remade vertices merge all their rays anew.
 
-use super::merge::{merge_vertex, HitRecord, MergeScratch, HIT_BACK, HIT_MISS};
+use super::merge::{
+    corner_weights, fixed_scale, merge_vertex, merge_vertex_sums, requantize, HitRecord, MergeScratch, HIT_BACK,
+    HIT_MISS,
+};
 use super::shoot::{RaySetup, TraceScratch};
 use super::{LinkParams, Links};
 use crate::bvh::{Bvh, BvhBuildParams};
@@ -45,18 +54,21 @@ use half::f16;
 use rayon::prelude::*;
 use std::time::Instant;
 
-/// The hit id of every ray, `ids[v * rays_per_vertex + k]` for ray `k` of
-/// vertex `v` (triangle id, `| HIT_BACK`, or `HIT_MISS`).
+/// The state of selective updates: the hit id of every ray,
+/// `ids[v * rays_per_vertex + k]` for ray `k` of vertex `v` (triangle id,
+/// `| HIT_BACK`, or `HIT_MISS`), and the fixed-point sum of every link, in
+/// the order of the links' targets.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct RayHits {
     pub rays_per_vertex: usize,
     pub ids: Vec<u32>,
+    pub sums: Vec<u32>,
 }
 
 impl RayHits {
     /// Bytes held.
     pub fn bytes(&self) -> u64 {
-        std::mem::size_of_val(self.ids.as_slice()) as u64
+        (std::mem::size_of_val(self.ids.as_slice()) + std::mem::size_of_val(self.sums.as_slice())) as u64
     }
 
     /// The ids of vertex `v`'s rays.
@@ -86,6 +98,7 @@ pub struct ReshootStats {
 struct Patch {
     targets: Vec<u32>,
     weights: Vec<f16>,
+    sums: Vec<u32>,
     new: [u64; 3],
     old: [u64; 3],
 }
@@ -106,27 +119,38 @@ fn record_of(hit: Option<Hit>) -> HitRecord {
     }
 }
 
-fn triangle(scene: &PreparedScene, t: u32) -> KdTriangle {
+fn triangle(scene: &PreparedScene, positions: &[Vec3], t: u32) -> KdTriangle {
     let [a, b, c] = scene.triangles[t as usize];
-    let p = |i: u32| scene.positions[i as usize].to_array();
+    let p = |i: u32| positions[i as usize].to_array();
     KdTriangle { v0: p(a), ia: a, v1: p(b), ib: b, v2: p(c), ic: c }
 }
 
-/// The hit record of a kept hit `id` (a triangle that did not move) of the
-/// ray `o + t d`, recomputed; `None` if the triangle test no longer meets
-/// it (never for an unmoved triangle and ray: then the ray is re-traced).
-fn kept_record(scene: &PreparedScene, id: u32, o: Vec3, d: Vec3) -> Option<HitRecord> {
+/// The hit record of hit `id` of the ray `o + t d` recomputed on the
+/// triangle at `positions`; `None` if the triangle test does not meet it
+/// (never for the positions and ray it was traced with).
+fn recorded(scene: &PreparedScene, positions: &[Vec3], id: u32, o: Vec3, d: Vec3) -> Option<HitRecord> {
     if id == HIT_MISS {
         return Some(record_of(None));
     }
     let tri = id & !HIT_BACK;
-    let (t, u, v, front) = intersect(&triangle(scene, tri), o, &RayShear::new(d), 0.0, f32::INFINITY)?;
+    let (t, u, v, front) = intersect(&triangle(scene, positions, tri), o, &RayShear::new(d), 0.0, f32::INFINITY)?;
     (front == (id & HIT_BACK == 0)).then_some(HitRecord { tri: id, u, v, t })
+}
+
+/// A kept hit (on a triangle that did not move) recomputed.
+fn kept_record(scene: &PreparedScene, id: u32, o: Vec3, d: Vec3) -> Option<HitRecord> {
+    recorded(scene, &scene.positions, id, o, d)
 }
 
 /// Everything the per-vertex work shares.
 struct Context<'a> {
     scene: &'a PreparedScene,
+    /// Positions before the motion.
+    old_positions: &'a [Vec3],
+    /// The links before the motion and their fixed-point sums.
+    links: &'a Links,
+    sums: &'a [u32],
+    scale: f64,
     motion: &'a Motion,
     tracer: &'a dyn CpuTracer,
     setup: RaySetup,
@@ -169,31 +193,27 @@ impl Context<'_> {
             for (id, r) in row.iter_mut().zip(&scratch.records) {
                 *id = r.tri;
             }
-            let (targets, weights, new) = self.merge(scratch);
-            return (Some(Patch { targets, weights, new, old }), row.len() as u64);
+            let mut p = self.merge(scratch);
+            p.old = old;
+            return (Some(p), row.len() as u64);
         }
         let o = self.setup.origins[v];
         if self.union_box.below_plane(o, self.setup.normals[v], self.union_box.rounding_margin()) {
             return (None, 0);
         }
         let wedges = self.setup.wedges(v);
-        scratch.records.clear();
         scratch.retrace.clear();
         scratch.dirs.clear();
+        scratch.kept.clear();
         for (k, d) in self.setup.world_directions(v).enumerate() {
-            if let Some(w) = wedges.iter().find(|w| w.dives_under(d)) {
-                scratch.records.push(w.self_hit());
+            if wedges.iter().any(|w| w.dives_under(d)) {
                 continue;
             }
             let mut kept = None;
             if self.must_retrace(v, row[k], o, d, &mut kept) {
                 scratch.retrace.push(k as u32);
                 scratch.dirs.push(d);
-                // Placeholder, filled from the trace below.
-                scratch.records.push(HitRecord::default());
-            } else {
-                // Filled below if the group is rebuilt.
-                scratch.records.push(kept.unwrap_or(HitRecord { tri: TO_RECOMPUTE, ..Default::default() }));
+                scratch.kept.push(kept);
             }
         }
         let traced = scratch.retrace.len() as u64;
@@ -204,42 +224,136 @@ impl Context<'_> {
         scratch.hits.resize(scratch.dirs.len(), None);
         self.tracer.intersect_origin(o, v as u32, &scratch.dirs, &mut scratch.hits);
         let old = id_counts(row);
+        // The changed rays' corner weights: old ones out, new ones in.
+        scratch.deltas.clear();
         let mut changed = false;
-        for (&k, &h) in scratch.retrace.iter().zip(&scratch.hits) {
-            let r = record_of(h);
-            let old_id = row[k as usize];
-            changed |= r.tri != old_id || (old_id != HIT_MISS && self.motion.moved_triangle[(old_id & !HIT_BACK) as usize]);
-            scratch.records[k as usize] = r;
-            row[k as usize] = r.tri;
+        for i in 0..scratch.retrace.len() {
+            let (k, d, r) = (scratch.retrace[i] as usize, scratch.dirs[i], record_of(scratch.hits[i]));
+            let old_id = row[k];
+            let was = if old_id == HIT_MISS || old_id & HIT_BACK != 0 {
+                None
+            } else if let Some(w) = scratch.kept[i] {
+                Some(w)
+            } else {
+                let positions =
+                    if self.motion.moved_triangle[old_id as usize] { self.old_positions } else { &self.scene.positions };
+                match recorded(self.scene, positions, old_id, o, d) {
+                    Some(w) => Some(w),
+                    // Not met again: cannot happen for the ray and triangle it was
+                    // traced with; rebuild the group from all rays to be safe.
+                    None => return (Some(self.rebuild(v, row, scratch)), traced),
+                }
+            };
+            if r.tri == old_id && was.is_none_or(|w| (w.u, w.v) == (r.u, r.v)) {
+                continue;
+            }
+            changed = true;
+            if let Some(w) = was {
+                let tri = self.scene.triangles[w.tri as usize];
+                for (c, x) in tri.iter().zip(corner_weights(w.u, w.v, self.scale)) {
+                    scratch.deltas.push((*c, -(x as i64)));
+                }
+            }
+            if r.tri != HIT_MISS && r.tri & HIT_BACK == 0 {
+                let tri = self.scene.triangles[r.tri as usize];
+                for (c, x) in tri.iter().zip(corner_weights(r.u, r.v, self.scale)) {
+                    scratch.deltas.push((*c, x as i64));
+                }
+            }
+            row[k] = r.tri;
         }
         if !changed {
             return (None, traced);
         }
-        // Recompute the kept hits the group needs.
-        for (k, d) in self.setup.world_directions(v).enumerate() {
-            if scratch.records[k].tri == TO_RECOMPUTE {
-                let r = kept_record(self.scene, row[k], o, d);
-                // An unmoved triangle on an unchanged ray is met again; a
-                // failure here would be a bug, so trace the ray then.
-                scratch.records[k] = r.unwrap_or_else(|| {
-                    record_of(self.tracer.intersect(&Ray { origin: o, dir: d, tmin: 0.0, tmax: f32::INFINITY, skip: v as u32 }))
-                });
-                row[k] = scratch.records[k].tri;
-            }
-        }
-        let (targets, weights, new) = self.merge(scratch);
-        (Some(Patch { targets, weights, new, old }), traced)
+        let mut patch = self.patched(v, scratch);
+        patch.old = old;
+        patch.new = id_counts(row);
+        (Some(patch), traced)
     }
 
-    fn merge(&self, scratch: &mut Scratch) -> (Vec<u32>, Vec<f16>, [u64; 3]) {
-        let (mut t, mut w) = (Vec::new(), Vec::new());
-        let c = merge_vertex(&scratch.records, &self.scene.triangles, self.weight_per_ray, &mut scratch.merge, &mut t, &mut w);
-        (t, w, [c.front as u64, c.back as u64, c.miss as u64])
+    /// Vertex `v`'s group with `scratch.deltas` applied to its sums, requantized.
+    fn patched(&self, v: usize, scratch: &mut Scratch) -> Patch {
+        scratch.deltas.sort_unstable_by_key(|&(t, _)| t);
+        let r = self.links.offsets[v] as usize..self.links.offsets[v + 1] as usize;
+        let (targets, sums) = (&self.links.targets[r.clone()], &self.sums[r]);
+        let mut p = Patch {
+            targets: Vec::with_capacity(targets.len() + 4),
+            weights: Vec::new(),
+            sums: Vec::with_capacity(targets.len() + 4),
+            new: [0; 3],
+            old: [0; 3],
+        };
+        let (mut i, mut j) = (0, 0);
+        let deltas = &scratch.deltas;
+        while i < targets.len() || j < deltas.len() {
+            let t = match (targets.get(i), deltas.get(j)) {
+                (Some(&a), Some(&(b, _))) => a.min(b),
+                (Some(&a), None) => a,
+                (None, Some(&(b, _))) => b,
+                (None, None) => unreachable!(),
+            };
+            let mut sum = 0i64;
+            if targets.get(i) == Some(&t) {
+                sum += sums[i] as i64;
+                i += 1;
+            }
+            while deltas.get(j).is_some_and(|&(b, _)| b == t) {
+                sum += deltas[j].1;
+                j += 1;
+            }
+            debug_assert!(sum >= 0 && sum <= u32::MAX as i64, "fixed-point sum {sum} of target {t}");
+            if sum > 0 {
+                p.targets.push(t);
+                p.sums.push(sum as u32);
+            }
+        }
+        requantize(p.sums.iter().copied(), self.weight_per_ray, self.scale, &mut p.weights);
+        p
+    }
+
+    /// Vertex `v`'s group merged from all its rays (its ids in `row`).
+    fn rebuild(&self, v: usize, row: &mut [u32], scratch: &mut Scratch) -> Patch {
+        let o = self.setup.origins[v];
+        let old = id_counts(row);
+        let wedges = self.setup.wedges(v);
+        scratch.records.clear();
+        for (k, d) in self.setup.world_directions(v).enumerate() {
+            let r = match wedges.iter().find(|w| w.dives_under(d)) {
+                Some(w) => w.self_hit(),
+                None => kept_record(self.scene, row[k], o, d).unwrap_or_else(|| {
+                    record_of(self.tracer.intersect(&Ray {
+                        origin: o,
+                        dir: d,
+                        tmin: 0.0,
+                        tmax: f32::INFINITY,
+                        skip: v as u32,
+                    }))
+                }),
+            };
+            row[k] = r.tri;
+            scratch.records.push(r);
+        }
+        let mut p = self.merge(scratch);
+        p.old = old;
+        p
+    }
+
+    /// The group merged from `scratch.records` (all rays, in order).
+    fn merge(&self, scratch: &mut Scratch) -> Patch {
+        let (mut targets, mut weights, mut sums) = (Vec::new(), Vec::new(), Vec::new());
+        let c = merge_vertex_sums(
+            &scratch.records,
+            &self.scene.triangles,
+            self.weight_per_ray,
+            &mut scratch.merge,
+            &mut targets,
+            &mut weights,
+            Some(&mut sums),
+        );
+        Patch { targets, weights, sums, new: [c.front as u64, c.back as u64, c.miss as u64], old: [0; 3] }
     }
 }
 
-/// Marks a kept record not yet recomputed (never a triangle id).
-const TO_RECOMPUTE: u32 = HIT_BACK - 2;
 
 #[derive(Default)]
 struct Scratch {
@@ -247,16 +361,21 @@ struct Scratch {
     records: Vec<HitRecord>,
     retrace: Vec<u32>,
     dirs: Vec<Vec3>,
+    /// Old records of the re-traced rays found by the segment test, if any.
+    kept: Vec<Option<HitRecord>>,
+    /// Fixed-point changes of a group's sums: (target, delta).
+    deltas: Vec<(u32, i64)>,
     hits: Vec<Option<Hit>>,
     merge: MergeScratch,
 }
 
-/// Updates `links` and `hits` (the state of `scene` before `motion`) to
-/// `scene` after it, tracing with `tracer` (built over the new positions).
-/// `params` must be the ones the links were shot with. Returns the new
-/// links and the figures.
+/// Updates `links` and `hits` (the state before `motion`, with vertex
+/// positions `old_positions`) to `scene` after it, tracing with `tracer`
+/// (built over the new positions). `params` must be the ones the links
+/// were shot with. Returns the new links and the figures.
 pub fn reshoot(
     scene: &PreparedScene,
+    old_positions: &[Vec3],
     motion: &Motion,
     tracer: &dyn CpuTracer,
     params: &LinkParams,
@@ -269,10 +388,16 @@ pub fn reshoot(
     let rays = setup.directions.len();
     assert_eq!(hits.rays_per_vertex, rays, "ray state of another ray count");
     assert_eq!(hits.ids.len(), n * rays, "ray state of another scene");
+    assert_eq!(hits.sums.len(), links.targets.len(), "link sums of other links");
+    let RayHits { ids, sums, .. } = hits;
     let probe = (!motion.moved_triangles.is_empty())
         .then(|| Bvh::build(&scene.positions, &motion.moved_triangles, &BvhBuildParams::default()));
     let ctx = Context {
         scene,
+        old_positions,
+        links,
+        sums,
+        scale: fixed_scale(rays),
         motion,
         tracer,
         setup,
@@ -281,8 +406,7 @@ pub fn reshoot(
         weight_per_ray: std::f64::consts::PI / rays as f64,
     };
     const CHUNK: usize = 16;
-    let results: Vec<(Vec<Option<Patch>>, u64, u64)> = hits
-        .ids
+    let results: Vec<(Vec<Option<Patch>>, u64, u64)> = ids
         .par_chunks_mut(rays * CHUNK)
         .enumerate()
         .map_init(Scratch::default, |scratch, (c, rows)| {
@@ -308,6 +432,7 @@ pub fn reshoot(
     let extra: usize = results.iter().flat_map(|r| r.0.iter().flatten()).map(|p| p.targets.len()).sum();
     out.targets.reserve(links.targets.len() + extra);
     out.weights.reserve(links.targets.len() + extra);
+    let mut new_sums = Vec::with_capacity(links.targets.len() + extra);
     let mut v = 0;
     for (patches, remade_rays, static_rays) in results {
         stats.rays_reshot += remade_rays + static_rays;
@@ -317,6 +442,7 @@ pub fn reshoot(
                 Some(p) => {
                     out.targets.extend_from_slice(&p.targets);
                     out.weights.extend_from_slice(&p.weights);
+                    new_sums.extend_from_slice(&p.sums);
                     let s = &mut link_stats;
                     s.front_hits = s.front_hits + p.new[0] - p.old[0];
                     s.back_hits = s.back_hits + p.new[1] - p.old[1];
@@ -327,6 +453,7 @@ pub fn reshoot(
                     let (t, w) = links.group(v);
                     out.targets.extend_from_slice(t);
                     out.weights.extend_from_slice(w);
+                    new_sums.extend_from_slice(&sums[links.offsets[v] as usize..links.offsets[v + 1] as usize]);
                 }
             }
             out.offsets.push(out.targets.len() as u32);
@@ -341,6 +468,7 @@ pub fn reshoot(
     stats.ms = start.elapsed().as_secs_f64() * 1e3;
     link_stats.shoot_ms = stats.ms;
     out.stats = link_stats;
+    *sums = new_sums;
     (out, stats)
 }
 

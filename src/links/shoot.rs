@@ -240,7 +240,7 @@ pub fn shoot_links_recording(
             .map(|c0| {
                 let mut hits = Vec::with_capacity(rays);
                 let mut scratch = TraceScratch::default();
-                let mut run = GroupRun::new(c0);
+                let mut run = if record { GroupRun::recording(c0) } else { GroupRun::new(c0) };
                 let mut chunk_ids = Vec::new();
                 for v in c0..(c0 + CHUNK).min(batch_end) {
                     setup.trace_vertex_with(tracer, v, &mut scratch, &mut hits);
@@ -259,6 +259,7 @@ pub fn shoot_links_recording(
         }
         progress(batch_end, n);
     }
+    let sums = csr.take_sums();
     let links = csr.finish(n, start.elapsed().as_secs_f64() * 1e3).expect("the runs cover every vertex once");
-    (links, record.then_some(RayHits { rays_per_vertex: rays, ids }))
+    (links, record.then_some(RayHits { rays_per_vertex: rays, ids, sums }))
 }

@@ -108,14 +108,14 @@ impl Solver {
         };
         stats.refitted = refitted;
         stats.accel_ms = t.elapsed().as_secs_f64() * 1e3;
-        self.scene = scene;
+        let old_positions = std::mem::replace(&mut self.scene, scene).positions;
         self.params = params;
         if let Some((rays, show)) = preview {
             self.show_preview(&motion, rays, show);
             stats.preview_ms = start.elapsed().as_secs_f64() * 1e3;
         }
         let mut hits = self.ray_hits.take().expect("checked above");
-        let (links, link_stats) = reshoot(&self.scene, &motion, &self.accel, &params.links, &self.links, &mut hits);
+        let (links, link_stats) = reshoot(&self.scene, &old_positions, &motion, &self.accel, &params.links, &self.links, &mut hits);
         progress(self.scene.vertex_count(), self.scene.vertex_count());
         self.links = links;
         self.ray_hits = Some(hits);
