@@ -22,6 +22,20 @@ fn main() {
     };
     let params = SolveParams::from_settings(&rest.settings);
     println!("ray setup: {:.1} ms", setup_ms(&rest, &params));
+    if args.get(5).is_some_and(|a| a == "preview") {
+        let mut solver = Solver::new(at(t0), params, &|_, _| {});
+        for k in 0..4 {
+            let t = Instant::now();
+            let mut show = |s: &Solver| {
+                let a = t.elapsed().as_secs_f64() * 1e3;
+                let _ = s.solve();
+                println!("preview {k}: solve from {a:.1} to {:.1} ms", t.elapsed().as_secs_f64() * 1e3);
+            };
+            let (s, _) = solver.deform(at(if k % 2 == 0 { t1 } else { t0 }), params, Some((16, &mut show)), &|_, _| {});
+            solver = s;
+        }
+        return;
+    }
     if args.get(5).is_some_and(|a| a == "loop") {
         // Selective updates only (for profiles): back and forth six times.
         let mut solver = Solver::new(at(t0), params, &|_, _| {});
@@ -35,15 +49,20 @@ fn main() {
     }
     let solver = Solver::new(at(t0), params, &|_, _| {});
     let t = Instant::now();
+    let c = cpu_ms();
     let (solver, refit) = solver.deformed(at(t1), params, &|_, _| {});
+    let _ = solver.solve();
     let full_ms = t.elapsed().as_secs_f64() * 1e3;
+    println!("full: cpu {:.0} ms", cpu_ms() - c);
     println!("full: {full_ms:.1} ms (refit {refit}, links {:.1} ms, light {:.1} ms)", solver.links.stats.shoot_ms, solver.light_links.ms);
     let solver = Solver::new(at(t0), params, &|_, _| {});
     let t = Instant::now();
+    let c = cpu_ms();
     let (solver, d) = solver.deform(at(t1), params, None, &|_, _| {});
     let ms = t.elapsed().as_secs_f64() * 1e3;
     let g = Instant::now();
     let _ = solver.solve();
+    println!("selective: cpu {:.0} ms", cpu_ms() - c);
     println!(
         "selective: {ms:.1} ms: accel {:.1}, links {:.1} ({} rays re-shot, {} remade vertices of {}, {} groups patched, static fraction {:.4}), light {:.1} ({} entries); gather+smooth {:.1} ms; state {:.1} MB",
         d.accel_ms,
@@ -65,4 +84,13 @@ fn setup_ms(scene: &prep::PreparedScene, params: &SolveParams) -> f64 {
     let s = linkgi::links::RaySetup::new(scene, &params.links);
     std::hint::black_box(&s);
     t.elapsed().as_secs_f64() * 1e3
+}
+
+/// CPU time of this process so far (user + system), ms, from /proc (0 elsewhere).
+fn cpu_ms() -> f64 {
+    let stat = std::fs::read_to_string("/proc/self/stat").unwrap_or_default();
+    let fields: Vec<&str> = stat.rsplit(')').next().unwrap_or("").split_whitespace().collect();
+    let ticks = |i: usize| fields.get(i).and_then(|f| f.parse::<f64>().ok()).unwrap_or(0.0);
+    // Fields after the command: state is 0, utime 11, stime 12 (clock ticks of 10 ms).
+    (ticks(11) + ticks(12)) * 10.0
 }

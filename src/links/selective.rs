@@ -41,7 +41,7 @@ use super::merge::{
     HIT_MISS,
 };
 use super::shoot::{RaySetup, TraceScratch};
-use super::{LinkParams, Links};
+use super::{LinkParams, LinkStats, Links};
 use crate::bvh::{Bvh, BvhBuildParams};
 use crate::kdtree::traverse::Ray;
 use crate::kdtree::triangle::{intersect, RayShear};
@@ -493,28 +493,65 @@ pub fn shoot_groups(
         .collect()
 }
 
-/// `links` with the groups of the listed vertices replaced (sorted by vertex).
-pub fn with_groups(links: &Links, groups: &[(u32, Vec<u32>, Vec<f16>)]) -> Links {
+/// What [`splice_groups`] took out of a link matrix: its groups from
+/// vertex `first` on, and its figures.
+#[derive(Debug)]
+pub struct Spliced {
+    first: usize,
+    offsets: Vec<u32>,
+    targets: Vec<u32>,
+    weights: Vec<f16>,
+    stats: LinkStats,
+}
+
+/// Replaces the groups of the listed vertices (sorted, distinct) in
+/// `links`, in place: the groups before the first listed vertex stay where
+/// they are, the rest is moved aside (copied once) and rebuilt. Returns
+/// what [`Spliced::restore`] puts back. Cheap when the listed vertices are
+/// near the end (a dynamic mesh prepared last).
+pub fn splice_groups(links: &mut Links, groups: &[(u32, Vec<u32>, Vec<f16>)]) -> Spliced {
     let n = links.vertex_count();
-    let mut out = Links { offsets: Vec::with_capacity(n + 1), stats: links.stats, ..Default::default() };
-    out.offsets.push(0);
+    let first = groups.first().map_or(n, |g| g.0 as usize);
+    let start = links.offsets[first] as usize;
+    let saved = Spliced {
+        first,
+        offsets: links.offsets.split_off(first + 1),
+        targets: links.targets.split_off(start),
+        weights: links.weights.split_off(start),
+        stats: links.stats,
+    };
     let mut next = groups.iter().peekable();
-    for v in 0..n {
+    for v in first..n {
         match next.peek() {
             Some((g, t, w)) if *g as usize == v => {
-                out.targets.extend_from_slice(t);
-                out.weights.extend_from_slice(w);
+                links.targets.extend_from_slice(t);
+                links.weights.extend_from_slice(w);
                 next.next();
             }
             _ => {
-                let (t, w) = links.group(v);
-                out.targets.extend_from_slice(t);
-                out.weights.extend_from_slice(w);
+                let a = if v == first { start } else { saved.offsets[v - first - 1] as usize };
+                let b = saved.offsets[v - first] as usize;
+                links.targets.extend_from_slice(&saved.targets[a - start..b - start]);
+                links.weights.extend_from_slice(&saved.weights[a - start..b - start]);
             }
         }
-        out.offsets.push(out.targets.len() as u32);
+        links.offsets.push(links.targets.len() as u32);
     }
-    out.stats.merged_links = out.targets.len() as u64;
-    out.stats.merged_bytes = super::merged_bytes(out.stats.merged_links, n);
-    out
+    links.stats.merged_links = links.targets.len() as u64;
+    links.stats.merged_bytes = super::merged_bytes(links.stats.merged_links, n);
+    saved
+}
+
+impl Spliced {
+    /// Puts the groups taken out by [`splice_groups`] back into `links`.
+    pub fn restore(mut self, links: &mut Links) {
+        let start = links.offsets[self.first] as usize;
+        links.offsets.truncate(self.first + 1);
+        links.targets.truncate(start);
+        links.weights.truncate(start);
+        links.offsets.append(&mut self.offsets);
+        links.targets.append(&mut self.targets);
+        links.weights.append(&mut self.weights);
+        links.stats = self.stats;
+    }
 }

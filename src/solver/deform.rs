@@ -12,7 +12,7 @@
 //! full solve of the deformed scene with the same seed. Times in ms.
 
 use super::{SolveParams, Solver};
-use crate::links::selective::{reshoot, shoot_groups, with_groups};
+use crate::links::selective::{reshoot, shoot_groups, splice_groups};
 use crate::links::{LinkParams, ReshootStats};
 use crate::scene::motion::Motion;
 use crate::scene::prep::PreparedScene;
@@ -137,13 +137,12 @@ impl Solver {
         let remade: Vec<u32> = (0..self.scene.vertex_count() as u32).filter(|&v| motion.remade[v as usize]).collect();
         let coarse = LinkParams { rays_per_vertex: rays, ..self.params.links };
         let groups = shoot_groups(&self.scene, &self.accel, &coarse, &remade);
-        let mut links = with_groups(&self.links, &groups);
         let mut light = self.light_links.clone();
         light.preview_deformed(&self.scene, &self.accel, &self.params.light, &remade).expect("a CPU tracer cannot fail");
-        std::mem::swap(&mut self.links, &mut links);
+        let saved = splice_groups(&mut self.links, &groups);
         std::mem::swap(&mut self.light_links, &mut light);
         show(self);
-        std::mem::swap(&mut self.links, &mut links);
+        saved.restore(&mut self.links);
         std::mem::swap(&mut self.light_links, &mut light);
     }
 }
