@@ -27,8 +27,8 @@ fn at_time(rest: &PreparedScene, t: f32) -> PreparedScene {
 fn moved_by(scene: &PreparedScene, f: impl Fn(Vec3) -> Vec3) -> PreparedScene {
     let mut positions = scene.positions.clone();
     for m in scene.meshes.iter().filter(|m| m.dynamic) {
-        for v in m.vertices.start as usize..m.vertices.end as usize {
-            positions[v] = f(positions[v]);
+        for p in &mut positions[m.vertices.start as usize..m.vertices.end as usize] {
+            *p = f(*p);
         }
     }
     let normals = moved_normals(scene, &scene.positions, &positions, &scene.normals);
