@@ -205,3 +205,25 @@ fn bench_rows_report_deformation_figures() {
         }
     }
 }
+
+/// The kd-tree tracer (rebuilt on every deformation) and a light that
+/// moves in the same update (its column traced anew, the other kept and
+/// patched) give a full solve's result too.
+#[test]
+fn kd_tracer_and_a_light_moved_with_the_deformation() {
+    use linkgi::scene::{Light, TracerKind};
+    let mut rest = prepared("torso", 16);
+    rest.settings.tracer = TracerKind::Kd;
+    let params = SolveParams::from_settings(&rest.settings);
+    assert_eq!(params.tracer, TracerKind::Kd);
+    let solver = Solver::new(rest.clone(), params, &|_, _| {});
+    let mut moved = at_time(&rest, 0.6);
+    if let Light::Point { position, .. } = &mut moved.lights[0] {
+        *position += Vec3::new(-0.3, 0.0, 0.2);
+    }
+    let (next, stats) = solver.deform(moved, params, None, &|_, _| {});
+    assert!(stats.selective && !stats.refitted);
+    let n = next.scene.vertex_count() as u64;
+    assert!(stats.light_links_recomputed >= n && stats.light_links_recomputed < 2 * n, "{stats:?}");
+    assert_equals_fresh(&next, "kd tracer, light 0 moved");
+}
