@@ -70,3 +70,35 @@ fn overrides_are_checked_before_any_work() {
     let (ok, stderr) = run(&["solve", scene, "--backend", "tpu"]);
     assert!(!ok && stderr.contains("tpu") && stderr.contains("expected auto, gpu or cpu"), "{stderr}");
 }
+
+/// `solve --time T` solves the deformers' pose at T: the exported figure
+/// moved (the room did not), the rest pose at T = 0; a scene without
+/// deformers says so and solves its rest pose; a non-finite T is an error.
+#[test]
+fn solve_time_evaluates_the_deformers() {
+    use linkgi::scene::deform::deform_scene;
+    use linkgi::scene::{builtin, prep};
+    let d = Path::new(env!("CARGO_TARGET_TMPDIR")).join("cli-time");
+    let _ = std::fs::remove_dir_all(&d);
+    let positions = |t: &str| {
+        let dir = d.join(format!("t{t}"));
+        let (ok, err) = run(&["solve", "torso", "--time", t, "--rays", "4", "--export", dir.to_str().unwrap()]);
+        assert!(ok, "{err}");
+        let bytes = std::fs::read(dir.join("mesh.ply")).unwrap();
+        let at = bytes.windows(11).position(|w| w == b"end_header\n").unwrap() + 11;
+        let f = |i: usize| f32::from_le_bytes(bytes[at + 4 * i..at + 4 * i + 4].try_into().unwrap());
+        // 15 floats a vertex; the first three are the position.
+        let n = prep::prepare(&builtin::builtin("torso").unwrap()).unwrap().vertex_count();
+        (0..n).map(|v| glam::Vec3::new(f(15 * v), f(15 * v + 1), f(15 * v + 2))).collect::<Vec<_>>()
+    };
+    let rest = prep::prepare(&builtin::builtin("torso").unwrap()).unwrap();
+    let (expected, _) = deform_scene(&rest, &rest.positions, &rest.normals, 1.3);
+    let posed = positions("1.3");
+    assert!(posed == expected, "--time 1.3 did not solve the deformers' pose");
+    assert!(posed != rest.positions);
+    assert!(positions("0") == rest.positions);
+    let (ok, err) = run(&["solve", "cornell", "--time", "2", "--rays", "4"]);
+    assert!(ok && err.contains("no deformers"), "{err}");
+    let (ok, err) = run(&["solve", "torso", "--time", "nan", "--rays", "4"]);
+    assert!(!ok && err.contains("--time"), "{err}");
+}
