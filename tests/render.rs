@@ -245,30 +245,124 @@ fn kd_tree_of_frame_matches_solver() {
     assert!(own.pixels.iter().any(|p| p.max_element() > 0.01), "the image is black");
 }
 
+/// `linkgi` with no arguments renders the built-in Cornell box through the
+/// scene's own camera at the default exposure: the frame must hold the whole
+/// box. The top rows' middle half shows the ceiling (primary rays meet y = 2,
+/// white) with the light's hot spot, the light projects inside the frame, the
+/// left and right edges are the red and green walls, the boxes' shadows on
+/// the room (2.5 % of the frame at least) and lit floor are in view, and little of the image is clipped.
+/// (The old camera, steeply down from 1.3 m, failed the ceiling and light checks.)
+#[test]
+fn default_camera_frames_the_whole_box() {
+    let c = cornell();
+    let camera = builtin::builtin("cornell").unwrap().camera;
+    let (w, h) = (80, 60);
+    let frame = Frame::of(&c.solver.scene, &c.sol.e_indirect, camera);
+    let p = RenderParams { width: w, height: h, ..params(View::Combined) };
+    let img = render_cpu(&frame, &p, Some(&c.solver.accel)).unwrap().0;
+    save("cornell-default-camera.png", &img);
+    let ldr = render::tone_map(&img, RenderParams::default().exposure);
+    let rgb = |x: u32, y: u32| ldr.get_pixel(x, y).0.map(|v| v as f32);
+    let extent = frame.extent();
+    let accel = &c.solver.accel;
+    let Light::Point { position: light, .. } = c.solver.scene.lights[0] else { panic!() };
+    let hit = |x: u32, y: u32| {
+        let ray = render::pixel_ray(&camera, w, h, extent, x, y);
+        accel.intersect(&ray).map(|hit| ray.origin + ray.dir * hit.t).expect("every primary ray meets the closed room")
+    };
+
+    for y in 0..h / 8 {
+        for x in w / 4..3 * w / 4 {
+            let p = hit(x, y);
+            assert!(p.y > 1.99, "pixel ({x}, {y}) of the top rows shows {p}, not the ceiling");
+            let [r, g, b] = rgb(x, y);
+            // White, tinted a little by the coloured walls.
+            let (lo, hi) = (r.min(g).min(b), r.max(g).max(b));
+            assert!(hi > 100.0 && lo > 0.75 * hi, "ceiling pixel ({x}, {y}) not white: {r} {g} {b}");
+        }
+    }
+    let top = (0..h / 8).flat_map(|y| (0..w).map(move |x| (x, y)));
+    let hot = top.map(|(x, y)| img.at(x, y).min_element()).fold(0.0, f32::max);
+    assert!(hot > 5.0, "no bright ceiling over the light in the top rows (max radiance {hot})");
+    let (view, proj) = render::camera_matrices(&camera, w as f32 / h as f32, extent * 4.0);
+    let ndc = proj.project_point3(view.transform_point3(light));
+    assert!(ndc.x.abs() < 0.95 && ndc.y.abs() < 0.95 && (0.0..1.0).contains(&ndc.z), "light off screen: {ndc}");
+
+    for y in h / 4..3 * h / 4 {
+        let [r, g, b] = rgb(0, y);
+        assert!(r > 2.0 * g && r > 2.0 * b, "left edge row {y} not red: {r} {g} {b}");
+        let [r, g, b] = rgb(w - 1, y);
+        assert!(g > 1.4 * r && g > 1.4 * b, "right edge row {y} not green: {r} {g} {b}");
+    }
+
+    // Room surfaces (floor and walls) in the boxes' shadow, and lit.
+    let (mut shadow, mut lit) = (Vec::new(), Vec::new());
+    for y in 0..h {
+        for x in 0..w {
+            let p = hit(x, y);
+            let inward = if p.y < 1e-3 {
+                Vec3::Y
+            } else if p.x.abs() > 0.999 {
+                -Vec3::X * p.x.signum()
+            } else if p.z < -0.999 {
+                Vec3::Z
+            } else {
+                continue;
+            };
+            let o = p + inward * 1e-3;
+            let d = light - o;
+            let blocked = accel.occluded(&Ray { tmax: d.length() * 0.999, ..Ray::new(o, d.normalize()) });
+            let luma = rgb(x, y).iter().sum::<f32>();
+            if blocked {
+                shadow.push(luma)
+            } else if p.y < 1e-3 {
+                lit.push(luma)
+            }
+        }
+    }
+    let n = (w * h) as usize;
+    assert!(
+        shadow.len() * 40 > n && lit.len() * 50 > n,
+        "{} px in shadow, {} lit floor of {n}",
+        shadow.len(),
+        lit.len()
+    );
+    let mean = |v: &[f32]| v.iter().sum::<f32>() / v.len() as f32;
+    assert!(mean(&shadow) < 0.7 * mean(&lit), "shadow {} vs lit floor {}", mean(&shadow), mean(&lit));
+
+    let clipped = ldr.pixels().filter(|p| p.0.iter().all(|&v| v == 255)).count();
+    let mean_luma = ldr.as_raw().iter().map(|&v| v as f32).sum::<f32>() / ldr.as_raw().len() as f32;
+    eprintln!(
+        "default camera: hot spot {hot:.1}, {} px shadow, {} px lit floor, {clipped} clipped, mean {mean_luma:.0}",
+        shadow.len(),
+        lit.len()
+    );
+    assert!(clipped * 20 < n, "{clipped} of {n} pixels clipped white");
+    assert!((60.0..200.0).contains(&mean_luma), "mean 8-bit value {mean_luma}: too dark or too bright");
+}
+
 #[test]
 fn exr_holds_linear_radiance() {
     let img = HdrImage {
         width: 3,
         height: 2,
-        pixels: (0..6).map(|i| Vec3::new(i as f32, 10.0 + i as f32, 100.0 + i as f32)).collect(),
+        pixels: (0..6).map(|i| Vec3::new(i as f32 + 0.25, 10.0 + i as f32, 1e4 * (1 + i) as f32)).collect(),
     };
-    let bytes = render::exr_bytes(&img);
-    assert_eq!(&bytes[..4], &[0x76, 0x2f, 0x31, 0x01]);
-    let text = String::from_utf8_lossy(&bytes);
-    for a in ["channels\0chlist", "compression\0compression", "dataWindow\0box2i", "lineOrder\0lineOrder"] {
-        assert!(text.contains(a), "missing attribute {a}");
-    }
-    // The offset table points at each scanline block: y, size, then B, G, R rows of f32.
-    let line = 3 * 4 * 3;
-    let header_end = bytes.len() - 2 * (8 + line) - 16;
-    let off1 = u64::from_le_bytes(bytes[header_end + 8..header_end + 16].try_into().unwrap()) as usize;
-    assert_eq!(i32::from_le_bytes(bytes[off1..off1 + 4].try_into().unwrap()), 1);
-    assert_eq!(i32::from_le_bytes(bytes[off1 + 4..off1 + 8].try_into().unwrap()), line as i32);
-    let f = |o: usize| f32::from_le_bytes(bytes[o..o + 4].try_into().unwrap());
-    // Pixel (2, 1) is index 5: B = 105 at channel 0, R = 5 at channel 2.
-    assert_eq!(f(off1 + 8 + 2 * 4), 105.0);
-    assert_eq!(f(off1 + 8 + 3 * 4 + 2 * 4), 15.0);
-    assert_eq!(f(off1 + 8 + 6 * 4 + 2 * 4), 5.0);
+    let path = std::path::Path::new(env!("CARGO_TARGET_TMPDIR")).join("exr/radiance.exr");
+    let _ = std::fs::remove_file(&path);
+    render::write_exr(&img, &path).unwrap();
+    // Read back with the exr crate: same size, the same f32 radiance in every pixel, rows top to bottom.
+    let read = exr::prelude::read_first_rgba_layer_from_file(
+        &path,
+        |size, _| HdrImage { width: size.0 as u32, height: size.1 as u32, pixels: vec![Vec3::NAN; size.0 * size.1] },
+        |out: &mut HdrImage, pos, (r, g, b, _a): (f32, f32, f32, f32)| {
+            out.pixels[pos.1 * out.width as usize + pos.0] = Vec3::new(r, g, b)
+        },
+    )
+    .unwrap();
+    assert_eq!(read.layer_data.channel_data.pixels, img);
+    let e = render::write_exr(&img, std::path::Path::new("/proc/no/such/dir/x.exr")).unwrap_err().to_string();
+    assert!(e.contains("/proc/no/such/dir"), "{e}");
 }
 
 #[test]

@@ -274,61 +274,15 @@ impl Renderer {
     }
 }
 
-/// Writes linear radiance as an OpenEXR file: single-part scanline image,
-/// no compression, 32-bit float channels B, G, R (alphabetical, as the
-/// format stores them), one scanline per block.
+/// Writes linear radiance, W/(m^2 sr), as an OpenEXR file through the
+/// `exr` crate: one RGB layer of 32-bit floats, lossless compression.
 pub fn write_exr(img: &HdrImage, path: &Path) -> crate::Result<()> {
     if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
         std::fs::create_dir_all(dir).map_err(|source| crate::Error::Io { path: dir.to_path_buf(), source })?;
     }
-    std::fs::write(path, exr_bytes(img)).map_err(|source| crate::Error::Io { path: path.to_path_buf(), source })
-}
-
-/// The bytes of [`write_exr`].
-pub fn exr_bytes(img: &HdrImage) -> Vec<u8> {
-    fn attr(out: &mut Vec<u8>, name: &str, ty: &str, value: &[u8]) {
-        out.extend(name.as_bytes());
-        out.push(0);
-        out.extend(ty.as_bytes());
-        out.push(0);
-        out.extend((value.len() as i32).to_le_bytes());
-        out.extend(value);
-    }
-    let (w, h) = (img.width as i32, img.height as i32);
-    let mut out = vec![0x76, 0x2f, 0x31, 0x01, 2, 0, 0, 0];
-    let mut chlist = Vec::new();
-    for c in ["B", "G", "R"] {
-        chlist.extend(c.as_bytes());
-        chlist.push(0);
-        chlist.extend(2i32.to_le_bytes()); // FLOAT
-        chlist.extend([0u8, 0, 0, 0]); // pLinear + reserved
-        chlist.extend(1i32.to_le_bytes());
-        chlist.extend(1i32.to_le_bytes());
-    }
-    chlist.push(0);
-    attr(&mut out, "channels", "chlist", &chlist);
-    attr(&mut out, "compression", "compression", &[0]);
-    let window: Vec<u8> = [0, 0, w - 1, h - 1].iter().flat_map(|v| v.to_le_bytes()).collect();
-    attr(&mut out, "dataWindow", "box2i", &window);
-    attr(&mut out, "displayWindow", "box2i", &window);
-    attr(&mut out, "lineOrder", "lineOrder", &[0]);
-    attr(&mut out, "pixelAspectRatio", "float", &1f32.to_le_bytes());
-    attr(&mut out, "screenWindowCenter", "v2f", &[0u8; 8]);
-    attr(&mut out, "screenWindowWidth", "float", &1f32.to_le_bytes());
-    out.push(0);
-    let line_bytes = 3 * 4 * w as usize;
-    let table_end = out.len() + 8 * h as usize;
-    for y in 0..h as usize {
-        out.extend(((table_end + y * (8 + line_bytes)) as u64).to_le_bytes());
-    }
-    for y in 0..img.height {
-        out.extend((y as i32).to_le_bytes());
-        out.extend((line_bytes as i32).to_le_bytes());
-        for ch in [2usize, 1, 0] {
-            for x in 0..img.width {
-                out.extend(img.at(x, y)[ch].to_le_bytes());
-            }
-        }
-    }
-    out
+    exr::prelude::write_rgb_file(path, img.width as usize, img.height as usize, |x, y| {
+        let p = img.at(x as u32, y as u32);
+        (p.x, p.y, p.z)
+    })
+    .map_err(|e| crate::Error::Io { path: path.to_path_buf(), source: std::io::Error::other(e.to_string()) })
 }

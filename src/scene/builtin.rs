@@ -208,7 +208,10 @@ fn cornell() -> SceneDesc {
 
     scene(
         "cornell",
-        camera(Vec3::new(0.0, 1.3, 0.98), Vec3::new(0.0, 0.55, -0.2), 80.0),
+        // Against the front wall, looking down a little with a wide lens: the
+        // whole box from the ceiling (and the light under it) to the floor
+        // between the boxes, red wall left, green wall right.
+        camera(Vec3::new(0.0, 1.55, 0.99), Vec3::new(0.0, 0.6, -1.0), 95.0),
         vec![r.finish("cornell/room", 30.0), b.finish("cornell/boxes", 30.0)],
         vec![point(Vec3::new(0.0, 1.85, 0.0), Vec3::splat(4.0))],
     )
@@ -383,7 +386,7 @@ fn torso() -> SceneDesc {
 
     scene(
         "torso",
-        camera(Vec3::new(0.4, 1.4, 1.8), Vec3::new(0.0, 1.1, 0.0), 60.0),
+        camera(Vec3::new(0.5, 1.35, 1.85), Vec3::new(0.0, 0.95, 0.0), 62.0),
         vec![r.finish("torso/room", 30.0), figure],
         vec![
             point(Vec3::new(1.2, 2.4, 1.1), Vec3::splat(3.0)),
