@@ -3,7 +3,7 @@
 //! Binary build: at each node the triangles' centroids are binned along all
 //! three axes at once ([`BvhBuildParams::bins`] bins over the centroid
 //! bounds), the best plane of the three sweeps is taken by the SAH with
-//! leaves costing `intersect_cost * ceil(n / 4)`, and the index range is
+//! leaves costing `intersect_cost * ceil(n / 8)`, and the index range is
 //! partitioned in place. A node becomes a leaf when that is no dearer than
 //! its best split and it holds at most `max_leaf_triangles`; a node whose
 //! centroids all coincide is split at its median (index order). Subtrees of
@@ -15,7 +15,7 @@
 //! the inner child of largest surface area until it has eight (or only
 //! leaves are left). Nodes are emitted in preorder (a child's index is
 //! larger than its parent's, which [`super::refit`] relies on); a leaf's
-//! triangles go into consecutive blocks of four, unused lanes with NaN
+//! triangles go into consecutive blocks of eight, unused lanes with NaN
 //! corners (never hit) and vertex ids `u32::MAX`.
 
 use super::leaf::{Block8, LANES};

@@ -15,7 +15,7 @@
 //! keep the tree sound there (the SAH cost is in [`BvhStats`] and checked
 //! against the kd-tree's in the tests).
 //!
-//! Nodes ([`Node8`], 224 bytes): the eight child boxes as structure of
+//! Nodes ([`Node8`], 256 bytes): the eight child boxes as structure of
 //! arrays, so one SIMD operation per axis and side tests all eight slabs
 //! ([`traverse`]: AVX-512 and AVX2 builds chosen at run time, a portable
 //! fallback, all with the same arithmetic and so the same hits). Leaves

@@ -1,6 +1,6 @@
 //! Hit records to CSR links, in one place whatever traced the rays (the CPU
 //! tracers in [`super::shoot`], the GPU in `crate::gpu::schedule`): each
-//! vertex's records are merged into its link group ([`merge_vertex`]),
+//! vertex's records are merged into its link group ([`merge_vertex_sums`]),
 //! groups of consecutive vertices are collected into [`GroupRun`]s (one per
 //! worker chunk or device batch), and [`assemble`] stitches the runs in
 //! vertex order into [`Links`] with the counters and storage sizes.

@@ -2,7 +2,7 @@
 //! direct and indirect irradiance, to measure the link solver against.
 //!
 //! What it shares with the link solver: only the ray-intersection code
-//! ([`KdTree`]). It never uses the vertex links, the light links, the
+//! (the wide BVH, [`Bvh`], and its watertight triangle test). It never uses the vertex links, the light links, the
 //! direction sets or the gather.
 //!
 //! Estimator (irradiance in W/m^2, lengths in metres):

@@ -12,7 +12,7 @@
 //!   shadow maps with percentage-closer filtering (six 2D layers per point
 //!   light, a cube map's faces; one per directional light);
 //! - [`cpu::render_cpu`]: the fallback with no adapter: a primary ray per
-//!   pixel and a shadow ray per light through the kd-tree (hard shadows).
+//!   pixel and a shadow ray per light through a wide BVH (hard shadows).
 //!
 //! [`tone_map`] is shared by both: `c = ACES(L * exposure)` (Narkowicz's fit),
 //! then the sRGB transfer curve, 8 bits per channel. The camera is a pinhole
@@ -265,7 +265,7 @@ impl Renderer {
         }
     }
 
-    /// Renders `frame`; the CPU path builds a kd-tree of the frame's geometry.
+    /// Renders `frame`; the CPU path builds a wide BVH of the frame's geometry.
     pub fn render(&self, frame: &Frame, params: &RenderParams) -> crate::Result<(HdrImage, RenderStats)> {
         match self {
             Renderer::Gpu(r) => r.render(frame, params),
