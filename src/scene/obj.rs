@@ -193,6 +193,7 @@ pub fn load_obj(path: &Path, warnings: &mut Vec<String>) -> Result<MeshDesc> {
         triangles,
         triangle_material,
         materials: mats,
+        vertex_albedo: None,
         crease_angle_deg: 30.0,
         transform: Transform::default(),
         dynamic: false,
