@@ -282,7 +282,8 @@ fn toml_mesh_may_name_a_gltf() {
     d.node(json!({"camera": 0}), true);
     d.write(&dir, "tri.glb");
     let light = "[[light]]\nkind = \"point\"\nposition = [0, 1, 1]\nintensity = [1, 1, 1]\n";
-    let toml = format!("[[mesh]]\ngltf = \"tri.glb\"\ndynamic = true\n[mesh.transform]\ntranslate = [0, 1, 0]\n{light}");
+    let toml =
+        format!("[[mesh]]\ngltf = \"tri.glb\"\ndynamic = true\n[mesh.transform]\ntranslate = [0, 1, 0]\n{light}");
     std::fs::write(dir.join("s.toml"), toml).unwrap();
     let desc = load(&dir.join("s.toml"));
     assert_eq!(desc.meshes.len(), 1);
@@ -341,6 +342,25 @@ fn malformed_gltf_files_name_the_file_and_the_problem() {
     // An accessor reaching past its buffer view.
     let msg = case("short.gltf", &|d, _| d.json["accessors"][0]["count"] = json!(4));
     assert!(msg.contains("reaches past"), "{msg}");
+    // A camera whose type names a projection it lacks (the gltf crate would unwrap it).
+    let msg = case("camera.gltf", &|d, _| {
+        d.json["cameras"] =
+            json!([{"type": "perspective", "orthographic": {"xmag": 1, "ymag": 1, "zfar": 9, "znear": 0.1}}]);
+        d.node(json!({"camera": 0}), true);
+    });
+    assert!(msg.contains("camera 0"), "{msg}");
+    // A directional light turned by a quaternion so large its direction overflows.
+    let msg = case("sun.gltf", &|d, _| {
+        d.json["extensions"] = json!({"KHR_lights_punctual": {"lights": [{"type": "directional"}]}});
+        d.node(
+            json!({"rotation": [4294967295.0, 0.3, 0, 1], "extensions": {"KHR_lights_punctual": {"light": 0}}}),
+            true,
+        );
+    });
+    assert!(msg.contains("light 0") && msg.contains("direction"), "{msg}");
+    // An image without a source.
+    let msg = case("image.gltf", &|d, _| d.json["images"] = json!([{"name": "nothing"}]));
+    assert!(msg.contains("image 0"), "{msg}");
     // A node that is its own child.
     let msg = case("cycle.gltf", &|d, _| d.json["nodes"][0]["children"] = json!([0]));
     assert!(msg.contains("reached twice"), "{msg}");

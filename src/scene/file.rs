@@ -242,8 +242,8 @@ fn light_from(path: &Path, l: &LightFile) -> Result<Light> {
         }
         LightFile::Directional { direction, irradiance } => {
             let d = finite3(path, "light.direction", *direction)?;
-            if d.length_squared() < 1e-20 {
-                return Err(scene_err(path, "light.direction is the zero vector"));
+            if d.length_squared() < 1e-20 || d.normalize_or_zero() == Vec3::ZERO {
+                return Err(scene_err(path, format!("light.direction = {d} has no unit vector (zero or too long)")));
             }
             let irradiance = finite3(path, "light.irradiance", *irradiance)?;
             if irradiance.min_element() < 0.0 {

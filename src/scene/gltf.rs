@@ -210,10 +210,11 @@ fn light_from(
         }
         Kind::Directional => {
             let d = world.transform_vector3(Vec3::NEG_Z);
-            if !d.is_finite() || d.length_squared() < 1e-20 {
-                return Err(format!("its node's transform gives the direction {d}"));
+            let direction = d.normalize_or_zero();
+            if direction == Vec3::ZERO {
+                return Err(format!("its node's transform gives the direction {d}, which has no unit vector"));
             }
-            Ok(Light::Directional { direction: d.normalize(), irradiance: rgb })
+            Ok(Light::Directional { direction, irradiance: rgb })
         }
     }
 }
@@ -227,7 +228,8 @@ fn camera_from(
     path: &Path,
     warnings: &mut Vec<String>,
 ) -> Option<(Vec3, Vec3, f32)> {
-    let mut warn = |m: String| warnings.push(format!("{}: camera {} at node '{label}': {m}", path.display(), cam.index()));
+    let mut warn =
+        |m: String| warnings.push(format!("{}: camera {} at node '{label}': {m}", path.display(), cam.index()));
     let ::gltf::camera::Projection::Perspective(p) = cam.projection() else {
         warn("orthographic cameras are not supported; ignored".into());
         return None;
@@ -252,8 +254,8 @@ fn open(path: &Path, bytes: &[u8]) -> Result<Loaded> {
     if bytes.starts_with(b"glTF") {
         check_glb_header(bytes).map_err(err)?;
     }
-    let ::gltf::Gltf { document, mut blob } = ::gltf::Gltf::from_slice_without_validation(bytes)
-        .map_err(|e| err(format!("not a glTF 2.0 file ({e})")))?;
+    let ::gltf::Gltf { document, mut blob } =
+        ::gltf::Gltf::from_slice_without_validation(bytes).map_err(|e| err(format!("not a glTF 2.0 file ({e})")))?;
     let root = document.as_json();
     check_before_validation(root).map_err(err)?;
     let mut problems = Vec::new();
@@ -315,7 +317,8 @@ fn check_glb_header(bytes: &[u8]) -> std::result::Result<(), String> {
 }
 
 /// Checks what the crate's validation dereferences before checking it, and
-/// what its importer unwraps: POSITION accessor indices, URIs, image MIME types.
+/// what its importer and accessors unwrap: POSITION accessor indices, URIs,
+/// image sources and MIME types, camera projections.
 fn check_before_validation(root: &json::Root) -> std::result::Result<(), String> {
     let position = json::validation::Checked::Valid(json::mesh::Semantic::Positions);
     for (mi, m) in root.meshes.iter().enumerate() {
@@ -342,6 +345,20 @@ fn check_before_validation(root: &json::Root) -> std::result::Result<(), String>
     for (i, image) in root.images.iter().enumerate() {
         if image.buffer_view.is_some() && image.mime_type.is_none() {
             return Err(format!("image {i} is stored in a buffer view but has no mimeType"));
+        }
+        if image.buffer_view.is_none() && image.uri.is_none() {
+            return Err(format!("image {i} has neither a uri nor a bufferView"));
+        }
+    }
+    for (i, camera) in root.cameras.iter().enumerate() {
+        use json::camera::Type;
+        let missing = match camera.type_ {
+            json::validation::Checked::Valid(Type::Perspective) => camera.perspective.is_none(),
+            json::validation::Checked::Valid(Type::Orthographic) => camera.orthographic.is_none(),
+            _ => false,
+        };
+        if missing {
+            return Err(format!("camera {i} lacks the projection its type names"));
         }
     }
     Ok(())

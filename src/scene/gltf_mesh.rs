@@ -146,7 +146,8 @@ impl Texture {
 
     /// Colour at texture coordinates `uv` (finite), texel centres at half-integers.
     fn sample(&self, uv: Vec2, wrap: [WrappingMode; 2], nearest: bool) -> Vec3 {
-        let p = (uv * Vec2::new(self.width as f32, self.height as f32) - 0.5).clamp(Vec2::splat(-1e9), Vec2::splat(1e9));
+        let p =
+            (uv * Vec2::new(self.width as f32, self.height as f32) - 0.5).clamp(Vec2::splat(-1e9), Vec2::splat(1e9));
         if nearest {
             return self.fetch(p.x.round() as i64, p.y.round() as i64, wrap);
         }
@@ -176,7 +177,8 @@ fn check_accessor(
     let range = |view: ::gltf::buffer::View, offset: usize, count: usize, elem: usize| -> Res<()> {
         let stride = view.stride().unwrap_or(elem);
         let end = stride.checked_mul(count - 1).and_then(|n| n.checked_add(elem)).and_then(|n| n.checked_add(offset));
-        let in_buffer = view.offset().checked_add(view.length()).is_some_and(|e| e <= buffers[view.buffer().index()].len());
+        let in_buffer =
+            view.offset().checked_add(view.length()).is_some_and(|e| e <= buffers[view.buffer().index()].len());
         if stride < elem || !in_buffer || end.is_none_or(|e| e > view.length()) {
             return Err(format!(
                 "accessor {} ({count} elements of {elem} bytes, stride {stride}, offset {offset}) reaches past the end of buffer view {} ({} bytes)",
@@ -262,7 +264,8 @@ pub(super) fn build_mesh(
         let buffers = cx.buffers;
         let reader = prim.reader(|b| buffers.get(b.index()).map(|d| &d.0[..]));
         let pos_acc = prim.get(&Semantic::Positions).ok_or_else(|| at("has no POSITION".into()))?;
-        check_accessor(&pos_acc, buffers, &[(Dimensions::Vec3, DataType::F32)]).map_err(|m| at(format!("POSITION: {m}")))?;
+        check_accessor(&pos_acc, buffers, &[(Dimensions::Vec3, DataType::F32)])
+            .map_err(|m| at(format!("POSITION: {m}")))?;
         let (base, n) = match shared.get(&pos_acc.index()) {
             Some(&bn) if !per_vertex => bn,
             _ => {
@@ -281,7 +284,8 @@ pub(super) fn build_mesh(
                     return Err(at(format!("POSITION gave {n} of its {} vertices", pos_acc.count())));
                 }
                 if per_vertex {
-                    vertex_albedo.extend(primitive_albedo(cx, &prim, &reader, factor, n as usize, warnings).map_err(at)?);
+                    vertex_albedo
+                        .extend(primitive_albedo(cx, &prim, &reader, factor, n as usize, warnings).map_err(at)?);
                 }
                 shared.insert(pos_acc.index(), (base, n));
                 (base, n)
@@ -313,7 +317,7 @@ pub(super) fn build_mesh(
                 (1..indices.len().saturating_sub(1)).map(|i| [indices[0], indices[i], indices[i + 1]]).collect()
             }
             _ => {
-                if indices.len() % 3 != 0 {
+                if !indices.len().is_multiple_of(3) {
                     return Err(at(format!("{} indices are not a whole number of triangles", indices.len())));
                 }
                 indices.chunks_exact(3).map(|t| [t[0], t[1], t[2]]).collect()

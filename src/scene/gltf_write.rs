@@ -44,10 +44,11 @@ struct Builder {
 impl Builder {
     /// Appends `bytes` as a new buffer view (4-byte aligned); returns its index.
     fn view(&mut self, bytes: &[u8], target: u32) -> usize {
-        while self.bin.len() % 4 != 0 {
+        while !self.bin.len().is_multiple_of(4) {
             self.bin.push(0);
         }
-        self.views.push(json!({"buffer": 0, "byteOffset": self.bin.len(), "byteLength": bytes.len(), "target": target}));
+        self.views
+            .push(json!({"buffer": 0, "byteOffset": self.bin.len(), "byteLength": bytes.len(), "target": target}));
         self.bin.extend_from_slice(bytes);
         self.views.len() - 1
     }
@@ -69,7 +70,8 @@ impl Builder {
     fn indices(&mut self, tris: &[[u32; 3]]) -> usize {
         let flat: Vec<u32> = tris.iter().flatten().copied().collect();
         let view = self.view(bytemuck::cast_slice(&flat), ELEMENT_ARRAY_BUFFER);
-        self.accessors.push(json!({"bufferView": view, "componentType": UNSIGNED_INT, "count": flat.len(), "type": "SCALAR"}));
+        self.accessors
+            .push(json!({"bufferView": view, "componentType": UNSIGNED_INT, "count": flat.len(), "type": "SCALAR"}));
         self.accessors.len() - 1
     }
 }
@@ -116,7 +118,9 @@ fn build(scene: &SceneDesc) -> (Value, Vec<u8>) {
         let mut start = 0;
         while start < mesh.triangles.len() {
             let mat = mesh.triangle_material[start];
-            let end = (start..mesh.triangles.len()).find(|&i| mesh.triangle_material[i] != mat).unwrap_or(mesh.triangles.len());
+            let end = (start..mesh.triangles.len())
+                .find(|&i| mesh.triangle_material[i] != mat)
+                .unwrap_or(mesh.triangles.len());
             let mut attributes = json!({"POSITION": positions});
             if let Some(c) = colours {
                 attributes["COLOR_0"] = json!(c);
@@ -143,7 +147,10 @@ fn build(scene: &SceneDesc) -> (Value, Vec<u8>) {
         let (node, value) = match *light {
             Light::Point { position, intensity } => {
                 let (color, cd) = photometric(intensity);
-                (json!({"translation": position.to_array()}), json!({"type": "point", "color": color.to_array(), "intensity": cd}))
+                (
+                    json!({"translation": position.to_array()}),
+                    json!({"type": "point", "color": color.to_array(), "intensity": cd}),
+                )
             }
             Light::Directional { direction, irradiance } => {
                 let (color, lux) = photometric(irradiance);

@@ -199,7 +199,9 @@ fn prepare_mesh(mesh: &super::MeshDesc) -> Result<MeshPrep> {
         if !(cross.length_squared().is_finite() && (longest * longest).is_finite()) {
             return Err(geom_err(
                 name,
-                format!("triangle {ti} ({a}, {b}, {c}) is too large: its size overflows f32 arithmetic (metres expected)"),
+                format!(
+                    "triangle {ti} ({a}, {b}, {c}) is too large: its size overflows f32 arithmetic (metres expected)"
+                ),
             ));
         }
         if w[0] == w[1] || w[1] == w[2] || w[0] == w[2] || cross.length_squared() <= 1e-24 * longest * longest {

@@ -41,7 +41,7 @@ impl Doc {
     }
 
     fn view(&mut self, bytes: &[u8]) -> usize {
-        while self.bin.len() % 4 != 0 {
+        while !self.bin.len().is_multiple_of(4) {
             self.bin.push(0);
         }
         let off = self.bin.len();
@@ -73,7 +73,10 @@ impl Doc {
     /// A u32 index accessor.
     pub fn indices(&mut self, data: &[u32]) -> usize {
         let view = self.view(bytemuck::cast_slice(data));
-        self.push("accessors", json!({"bufferView": view, "componentType": 5125, "count": data.len(), "type": "SCALAR"}))
+        self.push(
+            "accessors",
+            json!({"bufferView": view, "componentType": 5125, "count": data.len(), "type": "SCALAR"}),
+        )
     }
 
     pub fn material(&mut self, m: Value) -> usize {
