@@ -19,6 +19,11 @@ pub enum Error {
     /// An OBJ or MTL file could not be parsed.
     #[error("{path}: {message}")]
     Obj { path: PathBuf, message: String },
+    /// A glTF file (or a buffer or image it names) could not be read, is not
+    /// valid glTF 2.0, or holds data linkgi cannot use; `message` says where
+    /// in the file (mesh, primitive, accessor, node) and what is wrong.
+    #[error("{path}: {message}")]
+    Gltf { path: PathBuf, message: String },
     /// A mesh has invalid geometry (non-finite coordinates, bad indices, ...).
     #[error("{source_name}{}: {message}", line.map(|l| format!(":{l}")).unwrap_or_default())]
     Geometry {

@@ -208,6 +208,7 @@ fn grey(name: &str, positions: Vec<Vec3>, triangles: Vec<[u32; 3]>) -> MeshDesc 
         positions,
         triangles,
         materials: vec![Material { name: "grey".into(), albedo: Vec3::splat(0.8) }],
+        vertex_albedo: None,
         crease_angle_deg: 60.0,
         transform: Default::default(),
         dynamic: false,

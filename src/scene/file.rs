@@ -1,10 +1,17 @@
 //! TOML scene files (format in README.md / issue 2): `[settings]`, `[camera]`,
-//! `[[mesh]]` tables naming OBJ files relative to the scene file, `[[light]]`s.
+//! `[[mesh]]` tables naming an OBJ (`obj = "m.obj"`) or a glTF file
+//! (`gltf = "m.glb"`) relative to the scene file, `[[light]]`s.
+//!
+//! A glTF `[[mesh]]` brings every mesh of the glTF's scene (world transforms
+//! baked in, see [`super::gltf`]); the table's transform, crease angle,
+//! `dynamic` and deformers apply to each of them. The glTF's own lights and
+//! cameras are ignored with a warning: the scene file's `[[light]]`s and
+//! `[camera]` describe the scene.
 //! The same serde types write scene files back out (built-in scenes are
 //! written to `scenes/` this way).
 
 use super::deform::{Deform, DeformKind};
-use super::{obj, Backend, Bounces, Camera, Light, SceneDesc, Settings, TracerKind, Transform};
+use super::{gltf, obj, Backend, Bounces, Camera, Light, SceneDesc, Settings, TracerKind, Transform};
 use crate::{Error, Result};
 use glam::Vec3;
 use serde::{Deserialize, Serialize};
@@ -66,7 +73,12 @@ fn default_fov() -> f32 {
 #[derive(Debug, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct MeshFile {
-    pub obj: PathBuf,
+    /// An OBJ file; exactly one of `obj` and `gltf` is given.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub obj: Option<PathBuf>,
+    /// A `.gltf` or `.glb` file.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub gltf: Option<PathBuf>,
     #[serde(default = "default_crease")]
     pub crease_angle_deg: f32,
     #[serde(default)]
@@ -230,8 +242,8 @@ fn light_from(path: &Path, l: &LightFile) -> Result<Light> {
         }
         LightFile::Directional { direction, irradiance } => {
             let d = finite3(path, "light.direction", *direction)?;
-            if d.length_squared() < 1e-20 {
-                return Err(scene_err(path, "light.direction is the zero vector"));
+            if d.length_squared() < 1e-20 || d.normalize_or_zero() == Vec3::ZERO {
+                return Err(scene_err(path, format!("light.direction = {d} has no unit vector (zero or too long)")));
             }
             let irradiance = finite3(path, "light.irradiance", *irradiance)?;
             if irradiance.min_element() < 0.0 {
@@ -255,6 +267,9 @@ pub fn parse_toml(path: &Path, text: &str) -> Result<SceneDesc> {
             fov_deg: c.fov_deg,
         },
     };
+    if !(camera.fov_deg.is_finite() && camera.fov_deg > 0.0 && camera.fov_deg < 180.0) {
+        return Err(scene_err(path, format!("camera.fov_deg = {} is not in (0, 180)", camera.fov_deg)));
+    }
     if file.meshes.is_empty() {
         return Err(scene_err(path, "no [[mesh]] tables: the scene has no geometry"));
     }
@@ -273,16 +288,34 @@ pub fn parse_toml(path: &Path, text: &str) -> Result<SceneDesc> {
         if !(m.crease_angle_deg.is_finite() && (0.0..=180.0).contains(&m.crease_angle_deg)) {
             return Err(scene_err(path, format!("mesh.crease_angle_deg = {} is not in [0, 180]", m.crease_angle_deg)));
         }
-        let mut mesh = obj::load_obj(&dir.join(&m.obj), &mut warnings)?;
-        mesh.crease_angle_deg = m.crease_angle_deg;
-        mesh.transform = transform;
-        mesh.dynamic = m.dynamic;
+        let (loaded, file_name) = match (&m.obj, &m.gltf) {
+            (Some(o), None) => (vec![obj::load_obj(&dir.join(o), &mut warnings)?], o),
+            (None, Some(g)) => {
+                let full = dir.join(g);
+                let scene = gltf::load_gltf(&full, &mut warnings)?;
+                if !scene.lights.is_empty() || scene.camera.is_some() {
+                    warnings.push(format!(
+                        "{}: the lights and camera of {} are ignored (this scene file's [[light]]s and [camera] apply)",
+                        path.display(),
+                        full.display()
+                    ));
+                }
+                (scene.meshes, g)
+            }
+            _ => return Err(scene_err(path, "a [[mesh]] table needs exactly one of obj = \"...\" and gltf = \"...\"")),
+        };
+        let mesh_name = file_name.display().to_string();
         if !m.deform.is_empty() && !m.dynamic {
-            return Err(scene_err(path, format!("mesh '{}': [[mesh.deform]] needs dynamic = true", m.obj.display())));
+            return Err(scene_err(path, format!("mesh '{mesh_name}': [[mesh.deform]] needs dynamic = true")));
         }
-        let mesh_name = m.obj.display().to_string();
-        mesh.deform = m.deform.iter().map(|d| deform_from(path, &mesh_name, d)).collect::<Result<Vec<_>>>()?;
-        meshes.push(mesh);
+        let deform = m.deform.iter().map(|d| deform_from(path, &mesh_name, d)).collect::<Result<Vec<_>>>()?;
+        for mut mesh in loaded {
+            mesh.crease_angle_deg = m.crease_angle_deg;
+            mesh.transform = transform;
+            mesh.dynamic = m.dynamic;
+            mesh.deform = deform.clone();
+            meshes.push(mesh);
+        }
     }
     let lights = file.lights.iter().map(|l| light_from(path, l)).collect::<Result<Vec<_>>>()?;
     let name = path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
@@ -341,7 +374,8 @@ pub fn to_toml(scene: &SceneDesc, obj_names: &[String]) -> String {
             .iter()
             .zip(obj_names)
             .map(|(m, name)| MeshFile {
-                obj: PathBuf::from(name),
+                obj: Some(PathBuf::from(name)),
+                gltf: None,
                 crease_angle_deg: m.crease_angle_deg,
                 transform: TransformFile {
                     translate: m.transform.translate.into(),

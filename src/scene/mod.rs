@@ -1,6 +1,8 @@
 //! Scene description: meshes, materials, lights, camera and solver settings,
 //! as read from a TOML scene file (with OBJ/MTL meshes) or built in code.
 //!
+//! glTF 2.0 scenes load through [`gltf`] (meshes, albedo, lights, camera).
+//!
 //! Units (docs/DESIGN.md, units and conventions): right-handed, y up, metres; albedo `rho` per RGB channel
 //! in [0, 1); point lights carry radiant intensity `I` in W/sr per channel;
 //! directional lights carry irradiance in W/m^2 on a surface facing them and a
@@ -10,6 +12,9 @@
 pub mod builtin;
 pub mod deform;
 pub mod file;
+pub mod gltf;
+mod gltf_mesh;
+pub mod gltf_write;
 pub mod motion;
 pub mod obj;
 pub mod prep;
@@ -47,9 +52,13 @@ impl Default for Transform {
 impl Transform {
     /// The affine matrix of this transform.
     pub fn matrix(&self) -> Mat4 {
+        Mat4::from_scale_rotation_translation(Vec3::splat(self.scale), self.rotation(), self.translate)
+    }
+
+    /// The rotation part (x, then y, then z).
+    pub fn rotation(&self) -> Quat {
         let r = self.rotate_deg * (std::f32::consts::PI / 180.0);
-        let q = Quat::from_rotation_z(r.z) * Quat::from_rotation_y(r.y) * Quat::from_rotation_x(r.x);
-        Mat4::from_scale_rotation_translation(Vec3::splat(self.scale), q, self.translate)
+        Quat::from_rotation_z(r.z) * Quat::from_rotation_y(r.y) * Quat::from_rotation_x(r.x)
     }
 }
 
@@ -65,6 +74,11 @@ pub struct MeshDesc {
     /// Material index per triangle.
     pub triangle_material: Vec<u32>,
     pub materials: Vec<Material>,
+    /// Albedo per position (same length as `positions`), used instead of the
+    /// material's albedo when present (glTF base colour textures and vertex
+    /// colours). Triangles still carry materials, which split vertices at
+    /// material borders; corners whose albedo differs are split as well.
+    pub vertex_albedo: Option<Vec<Vec3>>,
     /// Vertices are split where adjacent face normals differ by more than this.
     pub crease_angle_deg: f32,
     pub transform: Transform,
@@ -72,7 +86,7 @@ pub struct MeshDesc {
     pub dynamic: bool,
     /// Deformers applied over time (dynamic meshes only), in order; see [`deform`].
     pub deform: Vec<deform::Deform>,
-    /// The OBJ file this mesh came from, if any (for errors and for writing scenes back).
+    /// The OBJ or glTF file this mesh came from, if any (for errors and for writing scenes back).
     pub source: Option<PathBuf>,
 }
 
@@ -242,8 +256,8 @@ impl Default for Settings {
 impl Settings {
     /// Checks ranges: rays a non-zero perfect square, finite non-negative angle.
     pub fn validate(&self) -> crate::Result<()> {
-        let k = (self.rays_per_vertex as f64).sqrt().round() as u32;
-        if self.rays_per_vertex == 0 || k * k != self.rays_per_vertex {
+        let k = (self.rays_per_vertex as f64).sqrt().round() as u64;
+        if self.rays_per_vertex == 0 || k * k != self.rays_per_vertex as u64 {
             return Err(crate::Error::Setting(format!(
                 "rays_per_vertex = {} is not a non-zero square number (k*k)",
                 self.rays_per_vertex
@@ -289,15 +303,17 @@ pub struct SceneDesc {
     pub warnings: Vec<String>,
 }
 
-/// Loads a scene given a path to a `.toml` file (or a bare `.obj`), or the
-/// name of a built-in scene.
+/// Loads a scene given a path to a `.toml` file (or a bare `.obj`, or a
+/// `.gltf`/`.glb`, see [`gltf`]), or the name of a built-in scene.
 pub fn load(name_or_path: &str) -> crate::Result<SceneDesc> {
     let path = std::path::Path::new(name_or_path);
     if path.exists() {
-        if path.extension().is_some_and(|e| e.eq_ignore_ascii_case("obj")) {
-            return file::load_bare_obj(path);
-        }
-        return file::load_toml(path);
+        let ext = path.extension().map(|e| e.to_string_lossy().to_ascii_lowercase());
+        return match ext.as_deref() {
+            Some("obj") => file::load_bare_obj(path),
+            Some("gltf" | "glb") => gltf::load_scene(path),
+            _ => file::load_toml(path),
+        };
     }
     if let Some(scene) = builtin::builtin(name_or_path) {
         return Ok(scene);

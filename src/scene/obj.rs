@@ -12,7 +12,9 @@
 //! without a material get the same; albedo above [`MAX_ALBEDO`] or below 0 is
 //! clamped. Non-finite coordinates and out-of-range face indices are errors
 //! naming the file and line (found by a pre-scan of the text, since `tobj`
-//! does not report lines).
+//! does not report lines). An MTL colour line (`Ka`, `Kd`, `Ks`, `Ke`)
+//! without three numbers makes its library unreadable (the warning names the
+//! MTL file and line): `tobj` would panic on it.
 
 use super::{Material, MeshDesc, Transform, MAX_ALBEDO};
 use crate::{Error, Result};
@@ -111,6 +113,20 @@ fn prescan(path: &Path, text: &str) -> Result<()> {
     Ok(())
 }
 
+/// Finds an MTL colour line that `tobj` cannot parse (it panics on fewer
+/// than three numbers); `path:line: problem`.
+fn mtl_prescan(path: &Path, text: &str) -> std::result::Result<(), String> {
+    for (i, line) in text.lines().enumerate() {
+        let mut words = line.split_whitespace();
+        if let Some(key @ ("Ka" | "Kd" | "Ks" | "Ke")) = words.next() {
+            if words.take(3).filter(|w| w.parse::<f32>().is_ok()).count() < 3 {
+                return Err(format!("{}:{}: {key} needs three numbers", path.display(), i + 1));
+            }
+        }
+    }
+    Ok(())
+}
+
 fn clamp_albedo(path: &Path, name: &str, kd: Vec3, warnings: &mut Vec<String>) -> Vec3 {
     if !kd.is_finite() {
         warnings.push(format!("{}: material '{name}' has non-finite Kd {kd}; using {DEFAULT_ALBEDO}", path.display()));
@@ -140,9 +156,15 @@ pub fn load_obj(path: &Path, warnings: &mut Vec<String>) -> Result<MeshDesc> {
     };
     let dir = path.parent().unwrap_or(Path::new(".")).to_path_buf();
     let mut reader = std::io::BufReader::new(text.as_bytes());
+    let mtl_problem = std::cell::RefCell::new(None);
     let (models, materials) = tobj::load_obj_buf(&mut reader, &options, |mtl| {
         let full = dir.join(mtl);
-        tobj::load_mtl(&full)
+        let text = std::fs::read_to_string(&full).map_err(|_| tobj::LoadError::OpenFileFailed)?;
+        if let Err(problem) = mtl_prescan(&full, &text) {
+            *mtl_problem.borrow_mut() = Some(problem);
+            return Err(tobj::LoadError::MaterialParseError);
+        }
+        tobj::load_mtl_buf(&mut text.as_bytes())
     })
     .map_err(|e| Error::Obj { path: path.to_path_buf(), message: e.to_string() })?;
 
@@ -156,8 +178,9 @@ pub fn load_obj(path: &Path, warnings: &mut Vec<String>) -> Result<MeshDesc> {
             .collect(),
         Err(e) => {
             if text.lines().any(|l| l.trim_start().starts_with("mtllib")) {
+                let why = mtl_problem.borrow_mut().take().unwrap_or_else(|| e.to_string());
                 warnings.push(format!(
-                    "{}: its material library could not be loaded ({e}); using grey albedo {DEFAULT_ALBEDO}",
+                    "{}: its material library could not be loaded ({why}); using grey albedo {DEFAULT_ALBEDO}",
                     path.display()
                 ));
             }
@@ -193,6 +216,7 @@ pub fn load_obj(path: &Path, warnings: &mut Vec<String>) -> Result<MeshDesc> {
         triangles,
         triangle_material,
         materials: mats,
+        vertex_albedo: None,
         crease_angle_deg: 30.0,
         transform: Transform::default(),
         dynamic: false,

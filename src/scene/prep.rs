@@ -5,9 +5,13 @@
 //! position, drop zero-area triangles (counted, reported), then split welded
 //! vertices at creases and material borders: two triangles sharing an edge
 //! stay joined at that edge's ends when their face normals differ by at most
-//! the crease angle, their windings agree and their materials match. Every
-//! resulting class of triangle corners is one *solver vertex* with an
-//! angle-weighted normal, an albedo, a one-ring and a position-welded id.
+//! the crease angle, their windings agree, their materials match and (for
+//! meshes with per-vertex albedo, [`super::MeshDesc::vertex_albedo`]) the
+//! two corners at each end have the same albedo. Every resulting class of
+//! triangle corners is one *solver vertex* with an angle-weighted normal, an
+//! albedo (its material's, or its corners' per-vertex albedo), a one-ring and
+//! a position-welded id. Triangles too large for `f32` (their edge cross
+//! product overflows) are an error.
 //!
 //! Solver vertices on a crease (their welded position has more than one
 //! solver vertex) or on an open border are flagged `boundary`: their ray
@@ -159,6 +163,14 @@ fn prepare_mesh(mesh: &super::MeshDesc) -> Result<MeshPrep> {
             return Err(geom_err(name, format!("triangle {ti} uses material {mat}, which does not exist")));
         }
     }
+    if let Some(va) = &mesh.vertex_albedo {
+        if va.len() != mesh.positions.len() {
+            return Err(geom_err(name, format!("{} vertex albedos for {} vertices", va.len(), mesh.positions.len())));
+        }
+        if let Some(i) = va.iter().position(|a| !a.is_finite()) {
+            return Err(geom_err(name, format!("vertex {i} has non-finite albedo {}", va[i])));
+        }
+    }
     // Weld by exact position.
     let mut weld: HashMap<[u32; 3], u32> = HashMap::with_capacity(world.len());
     let mut welded_pos: Vec<Vec3> = Vec::new();
@@ -174,19 +186,30 @@ fn prepare_mesh(mesh: &super::MeshDesc) -> Result<MeshPrep> {
         .collect();
     // Drop zero-area triangles; compute face normals and corner angles.
     let mut tris: Vec<[u32; 3]> = Vec::with_capacity(mesh.triangles.len());
+    // The kept triangles' corners as given (before welding), for per-vertex albedo.
+    let mut tris_given: Vec<[u32; 3]> = Vec::with_capacity(mesh.triangles.len());
     let mut tri_mat = Vec::with_capacity(mesh.triangles.len());
     let mut face_n = Vec::with_capacity(mesh.triangles.len());
     let mut dropped = 0;
-    for (t, &mat) in mesh.triangles.iter().zip(&mesh.triangle_material) {
+    for (ti, (t, &mat)) in mesh.triangles.iter().zip(&mesh.triangle_material).enumerate() {
         let w = t.map(|i| remap[i as usize]);
         let [a, b, c] = w.map(|i| welded_pos[i as usize]);
         let cross = (b - a).cross(c - a);
         let longest = (b - a).length_squared().max((c - b).length_squared()).max((a - c).length_squared());
+        if !(cross.length_squared().is_finite() && (longest * longest).is_finite()) {
+            return Err(geom_err(
+                name,
+                format!(
+                    "triangle {ti} ({a}, {b}, {c}) is too large: its size overflows f32 arithmetic (metres expected)"
+                ),
+            ));
+        }
         if w[0] == w[1] || w[1] == w[2] || w[0] == w[2] || cross.length_squared() <= 1e-24 * longest * longest {
             dropped += 1;
             continue;
         }
         tris.push(w);
+        tris_given.push(*t);
         tri_mat.push(mat);
         face_n.push(cross.normalize());
     }
@@ -204,6 +227,13 @@ fn prepare_mesh(mesh: &super::MeshDesc) -> Result<MeshPrep> {
         let t = &tris[ti as usize];
         ti * 3 + t.iter().position(|&x| x == v).unwrap() as u32
     };
+    // Albedo of the corner of triangle `ti` at welded vertex `v`.
+    let corner_albedo = |ti: u32, v: u32| -> Vec3 {
+        match &mesh.vertex_albedo {
+            Some(va) => va[tris_given[ti as usize][(corner(ti, v) % 3) as usize] as usize],
+            None => mesh.materials[tri_mat[ti as usize] as usize].albedo,
+        }
+    };
     let mut uf = UnionFind((0..tris.len() as u32 * 3).collect());
     let mut keys: Vec<_> = edges.keys().copied().collect();
     keys.sort_unstable();
@@ -215,7 +245,9 @@ fn prepare_mesh(mesh: &super::MeshDesc) -> Result<MeshPrep> {
                 let (t2, f2) = list[j];
                 let joined = f1 != f2
                     && tri_mat[t1 as usize] == tri_mat[t2 as usize]
-                    && face_n[t1 as usize].dot(face_n[t2 as usize]) >= cos_crease;
+                    && face_n[t1 as usize].dot(face_n[t2 as usize]) >= cos_crease
+                    && corner_albedo(t1, key.0) == corner_albedo(t2, key.0)
+                    && corner_albedo(t1, key.1) == corner_albedo(t2, key.1);
                 if joined {
                     uf.union(corner(t1, key.0), corner(t2, key.0));
                     uf.union(corner(t1, key.1), corner(t2, key.1));
@@ -237,7 +269,7 @@ fn prepare_mesh(mesh: &super::MeshDesc) -> Result<MeshPrep> {
             let id = *class_id.entry(root).or_insert_with(|| {
                 positions.push(welded_pos[t[k] as usize]);
                 normals.push(Vec3::ZERO);
-                albedo.push(mesh.materials[tri_mat[ti] as usize].albedo);
+                albedo.push(corner_albedo(ti as u32, t[k]));
                 position_id.push(t[k]);
                 (positions.len() - 1) as u32
             });

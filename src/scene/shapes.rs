@@ -116,6 +116,7 @@ impl MeshBuilder {
             triangles: self.triangles,
             triangle_material: self.triangle_material,
             materials: self.materials,
+            vertex_albedo: None,
             crease_angle_deg,
             transform: Transform::default(),
             dynamic: false,
