@@ -20,7 +20,7 @@ struct Cli {
 
 #[derive(Subcommand)]
 enum Command {
-    /// Build links and solve a scene (a .toml or .obj file, or a built-in name), print figures.
+    /// Build links and solve a scene (a .toml, .obj, .gltf or .glb file, or a built-in name), print figures.
     Solve(cli::solve::SolveArgs),
     /// Benchmark scenes (default: all built-ins) as the paper's two tables.
     Bench(cli::bench::BenchArgs),

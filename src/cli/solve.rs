@@ -21,7 +21,7 @@ pub fn parse_bounces(s: &str) -> Result<Bounces> {
 /// Arguments of `linkgi solve`.
 #[derive(clap::Args, Debug, Default)]
 pub struct SolveArgs {
-    /// Scene file or built-in name (cornell, furnace, colorlamp, torso, tearoom, dancer, sculpture, conference).
+    /// Scene file (.toml, .obj, .gltf, .glb) or built-in name (cornell, furnace, colorlamp, torso, tearoom, dancer, sculpture, conference).
     pub scene: String,
     /// Evaluate the scene's deformers at this time, seconds, and solve that pose (default: the rest pose).
     #[arg(long, value_name = "T")]
