@@ -196,7 +196,8 @@ pub struct KdTree {
     pub stats: KdStats,
 }
 
-/// Axis-aligned box helper used by the build and validation.
+/// Axis-aligned box, metres: the kd-tree build and validation use it, and
+/// so do selective updates ([`crate::scene::motion`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Aabb {
     pub min: Vec3,
@@ -217,6 +218,52 @@ impl Aabb {
 
     pub fn intersect(&self, o: &Aabb) -> Aabb {
         Aabb { min: self.min.max(o.min), max: self.max.min(o.max) }
+    }
+
+    pub fn grow(&mut self, p: Vec3) {
+        self.min = self.min.min(p);
+        self.max = self.max.max(p);
+    }
+
+    pub fn union(self, o: Aabb) -> Aabb {
+        Aabb { min: self.min.min(o.min), max: self.max.max(o.max) }
+    }
+
+    pub fn is_empty(&self) -> bool {
+        !(self.min.cmple(self.max).all())
+    }
+
+    /// The box grown by `margin` metres on every side.
+    pub fn expanded(self, margin: f32) -> Aabb {
+        Aabb { min: self.min - Vec3::splat(margin), max: self.max + Vec3::splat(margin) }
+    }
+
+    /// A margin that keeps a box conservative under float rounding of
+    /// points computed near it: `1e-5` of its largest coordinate magnitude
+    /// plus `1e-6` m.
+    pub fn rounding_margin(&self) -> f32 {
+        1e-5 * self.min.abs().max(self.max.abs()).max_element() + 1e-6
+    }
+
+    /// True if the segment `o + t d`, `t` in `[t0, t1]`, meets the box
+    /// (slab test; `inv_d` = `1 / d` per component, infinities allowed).
+    #[inline]
+    pub fn meets_segment(&self, o: Vec3, inv_d: Vec3, t0: f32, t1: f32) -> bool {
+        let a = (self.min - o) * inv_d;
+        let b = (self.max - o) * inv_d;
+        // NaN (0 * inf, a ray in the slab's plane) falls to the non-NaN side in min/max.
+        let near = a.min(b).max_element().max(t0);
+        let far = a.max(b).min_element().min(t1);
+        near <= far
+    }
+
+    /// True if every corner lies strictly below the plane through `o` with
+    /// normal `n`, by more than `margin` (no ray leaving `o` into the upper
+    /// hemisphere can reach the box).
+    pub fn below_plane(&self, o: Vec3, n: Vec3, margin: f32) -> bool {
+        // The corner farthest along n.
+        let c = Vec3::select(n.cmpge(Vec3::ZERO), self.max, self.min);
+        (c - o).dot(n) < -margin
     }
 
     /// Splits at `pos` along `axis` into (below, above).
