@@ -50,7 +50,7 @@ pub struct NoiseParams {
 
 impl Default for NoiseParams {
     fn default() -> Self {
-        Self { scale: 1.0, reference_rays: 256, exponent: 0.5 }
+        Self { scale: 0.2, reference_rays: 256, exponent: 0.75 }
     }
 }
 
