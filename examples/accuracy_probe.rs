@@ -44,7 +44,7 @@ fn main() {
         rms(&r.e_indirect_stderr) / mean(&total_ref),
         mean(&r.e_indirect) / mean(&total_ref)
     );
-    println!("rays | Ed exact | Ed ring | Ei raw: src ring | src point | noise rel | actual/iid | Ei: off | uniform | adaptive 1 2 3 | total: off | uniform | adaptive 1 2 3 | mean beta | solve ms");
+    println!("rays | Ed exact | Ed ring | Ei raw: no hidden corr. | src ring | src point | noise rel | actual/iid | Ei: off | uniform | adaptive 1 2 3 | total: off | uniform | adaptive 1 2 3 | mean beta | solve ms");
     for &n in &rays {
         let solver_for = |seed: u64| {
             let mut s = scene.settings;
@@ -52,6 +52,8 @@ fn main() {
             s.seed = seed;
             let mut p = SolveParams::from_settings(&s);
             p.smoothing.noise = NoiseParams { scale, exponent, ..Default::default() };
+            // The one-ring factors too, to compare the bounce sources.
+            p.light.oversample = true;
             Solver::new(scene.clone(), p, &|_, _| {})
         };
         let t = Instant::now();
@@ -66,8 +68,9 @@ fn main() {
         let g_ring = exchange::gather(&s1.links, &scene.albedo, &ed_ring, &gp);
         let g_point = exchange::gather(&s1.links, &scene.albedo, &sol.e_direct, &gp);
         let se = &r.e_indirect_stderr;
-        let ei_ring = error_stats(&g_ring.e_indirect, &r.e_indirect, se).rel_rmse_corrected;
-        let ei_point = error_stats(&g_point.e_indirect, &r.e_indirect, se).rel_rmse_corrected;
+        let ei_ring = error_stats(&s1.correct_hidden(&g_ring.e_indirect), &r.e_indirect, se).rel_rmse_corrected;
+        let ei_point = error_stats(&s1.correct_hidden(&g_point.e_indirect), &r.e_indirect, se).rel_rmse_corrected;
+        let ei_uncorrected = error_stats(&sol.gather.e_indirect, &r.e_indirect, se).rel_rmse_corrected;
         // Noise calibration: two seeds.
         let s2 = solver_for(2);
         let sol2 = s2.solve();
@@ -105,11 +108,13 @@ fn main() {
         let tot = |x: &[Vec3]| error_stats(&add(&sol.e_direct, x), &total_ref, se).rel_rmse_corrected;
         let _ = SmoothMode::Adaptive;
         if let Some(path) = std::env::var_os("DUMP") {
-            let mut out = String::from("v,x,y,z,nx,ny,nz,boundary,edge,ei,ei2,ref,stderr,ed,ref_ed,ring_ed\n");
+            let mut out = String::from(
+                "v,x,y,z,nx,ny,nz,boundary,edge,ei,ei2,ref,stderr,ed,ref_ed,ring_ed,row_sum,ei_gathered,mesh\n",
+            );
             for v in 0..nv {
                 let (p, nn) = (scene.positions[v], scene.normals[v]);
                 out += &format!(
-                    "{v},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}\n",
+                    "{v},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}\n",
                     p.x,
                     p.y,
                     p.z,
@@ -125,9 +130,49 @@ fn main() {
                     sol.e_direct[v].element_sum() / 3.0,
                     r.e_direct[v].element_sum() / 3.0,
                     ed_ring[v].element_sum() / 3.0,
+                    s1.links.row_sum(v),
+                    sol.gather.e_indirect[v].element_sum() / 3.0,
+                    scene.meshes.iter().position(|m| m.vertices.contains(&(v as u32))).unwrap_or(0),
                 );
             }
             std::fs::write(path, out).expect("dump");
+        }
+        if let Some(th) = std::env::var("HIDDEN").ok().and_then(|s| s.parse::<f64>().ok()) {
+            // Experiment: vertices whose rays mostly meet back faces (row sum < th * pi)
+            // take the mean radiosity of their visible neighbours; one extra gather.
+            let pi = std::f64::consts::PI;
+            let hidden: Vec<bool> = (0..nv).map(|v| s1.links.row_sum(v) < th * pi).collect();
+            let b: Vec<Vec3> =
+                (0..nv).map(|v| scene.albedo[v] / std::f32::consts::PI * (sol.e_source[v] + raw[v])).collect();
+            let mut b2 = b.clone();
+            let mut count = 0;
+            for v in 0..nv {
+                if !hidden[v] {
+                    continue;
+                }
+                count += 1;
+                let vis: Vec<usize> = scene
+                    .rings
+                    .row(v)
+                    .iter()
+                    .map(|&u| u as usize)
+                    .filter(|&u| !hidden[u] && scene.normals[u].dot(scene.normals[v]) > 0.9)
+                    .collect();
+                if !vis.is_empty() {
+                    b2[v] = vis.iter().map(|&u| b[u]).sum::<Vec3>() / vis.len() as f32;
+                }
+            }
+            let diff: Vec<Vec3> = b2.iter().zip(&b).map(|(x, y)| *x - *y).collect();
+            let mut de = vec![Vec3::ZERO; nv];
+            linkgi::exchange::gather::gather_bounce(&s1.links, &diff, &mut de);
+            let fixed: Vec<Vec3> = raw.iter().zip(&de).map(|(e, d)| *e + *d).collect();
+            println!(
+                "  hidden (row sum < {th} pi): {count} vertices; E_i raw {:.4} -> {:.4}; total {:.4} -> {:.4}",
+                ei(raw),
+                ei(&fixed),
+                tot(raw),
+                tot(&fixed)
+            );
         }
         if std::env::var_os("CORR").is_some() {
             // Noise alone: the difference of two seeds, smoothed by the fixed filter 1..3 times.
@@ -170,7 +215,7 @@ fn main() {
             }
         }
         println!(
-            "{n:5} | {ed:.4} | {edr:.4} | {ei_ring:.4} | {ei_point:.4} | {:.4} | {:.3} | {:.4} | {:.4} | {:.4} {:.4} {:.4} | {:.4} | {:.4} | {:.4} {:.4} {:.4} | {mean_beta:.3} | {solve_ms:.0}",
+            "{n:5} | {ed:.4} | {edr:.4} | {ei_uncorrected:.4} | {ei_ring:.4} | {ei_point:.4} | {:.4} | {:.3} | {:.4} | {:.4} | {:.4} {:.4} {:.4} | {:.4} | {:.4} | {:.4} {:.4} {:.4} | {mean_beta:.3} | {solve_ms:.0}",
             (actual / (3 * nv) as f64).sqrt() / mean(&r.e_indirect),
             actual / est,
             ei(raw),

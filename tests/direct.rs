@@ -42,6 +42,11 @@ fn floor_scene(occluder: bool, lights: Vec<Light>) -> prep::PreparedScene {
     s
 }
 
+/// Light-link parameters with the one-ring oversampling and its bounce source.
+fn ring_params() -> LightLinkParams {
+    LightLinkParams { oversample: true, bounce_source: BounceSource::Ring, ..Default::default() }
+}
+
 fn direct(scene: &prep::PreparedScene) -> Vec<Vec3> {
     let kd = KdTree::build(&scene.positions, &scene.triangles, &KdBuildParams::default());
     kd.validate().unwrap();
@@ -120,7 +125,7 @@ fn penumbra_is_partial_in_the_one_ring_oversampled_bounce_source() {
     let lp = Vec3::new(0.0, 1.5, 0.0);
     let scene = floor_scene(true, vec![Light::Point { position: lp, intensity: Vec3::ONE }]);
     let kd = KdTree::build(&scene.positions, &scene.triangles, &KdBuildParams::default());
-    let ll = LightLinks::compute(&scene, &kd, &LightLinkParams::default());
+    let ll = LightLinks::compute(&scene, &kd, &ring_params());
     let n = scene.vertex_count();
     let (ring, point) = (ll.direct_ring(&scene.lights, n), ll.direct(&scene.lights, n));
     let partial = (0..441)
@@ -139,9 +144,12 @@ fn penumbra_is_partial_in_the_one_ring_oversampled_bounce_source() {
     }
     // The bounce source follows the parameter.
     assert_eq!(ll.bounce_source(&scene.lights, n), ring);
-    let p = LightLinkParams { bounce_source: BounceSource::Point, ..Default::default() };
+    let p = LightLinkParams { bounce_source: BounceSource::Point, ..ring_params() };
     let ll = LightLinks::compute(&scene, &kd, &p);
     assert_eq!(ll.bounce_source(&scene.lights, n), point);
+    // Without oversampling (the default) the factors are the point values.
+    let ll = LightLinks::compute(&scene, &kd, &LightLinkParams::default());
+    assert_eq!((ll.direct_ring(&scene.lights, n), ll.direct(&scene.lights, n)), (point.clone(), point));
 }
 
 #[test]
@@ -198,7 +206,7 @@ fn light_updates_trace_only_moved_lights() {
         floor_scene(true, vec![point(Vec3::new(0.2, 1.0, 0.1), 3.0), sun, point(Vec3::new(-0.4, 0.8, 0.3), 1.0)]);
     let kd = KdTree::build(&scene.positions, &scene.triangles, &KdBuildParams::default());
     kd.validate().unwrap();
-    let params = LightLinkParams::default();
+    let params = ring_params();
     let mut links = LightLinks::compute(&scene, &kd, &params);
     let one = |scene: &prep::PreparedScene, l: &Light| LightLinks::compute_light(scene, &kd, l, &params).unwrap().rays;
     let bits = |c: &[f32]| c.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
@@ -250,7 +258,7 @@ fn light_preview_is_exact_outside_penumbrae_and_refines() {
     let mut scene = floor_scene(true, vec![point(Vec3::new(0.05, 1.2, -0.03))]);
     let kd = KdTree::build(&scene.positions, &scene.triangles, &KdBuildParams::default());
     kd.validate().unwrap();
-    let params = LightLinkParams::default();
+    let params = ring_params();
     let mut links = LightLinks::compute(&scene, &kd, &params);
     scene.lights[0] = point(Vec3::new(-0.1, 1.0, 0.12));
     let preview_rays = links.preview_with(&scene, &kd, &params).unwrap();

@@ -45,6 +45,7 @@ pub struct SweepRow {
     pub kd_ms: f64,
     pub links_ms: f64,
     pub light_links_ms: f64,
+    /// Bounces and the hidden-vertex correction, ms.
     pub gather_ms: f64,
     pub smooth_ms: f64,
     /// kd + links + light links + gather + smoothing.
@@ -95,10 +96,13 @@ pub fn sweep(
         let ed_err = error_stats(&e_direct, &reference.e_direct, &[]);
         for &b in &params.bounces {
             let gp = exchange::GatherParams { bounces: b, ..solve_params.gather };
-            let g = exchange::gather(&solver.links, &solver.scene.albedo, &e_source, &gp);
+            let mut g = exchange::gather(&solver.links, &solver.scene.albedo, &e_source, &gp);
+            let t = Instant::now();
+            let e_raw = solver.correct_hidden(&g.e_indirect);
+            g.ms += t.elapsed().as_secs_f64() * 1e3;
             for smoothing in [angle, 0.0] {
                 let t = Instant::now();
-                let e_i = solver.smooth(&e_source, &g.e_indirect, smoothing);
+                let e_i = solver.smooth(&e_source, &e_raw, smoothing);
                 let smooth_ms = t.elapsed().as_secs_f64() * 1e3;
                 let total: Vec<Vec3> = e_direct.iter().zip(&e_i).map(|(d, i)| *d + *i).collect();
                 rows.push(SweepRow {

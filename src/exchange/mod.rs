@@ -1,19 +1,23 @@
 //! Light exchange (DESIGN.md §4): direct light through light links, exact
 //! at the vertices and one-ring oversampled as the bounce source
 //! ([`light_links`]), bounces gathered over the vertex links ([`gather`]),
-//! a noise estimate of every vertex's `E_i` from its links ([`noise`]) and
-//! feature-aware, noise-aware one-ring smoothing ([`smooth`]).
+//! hidden vertices' radiosity replaced as link targets by their visible
+//! neighbours' ([`hidden`]), a noise estimate of every vertex's `E_i` from
+//! its links ([`noise`]) and feature-aware, noise-aware one-ring smoothing
+//! ([`smooth`]).
 //!
 //! Units: per-vertex irradiance `E` in W/m^2 per RGB channel; radiosity
 //! (exitant radiance of a Lambertian vertex) `B = rho / pi * E` in
 //! W/(m^2 sr).
 
 pub mod gather;
+pub mod hidden;
 pub mod light_links;
 pub mod noise;
 pub mod smooth;
 
 pub use gather::{gather, GatherParams, GatherResult};
+pub use hidden::HiddenParams;
 pub use light_links::{BounceSource, LightLinkParams, LightLinks};
 pub use noise::NoiseParams;
 pub use smooth::{smooth, smooth_adaptive, SmoothMode, SmoothParams};

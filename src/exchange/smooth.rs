@@ -32,6 +32,27 @@
 //! shifts). Where noise dominates, `beta -> 1`: today's one-ring average.
 //! As rays grow, `s^2 -> 0` and `beta -> 0`: the filter's bias vanishes and
 //! the error keeps falling with the rays.
+//!
+//! Measured (relative RMSE of `E_i` against the reference path tracer,
+//! reference noise removed; auto bounces, feature angle 30 degrees;
+//! off / fixed average / adaptive in 2 passes, the default):
+//!
+//! | rays | cornell | tearoom |
+//! |---|---|---|
+//! | 16 | 0.371 / 0.211 / 0.187 | 0.291 / 0.210 / 0.191 |
+//! | 64 | 0.163 / 0.103 / 0.093 | 0.110 / 0.114 / 0.090 |
+//! | 256 | 0.064 / 0.061 / 0.042 | 0.056 / 0.094 / 0.051 |
+//! | 1024 | 0.0197 / 0.0545 / 0.0183 | 0.0445 / 0.0922 / 0.0445 |
+//!
+//! One pass gives 0.101 / 0.046 / 0.0176 on the Cornell box at 64 / 256 /
+//! 1024 rays and 0.088 / 0.051 / 0.0443 on the tearoom, three passes
+//! 0.093 / 0.041 / 0.0190 and 0.093 / 0.052 / 0.0447. Local smoothing
+//! cannot do much more at few rays: every vertex shoots the same direction
+//! set turned by one of a few interleaved rotations, so the noise of
+//! neighbours with the same rotation is alike, and averaging over a wider
+//! area adds no new directions (the fixed average lowers the noise seen
+//! between two seeds to 0.52 of it in one pass, 0.46 in two, 0.41 in four,
+//! where independent noise over a one-ring of six would give 0.38).
 
 use crate::scene::prep::Csr;
 use glam::Vec3;

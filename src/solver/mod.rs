@@ -6,7 +6,9 @@
 //! with one line on stderr. Lengths in metres, irradiance in W/m^2, times in ms.
 
 use crate::bvh::{BvhBuildParams, BvhStats};
-use crate::exchange::{self, GatherParams, GatherResult, LightLinkParams, LightLinks, SmoothMode, SmoothParams};
+use crate::exchange::{
+    self, GatherParams, GatherResult, HiddenParams, LightLinkParams, LightLinks, SmoothMode, SmoothParams,
+};
 use crate::gpu::{self, Backend, DeviceShare, GpuDevice, GpuLinks, GpuTracer, LogicalDevice, ScheduleParams};
 use crate::kdtree::{KdBuildParams, KdStats, KdTree};
 use crate::links::{self, LinkParams, LinkStats, Links};
@@ -105,6 +107,8 @@ pub struct SolveParams {
     pub links: LinkParams,
     pub light: LightLinkParams,
     pub gather: GatherParams,
+    /// Correction of hidden vertices as link targets ([`crate::exchange::hidden`]).
+    pub hidden: HiddenParams,
     /// Feature angle of smoothing, degrees; 0: off.
     pub smoothing_angle_deg: f32,
     /// The smoothing filter (noise-aware by default, [`crate::exchange::smooth`]).
@@ -121,6 +125,7 @@ impl Default for SolveParams {
             links: LinkParams::default(),
             light: LightLinkParams::default(),
             gather: GatherParams::default(),
+            hidden: HiddenParams::default(),
             smoothing_angle_deg: 0.0,
             smoothing: SmoothParams::default(),
         }
@@ -185,7 +190,8 @@ pub struct Solution {
     pub e_source: Vec<Vec3>,
     /// Indirect irradiance after smoothing, W/m^2.
     pub e_indirect: Vec<Vec3>,
-    /// Indirect irradiance before smoothing, W/m^2.
+    /// Indirect irradiance before smoothing (after the hidden-vertex
+    /// correction; `gather.e_indirect` is before it), W/m^2.
     pub e_indirect_raw: Vec<Vec3>,
     pub gather: GatherResult,
     /// False when smoothing was skipped (feature angle 0): `e_indirect` is then `e_indirect_raw`.
@@ -372,9 +378,17 @@ impl Solver {
             }
             None => exchange::gather(&self.links, &self.scene.albedo, &e_source, &self.params.gather),
         };
+        let e_indirect_raw = self.correct_hidden(&gather.e_indirect);
         let smoothed = self.params.smoothing_angle_deg > 0.0;
-        let e_indirect = self.smooth(&e_source, &gather.e_indirect, self.params.smoothing_angle_deg);
-        Solution { e_direct, e_source, e_indirect_raw: gather.e_indirect.clone(), e_indirect, gather, smoothed }
+        let e_indirect = self.smooth(&e_source, &e_indirect_raw, self.params.smoothing_angle_deg);
+        Solution { e_direct, e_source, e_indirect_raw, e_indirect, gather, smoothed }
+    }
+
+    /// Gathered `E_i` with hidden vertices replaced as link targets
+    /// ([`crate::exchange::hidden`]), W/m^2.
+    pub fn correct_hidden(&self, e_gathered: &[Vec3]) -> Vec<Vec3> {
+        let s = &self.scene;
+        exchange::hidden::correct(&self.links, &s.albedo, &s.rings, &s.normals, e_gathered, &self.params.hidden).0
     }
 
     /// `E_i` smoothed at feature angle `angle_deg` (0: unchanged) with the
