@@ -178,7 +178,7 @@ fn main() {
             // Noise alone: the difference of two seeds, smoothed by the fixed filter 1..3 times.
             let mut d: Vec<Vec3> = raw.iter().zip(&sol2.e_indirect_raw).map(|(a, b)| *a - *b).collect();
             let v0 = rms(&d);
-            let mut line = format!("  noise reduction of the fixed filter (rms after / before), passes 1..4:");
+            let mut line = "  noise reduction of the fixed filter (rms after / before), passes 1..4:".to_string();
             for _ in 0..4 {
                 d = exchange::smooth(&d, &scene.rings, &scene.normals, 30.0);
                 line += &format!(" {:.3}", rms(&d) / v0);

@@ -59,10 +59,10 @@ fn point_light_unblocked_is_exact() {
     let (lp, i) = (Vec3::new(0.2, 1.5, -0.1), Vec3::new(3.0, 2.0, 1.0));
     let scene = floor_scene(false, vec![Light::Point { position: lp, intensity: i }]);
     let e = direct(&scene);
-    for v in 0..scene.vertex_count() {
-        let d = lp - scene.positions[v];
+    for (v, (&p, &ev)) in scene.positions.iter().zip(&e).enumerate() {
+        let d = lp - p;
         let expect = i * (d.y / d.length()) / d.length_squared();
-        assert!((e[v] - expect).abs().max_element() <= 1e-6 * expect.max_element(), "{v}: {} vs {expect}", e[v]);
+        assert!((ev - expect).abs().max_element() <= 1e-6 * expect.max_element(), "{v}: {ev} vs {expect}");
     }
 }
 
@@ -90,21 +90,16 @@ fn point_light_e_d_is_analytic_at_every_vertex_with_shadow_edges_crossing_triang
         let scene = floor_scene(true, vec![Light::Point { position: lp, intensity: i }]);
         let e = direct(&scene);
         let (mut umbra, mut lit, mut crossed) = (0, 0, 0);
-        for v in 0..441 {
-            let p = scene.positions[v];
+        for (&p, &ev) in scene.positions.iter().zip(&e).take(441) {
             let d = lp - p;
             let expect = i * (d.y / d.length()) / d.length_squared();
             let (is_blocked, margin) = blocked(p, lp);
-            assert!(margin > 1e-3, "vertex {v} at {p}: its shadow ray grazes the occluder's edge");
+            assert!(margin > 1e-3, "vertex at {p}: its shadow ray grazes the occluder's edge");
             if is_blocked {
-                assert_eq!(e[v], Vec3::ZERO, "light {lp}: vertex at {p} is in the shadow");
+                assert_eq!(ev, Vec3::ZERO, "light {lp}: vertex at {p} is in the shadow");
                 umbra += 1;
             } else {
-                assert!(
-                    (e[v] - expect).abs().max_element() <= 1e-6 * expect.max_element(),
-                    "{p}: {} vs {expect}",
-                    e[v]
-                );
+                assert!((ev - expect).abs().max_element() <= 1e-6 * expect.max_element(), "{p}: {ev} vs {expect}");
                 lit += 1;
             }
         }
@@ -160,17 +155,16 @@ fn directional_light_is_irradiance_times_cosine() {
     let e = direct(&scene);
     let expect = irr * (-dir).dot(Vec3::Y);
     let mut shadowed = 0;
-    for v in 0..441 {
-        let p = scene.positions[v];
+    for (&p, &ev) in scene.positions.iter().zip(&e).take(441) {
         // Where the occluder's shadow falls: p + t*(-dir) crosses y = 0.5 inside the square.
         let q = p + (-dir) * (0.5 / (-dir).y);
         let inside = q.x.abs().max(q.z.abs());
         assert!((inside - 0.3).abs() > 1e-3, "vertex at {p} grazes the occluder's edge");
         if inside < 0.3 {
-            assert_eq!(e[v], Vec3::ZERO, "{p} should be shadowed");
+            assert_eq!(ev, Vec3::ZERO, "{p} should be shadowed");
             shadowed += 1;
         } else {
-            assert!((e[v] - expect).abs().max_element() <= 1e-6 * expect.max_element(), "{p}: {}", e[v]);
+            assert!((ev - expect).abs().max_element() <= 1e-6 * expect.max_element(), "{p}: {ev}");
         }
     }
     assert!(shadowed > 5);

@@ -182,7 +182,7 @@ pub fn adaptive_weights(
             .into_par_iter()
             .map(|v| {
                 let (k, s2, excess) = local[v];
-                if k == 0.0 || !(s2 > 0.0) {
+                if k == 0.0 || s2.is_nan() || s2 <= 0.0 {
                     return 0.0;
                 }
                 let (mut sum, mut count) = (excess, 1.0f32);
