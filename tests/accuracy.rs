@@ -10,8 +10,11 @@
 //! (what is left is the cross term `2 <x - y, noise>`, whose spread is
 //! printed and far below the differences asserted). That lets a cheap
 //! reference (256 paths per vertex, a few seconds here) decide which of two
-//! solutions is closer to the truth; the corrected errors printed are
-//! `sqrt(MSE - mean stderr^2) / mean` for information.
+//! solutions is closer to the truth. The corrected errors printed,
+//! `sqrt(MSE - mean stderr^2) / mean`, are only indicative here: the
+//! standard error of so few paths is itself uncertain and conservative
+//! (see `src/reference`), so small errors print as 0; `linkgi error` with
+//! a 65536-path reference gives the figures (README, accuracy section).
 
 mod common;
 

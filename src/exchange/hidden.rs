@@ -119,3 +119,41 @@ pub fn correct(
     }
     (e, iterations)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use half::f16;
+
+    /// Vertex 0 is hidden (no links) between visible 1 and 2, which link to
+    /// 3 with weight w; 3 links to 0 with weight w. Lit: only 3 (`E_src`
+    /// 4). After the correction 3 sees the mean `E_i` of 1 and 2 at 0:
+    /// `E_1 = a (4 + E_3)`, `E_3 = a E_1` with `a = w rho / pi`.
+    #[test]
+    fn a_hidden_target_takes_its_visible_neighbours_irradiance() {
+        let w = 2.0f32;
+        let links = Links {
+            offsets: vec![0, 0, 1, 2, 3],
+            targets: vec![3, 3, 0],
+            weights: vec![f16::from_f32(w); 3],
+            ..Default::default()
+        };
+        let rings = Csr::from_pairs(4, &[(0, 1), (0, 2), (1, 0), (2, 0)]);
+        let normals = vec![Vec3::Y; 4];
+        let albedo = vec![Vec3::splat(0.5); 4];
+        let a = w * 0.5 / PI;
+        // The plain gather: 0 is dark, so 3 gets nothing.
+        let e0 = [Vec3::ZERO, Vec3::splat(4.0 * a), Vec3::splat(4.0 * a), Vec3::ZERO];
+        let params = HiddenParams { tolerance: 1e-7, ..Default::default() };
+        assert_eq!(hidden_vertices(&links, &params), vec![true, false, false, false]);
+        let (e, iterations) = correct(&links, &albedo, &rings, &normals, &e0, &params);
+        let e1 = 4.0 * a / (1.0 - a * a);
+        for (v, want) in [(1, e1), (2, e1), (3, a * e1)] {
+            assert!((e[v].x - want).abs() < 1e-5 * want, "vertex {v}: {} against {want}", e[v].x);
+        }
+        assert!(iterations > 1 && iterations < 50);
+        // Off: unchanged.
+        let off = HiddenParams { threshold: 0.0, ..params };
+        assert_eq!(correct(&links, &albedo, &rings, &normals, &e0, &off), (e0.to_vec(), 0));
+    }
+}
