@@ -1,11 +1,13 @@
-//! Direct light through light links: `E_d = I cos / r^2` exactly where the
-//! whole one-ring sees the light, 0 where it is fully blocked; directional
-//! lights give `E cos`.
+//! Direct light through light links: the reported `E_d` is the point value
+//! at the vertex, `I cos / r^2` (directional: `E cos`) exactly where the
+//! vertex sees the light and 0 where it does not, whatever the shadow edges
+//! do inside the triangles; the one-ring oversampled factors (the bounce
+//! source) are partial at penumbra vertices.
 
 mod common;
 
 use glam::Vec3;
-use linkgi::exchange::{LightLinkParams, LightLinks};
+use linkgi::exchange::{BounceSource, LightLinkParams, LightLinks};
 use linkgi::kdtree::{KdBuildParams, KdTree};
 use linkgi::scene::shapes::MeshBuilder;
 use linkgi::scene::{prep, Camera, Light, SceneDesc, Settings};
@@ -40,6 +42,11 @@ fn floor_scene(occluder: bool, lights: Vec<Light>) -> prep::PreparedScene {
     s
 }
 
+/// Light-link parameters with the one-ring oversampling and its bounce source.
+fn ring_params() -> LightLinkParams {
+    LightLinkParams { oversample: true, bounce_source: BounceSource::Ring, ..Default::default() }
+}
+
 fn direct(scene: &prep::PreparedScene) -> Vec<Vec3> {
     let kd = KdTree::build(&scene.positions, &scene.triangles, &KdBuildParams::default());
     kd.validate().unwrap();
@@ -52,74 +59,112 @@ fn point_light_unblocked_is_exact() {
     let (lp, i) = (Vec3::new(0.2, 1.5, -0.1), Vec3::new(3.0, 2.0, 1.0));
     let scene = floor_scene(false, vec![Light::Point { position: lp, intensity: i }]);
     let e = direct(&scene);
-    for v in 0..scene.vertex_count() {
-        let d = lp - scene.positions[v];
-        let expect = i * (d.y / d.length()) / d.length_squared();
-        assert!((e[v] - expect).abs().max_element() <= 1e-6 * expect.max_element(), "{v}: {} vs {expect}", e[v]);
-    }
-}
-
-#[test]
-fn point_light_shadow_is_zero_in_umbra_and_exact_outside() {
-    let lp = Vec3::new(0.0, 1.5, 0.0);
-    let i = Vec3::splat(5.0);
-    let scene = floor_scene(true, vec![Light::Point { position: lp, intensity: i }]);
-    let e = direct(&scene);
-    let (mut umbra, mut lit) = (0, 0);
-    for v in 0..441 {
-        let p = scene.positions[v];
-        // The occluder's shadow on the floor spans |x|,|z| < 0.3 * 1.5 / 1.0 = 0.45.
+    for (v, (&p, &ev)) in scene.positions.iter().zip(&e).enumerate() {
         let d = lp - p;
         let expect = i * (d.y / d.length()) / d.length_squared();
-        if p.x.abs().max(p.z.abs()) < 0.35 {
-            assert_eq!(e[v], Vec3::ZERO, "vertex at {p} should be in the umbra");
-            umbra += 1;
-        } else if p.x.abs().max(p.z.abs()) > 0.55 {
-            assert!((e[v] - expect).abs().max_element() <= 1e-6 * expect.max_element(), "{p}: {} vs {expect}", e[v]);
-            lit += 1;
-        } else {
-            // Penumbra vertices of the one-ring oversampling: between 0 and the full value.
-            assert!(e[v].x >= 0.0 && e[v].x <= expect.x * (1.0 + 1e-6));
-        }
+        assert!((ev - expect).abs().max_element() <= 1e-6 * expect.max_element(), "{v}: {ev} vs {expect}");
     }
-    assert!(umbra > 20 && lit > 200, "{umbra} umbra, {lit} lit vertices");
+}
+
+/// True if the segment from `p` to `light` crosses the occluder square
+/// (|x|, |z| < 0.3 at y = 0.5), and how far (m) the crossing is from the
+/// square's edge (the margin of the analytic answer).
+fn blocked(p: Vec3, light: Vec3) -> (bool, f32) {
+    let t = (0.5 - p.y) / (light.y - p.y);
+    let q = p + (light - p) * t;
+    let inside = q.x.abs().max(q.z.abs());
+    (inside < 0.3, (inside - 0.3).abs())
 }
 
 #[test]
-fn penumbra_is_partial_with_oversampling() {
-    // A vertex exactly under the shadow edge sees part of its one-ring.
+fn point_light_e_d_is_analytic_at_every_vertex_with_shadow_edges_crossing_triangles() {
+    // Off-centre too, so the shadow's edges (about 0.45 m out) cut floor
+    // triangles at no particular place and differ on every side.
+    for lp in [
+        Vec3::new(0.0, 1.5, 0.0),
+        Vec3::new(0.13, 1.61, 0.09),
+        Vec3::new(-0.31, 1.2, 0.22),
+        Vec3::new(-0.17, 1.33, -0.21),
+    ] {
+        let i = Vec3::new(5.0, 4.0, 3.0);
+        let scene = floor_scene(true, vec![Light::Point { position: lp, intensity: i }]);
+        let e = direct(&scene);
+        let (mut umbra, mut lit, mut crossed) = (0, 0, 0);
+        for (&p, &ev) in scene.positions.iter().zip(&e).take(441) {
+            let d = lp - p;
+            let expect = i * (d.y / d.length()) / d.length_squared();
+            let (is_blocked, margin) = blocked(p, lp);
+            assert!(margin > 1e-3, "vertex at {p}: its shadow ray grazes the occluder's edge");
+            if is_blocked {
+                assert_eq!(ev, Vec3::ZERO, "light {lp}: vertex at {p} is in the shadow");
+                umbra += 1;
+            } else {
+                assert!((ev - expect).abs().max_element() <= 1e-6 * expect.max_element(), "{p}: {ev} vs {expect}");
+                lit += 1;
+            }
+        }
+        // Triangles with lit and shadowed corners: the shadow edge crosses them.
+        for t in &scene.triangles {
+            if t.iter().all(|&c| (c as usize) < 441) {
+                let lit_corners = t.iter().filter(|&&c| e[c as usize].x > 0.0).count();
+                crossed += (lit_corners == 1 || lit_corners == 2) as usize;
+            }
+        }
+        assert!(umbra > 20 && lit > 200 && crossed > 20, "light {lp}: {umbra} umbra, {lit} lit, {crossed} crossed");
+    }
+}
+
+#[test]
+fn penumbra_is_partial_in_the_one_ring_oversampled_bounce_source() {
+    // A vertex near the shadow edge sees part of its one-ring.
     let lp = Vec3::new(0.0, 1.5, 0.0);
     let scene = floor_scene(true, vec![Light::Point { position: lp, intensity: Vec3::ONE }]);
-    let e = direct(&scene);
+    let kd = KdTree::build(&scene.positions, &scene.triangles, &KdBuildParams::default());
+    let ll = LightLinks::compute(&scene, &kd, &ring_params());
+    let n = scene.vertex_count();
+    let (ring, point) = (ll.direct_ring(&scene.lights, n), ll.direct(&scene.lights, n));
     let partial = (0..441)
         .filter(|&v| {
             let d = lp - scene.positions[v];
             let full = (d.y / d.length()) / d.length_squared();
-            e[v].x > 0.01 * full && e[v].x < 0.99 * full
+            ring[v].x > 0.01 * full && ring[v].x < 0.99 * full
         })
         .count();
     assert!(partial >= 8, "only {partial} penumbra vertices");
+    // Both are the same G at the vertex times a visible share.
+    for v in 0..441 {
+        let d = lp - scene.positions[v];
+        let full = (d.y / d.length()) / d.length_squared();
+        assert!(ring[v].x <= full * (1.0 + 1e-6) && (point[v].x == 0.0 || (point[v].x / full - 1.0).abs() < 1e-6));
+    }
+    // The bounce source follows the parameter.
+    assert_eq!(ll.bounce_source(&scene.lights, n), ring);
+    let p = LightLinkParams { bounce_source: BounceSource::Point, ..ring_params() };
+    let ll = LightLinks::compute(&scene, &kd, &p);
+    assert_eq!(ll.bounce_source(&scene.lights, n), point);
+    // Without oversampling (the default) the factors are the point values.
+    let ll = LightLinks::compute(&scene, &kd, &LightLinkParams::default());
+    assert_eq!((ll.direct_ring(&scene.lights, n), ll.direct(&scene.lights, n)), (point.clone(), point));
 }
 
 #[test]
 fn directional_light_is_irradiance_times_cosine() {
-    let dir = Vec3::new(0.3, -1.0, 0.2).normalize();
+    let dir = Vec3::new(0.27, -1.0, 0.13).normalize();
     let irr = Vec3::new(2.0, 1.0, 0.5);
     let scene = floor_scene(true, vec![Light::Directional { direction: dir, irradiance: irr }]);
     let e = direct(&scene);
     let expect = irr * (-dir).dot(Vec3::Y);
     let mut shadowed = 0;
-    for v in 0..441 {
-        let p = scene.positions[v];
+    for (&p, &ev) in scene.positions.iter().zip(&e).take(441) {
         // Where the occluder's shadow falls: p + t*(-dir) crosses y = 0.5 inside the square.
         let q = p + (-dir) * (0.5 / (-dir).y);
-        let inside = q.x.abs() < 0.3 && q.z.abs() < 0.3;
-        let clear = q.x.abs() > 0.45 || q.z.abs() > 0.45;
-        if clear {
-            assert!((e[v] - expect).abs().max_element() <= 1e-6 * expect.max_element(), "{p}: {}", e[v]);
-        } else if inside && q.x.abs() < 0.15 && q.z.abs() < 0.15 {
-            assert_eq!(e[v], Vec3::ZERO, "{p} should be shadowed");
+        let inside = q.x.abs().max(q.z.abs());
+        assert!((inside - 0.3).abs() > 1e-3, "vertex at {p} grazes the occluder's edge");
+        if inside < 0.3 {
+            assert_eq!(ev, Vec3::ZERO, "{p} should be shadowed");
             shadowed += 1;
+        } else {
+            assert!((ev - expect).abs().max_element() <= 1e-6 * expect.max_element(), "{p}: {ev}");
         }
     }
     assert!(shadowed > 5);
@@ -155,14 +200,14 @@ fn light_updates_trace_only_moved_lights() {
         floor_scene(true, vec![point(Vec3::new(0.2, 1.0, 0.1), 3.0), sun, point(Vec3::new(-0.4, 0.8, 0.3), 1.0)]);
     let kd = KdTree::build(&scene.positions, &scene.triangles, &KdBuildParams::default());
     kd.validate().unwrap();
-    let params = LightLinkParams::default();
+    let params = ring_params();
     let mut links = LightLinks::compute(&scene, &kd, &params);
-    let one = |scene: &prep::PreparedScene, l: &Light| LightLinks::compute_light(scene, &kd, l, &params).unwrap();
+    let one = |scene: &prep::PreparedScene, l: &Light| LightLinks::compute_light(scene, &kd, l, &params).unwrap().rays;
     let bits = |c: &[f32]| c.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
     let check_fresh = |scene: &prep::PreparedScene, links: &LightLinks| {
         let fresh = LightLinks::compute(scene, &kd, &params);
         assert_eq!(links.factors.len(), fresh.factors.len());
-        for (a, b) in links.factors.iter().zip(&fresh.factors) {
+        for (a, b) in links.factors.iter().zip(&fresh.factors).chain(links.point.iter().zip(&fresh.point)) {
             assert_eq!(bits(a), bits(b));
         }
     };
@@ -171,7 +216,7 @@ fn light_updates_trace_only_moved_lights() {
     // Move the last light: only it is traced.
     scene.lights[2] = point(Vec3::new(0.5, 0.7, -0.2), 1.0);
     let rays = links.update_with(&scene, &kd, &params).unwrap();
-    assert_eq!(rays, one(&scene, &scene.lights[2]).1);
+    assert_eq!(rays, one(&scene, &scene.lights[2]));
     assert!(rays > 0);
     assert_eq!((bits(&links.factors[0]), bits(&links.factors[1])), (bits(&before[0]), bits(&before[1])));
     assert_ne!(bits(&links.factors[2]), bits(&before[2]));
@@ -207,7 +252,7 @@ fn light_preview_is_exact_outside_penumbrae_and_refines() {
     let mut scene = floor_scene(true, vec![point(Vec3::new(0.05, 1.2, -0.03))]);
     let kd = KdTree::build(&scene.positions, &scene.triangles, &KdBuildParams::default());
     kd.validate().unwrap();
-    let params = LightLinkParams::default();
+    let params = ring_params();
     let mut links = LightLinks::compute(&scene, &kd, &params);
     scene.lights[0] = point(Vec3::new(-0.1, 1.0, 0.12));
     let preview_rays = links.preview_with(&scene, &kd, &params).unwrap();
@@ -231,7 +276,12 @@ fn light_preview_is_exact_outside_penumbrae_and_refines() {
         }
     }
     assert!(lit > 100 && dark > 10, "{lit} lit, {dark} in umbra");
+    // The reported E_d is the point value, which the preview traces with the very same rays.
+    assert_eq!(links.point, full.point);
+    let n = scene.vertex_count();
+    assert_eq!(links.direct(&scene.lights, n), full.direct(&scene.lights, n));
     let rays = links.update_with(&scene, &kd, &params).unwrap();
     assert_eq!((rays, links.coarse.clone()), (full.shadow_rays, vec![false]));
     assert_eq!(links.factors, full.factors);
+    assert_eq!(links.point, full.point);
 }

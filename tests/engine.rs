@@ -155,7 +155,9 @@ fn light_preview_is_followed_by_the_full_result() {
     let mut desc = builtin::builtin("cornell").unwrap();
     desc.settings.rays_per_vertex = 16;
     let scene = prep::prepare(&desc).unwrap();
-    let params = SolveParams::from_settings(&scene.settings);
+    // Previews skip the one-ring oversampling, so they exist only with it.
+    let mut params = SolveParams::from_settings(&scene.settings);
+    params.light.oversample = true;
     let start = |preview: bool| {
         let opts = EngineParams { light_preview: preview, ..Default::default() };
         Engine::start(scene.clone(), params, Compute::Cpu, opts)
@@ -189,6 +191,27 @@ fn light_preview_is_followed_by_the_full_result() {
     assert_eq!(plain.latest().unwrap().e_direct, last.e_direct);
 }
 
+/// Without one-ring oversampling (the default) a light move's preview
+/// would be the full result: the engine publishes the full result alone,
+/// tracing the moved light once.
+#[test]
+fn light_preview_without_oversampling_is_the_full_result() {
+    let mut desc = builtin::builtin("cornell").unwrap();
+    desc.settings.rays_per_vertex = 16;
+    let scene = prep::prepare(&desc).unwrap();
+    let params = SolveParams::from_settings(&scene.settings);
+    assert!(!params.light.oversample);
+    let opts = EngineParams { light_preview: true, ..Default::default() };
+    let mut e = Engine::start(scene.clone(), params, Compute::Cpu, opts);
+    assert!(e.wait_idle(WAIT));
+    let (p, i) = first_point(&scene);
+    e.send(Change::MoveLight { index: 0, light: Light::Point { position: p - Vec3::X * 0.1, intensity: i } });
+    assert!(e.wait_idle(WAIT));
+    let c = e.counters();
+    assert_eq!((c.published, c.previews, c.changes), (2, 0, 1), "{c:?}");
+    assert!(!e.latest().unwrap().preview);
+}
+
 /// A preview whose refinement was put off for a queued batch that then
 /// fails (a bad light index) or panics is still replaced by a full result,
 /// and every change counts as handled, so `wait_idle` returns.
@@ -197,7 +220,8 @@ fn a_failed_batch_after_a_preview_still_ends_in_a_full_result() {
     let mut desc = builtin::builtin("cornell").unwrap();
     desc.settings.rays_per_vertex = 16;
     let scene = prep::prepare(&desc).unwrap();
-    let params = SolveParams::from_settings(&scene.settings);
+    let mut params = SolveParams::from_settings(&scene.settings);
+    params.light.oversample = true;
     let (p, i) = first_point(&scene);
     for bad in [Change::RemoveLight(99), Change::Panic] {
         let opts = EngineParams { delay: Duration::from_millis(400), light_preview: true, ..Default::default() };

@@ -1,6 +1,6 @@
 //! A second analytic case: two parallel unit squares 1 m apart. The lower
 //! square A (albedo rho_A, facing up) is lit uniformly by a directional light
-//! at 45 degrees that cannot reach the upper square B (facing down, albedo 0,
+//! at 42 degrees that cannot reach the upper square B (facing down, albedo 0,
 //! lit only from the back, which brings nothing). After one bounce B's
 //! vertices receive `E_i(x) = rho_A * E_A * F(x -> A)`, with the
 //! point-to-parallel-rectangle form factor of the handbook (Howell's
@@ -41,7 +41,11 @@ fn parallel_squares_match_the_analytic_form_factor() {
     let mb = b.add_material("B", Vec3::ZERO);
     // Facing down.
     b.quad_grid(Vec3::new(0.0, 1.0, 0.0), Vec3::X, Vec3::Z, 12, 12, mb);
-    let dir = Vec3::new(1.0, -1.0, 0.0).normalize();
+    // 42 degrees rather than 45: at 45 the shadow rays of A's vertices on
+    // x = 1 would graze B's edge x = 0 exactly (a tie the tracer counts as
+    // blocked, and `E_d` is the point value at the vertex); tilted, the
+    // light passes beside B and A is lit uniformly, corners and edges too.
+    let dir = Vec3::new(1.0, -0.9, 0.0).normalize();
     let e0 = 2.0f32;
     let desc = SceneDesc {
         name: "squares".into(),
@@ -61,14 +65,10 @@ fn parallel_squares_match_the_analytic_form_factor() {
     let s = &solver.scene;
     let e_a = e0 * (-dir).dot(Vec3::Y);
     let b_range = s.meshes[1].vertices.clone();
-    // A is lit uniformly (the light passes beside B), B not at all. Only A's
-    // vertices on the edge x = 1 graze B's edge (their own point is blocked,
-    // their one-ring is not), a negligible part of A's area.
+    // A is lit uniformly (the light passes beside B), B not at all.
     for v in s.meshes[0].vertices.clone() {
         let p = s.positions[v as usize];
-        if p.x < 0.99 {
-            assert!((sol.e_direct[v as usize].x - e_a).abs() < 1e-5 * e_a, "A at {p}: {}", sol.e_direct[v as usize]);
-        }
+        assert!((sol.e_direct[v as usize].x - e_a).abs() < 1e-5 * e_a, "A at {p}: {}", sol.e_direct[v as usize]);
     }
     let (mut sum_ratio, mut count, mut worst) = (0.0f64, 0usize, 0.0f64);
     for v in b_range {

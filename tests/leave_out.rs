@@ -18,10 +18,10 @@ fn auto_bounces_stop_at_the_tolerance() {
         let desc = common::with_settings(builtin::closed_room(4, rho), 64, Bounces::Auto, 0.0);
         let (solver, sol) = common::solve(&desc);
         let params = GatherParams { bounces: Bounces::Auto, tolerance: tol, ..Default::default() };
-        let result = gather(&solver.links, &solver.scene.albedo, &sol.e_direct, &params);
+        let result = gather(&solver.links, &solver.scene.albedo, &sol.e_source, &params);
         // Manual: bounce until the newest adds less than tol of the running total.
-        let n = sol.e_direct.len();
-        let mut b: Vec<Vec3> = sol.e_direct.iter().zip(&solver.scene.albedo).map(|(e, r)| *e * *r / PI).collect();
+        let n = sol.e_source.len();
+        let mut b: Vec<Vec3> = sol.e_source.iter().zip(&solver.scene.albedo).map(|(e, r)| *e * *r / PI).collect();
         let mut e = vec![Vec3::ZERO; n];
         let mut running = 0f64;
         let mut expected = 0;
@@ -46,7 +46,7 @@ fn auto_bounces_stop_at_the_tolerance() {
         let tighter = gather(
             &solver.links,
             &solver.scene.albedo,
-            &sol.e_direct,
+            &sol.e_source,
             &GatherParams { tolerance: tol / 10.0, ..params },
         );
         assert!(tighter.bounces > result.bounces);

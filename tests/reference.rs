@@ -63,8 +63,9 @@ fn compare(a: &[Vec3], b: &[Vec3]) -> (f32, f32) {
 /// agree on the Cornell box: means of E_d within 1% and of E_i within 3%
 /// (bias of the vertex-link discretisation), per-vertex relative RMSE of
 /// E_i beyond the reference's own noise (its reported standard errors, about
-/// 16% per vertex at 256 samples) under 8%, of E_d under 5% (one-ring
-/// visibility oversampling against point visibility).
+/// 14% per vertex at 256 samples) under 8%, of E_d under 0.5% (both are the
+/// point value at the vertex; they differ only where a shadow edge passes
+/// between the two solvers' slightly different ray origins).
 #[test]
 fn reference_agrees_with_link_solver_on_cornell() {
     let desc = common::with_settings(builtin::builtin("cornell").unwrap(), 256, Bounces::Auto, 30.0);
@@ -89,7 +90,7 @@ fn reference_agrees_with_link_solver_on_cornell() {
     // What the reference's own noise does not explain is the link solver's error.
     let excess = (rmse_i * rmse_i - noise * noise).max(0.0).sqrt();
     assert!(excess < 0.08, "E_i relative RMSE {rmse_i} with reference noise {noise}: excess {excess}");
-    assert!(rmse_d < 0.05, "E_d relative RMSE {rmse_d}");
+    assert!(rmse_d < 0.005, "E_d relative RMSE {rmse_d}");
 }
 
 /// The disk cache returns exactly what was computed, and a moved light

@@ -57,13 +57,16 @@ fn assert_equals_fresh(updated: &Solver, what: &str) {
     assert_eq!(a.stats.merged_links, b.stats.merged_links, "{what}: merged links");
     assert_eq!(updated.ray_hits, fresh.ray_hits, "{what}: per-ray state");
     let (fa, fb) = (&updated.light_links.factors, &fresh.light_links.factors);
+    let (pa, pb) = (&updated.light_links.point, &fresh.light_links.point);
     assert_eq!(fa.len(), fb.len());
-    for (l, (ca, cb)) in fa.iter().zip(fb).enumerate() {
+    assert_eq!(pa.len(), fa.len());
+    for (l, (ca, cb)) in fa.iter().zip(fb).chain(pa.iter().zip(pb)).enumerate() {
         for (v, (x, y)) in ca.iter().zip(cb).enumerate() {
             assert!((x - y).abs() <= 1e-6 * y.abs(), "{what}: light {l} vertex {v}: {x} vs {y}");
         }
     }
     let (sa, sb) = (updated.solve(), fresh.solve());
+    assert_eq!(sa.e_direct, sb.e_direct, "{what}: exact direct light");
     for (v, (x, y)) in sa.e_indirect.iter().zip(&sb.e_indirect).enumerate() {
         assert!((*x - *y).abs().max_element() <= 1e-5 * y.max_element().max(1e-12), "{what}: E_i at {v}: {x} vs {y}");
     }
@@ -154,6 +157,7 @@ fn preview_shows_remade_vertices_at_few_rays() {
     let moved = at_time(&rest, 0.7);
     let figure = rest.meshes.iter().find(|m| m.dynamic).unwrap().vertices.clone();
     let mut seen = 0;
+    let mut preview_direct = Vec::new();
     let mut show = |s: &Solver| {
         seen += 1;
         // Remade vertices have groups from 16 rays: weights are multiples
@@ -162,15 +166,22 @@ fn preview_shows_remade_vertices_at_few_rays() {
         assert!(s.links.group(v).0.len() <= 3 * 16, "preview group of {} links", s.links.group(v).0.len());
         // A static room vertex keeps its group.
         assert_eq!(s.links.group(0), before.group(0));
-        assert!(s.light_links.coarse.iter().all(|&c| c));
+        // Preview columns are coarse only where oversampling is on (then the full update refines them).
+        assert!(s.light_links.coarse.iter().all(|&c| c == s.params.light.oversample));
         let sol = s.solve();
         assert!(sol.e_indirect.iter().all(|e| e.is_finite()));
+        preview_direct = sol.e_direct;
     };
     let params = solver.params;
     let (next, stats) = solver.deform(moved, params, Some((16, &mut show)), &|_, _| {});
     assert_eq!(seen, 1);
     assert!(stats.preview_ms > 0.0 && stats.preview_ms <= stats.ms);
     assert!(next.light_links.coarse.iter().all(|&c| !c), "the full update replaces the preview columns");
+    // The preview's exact direct light at the remade vertices is the full update's.
+    let full_direct = next.solve().e_direct;
+    for v in figure.start as usize..figure.end as usize {
+        assert_eq!(preview_direct[v], full_direct[v], "E_d of remade vertex {v}");
+    }
     assert_equals_fresh(&next, "after a preview");
 }
 

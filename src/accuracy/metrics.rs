@@ -40,7 +40,7 @@ pub fn error_stats(x: &[Vec3], r: &[Vec3], stderr: &[Vec3]) -> ErrorStats {
     }
     let m = (3 * n) as f64;
     let mean_r = sr / m;
-    if !(mean_r > 0.0) {
+    if mean_r.is_nan() || mean_r <= 0.0 {
         // Nothing to be relative to: report absolute figures as zero error when x is zero too.
         let zero = if sx == 0.0 { 0.0 } else { f64::INFINITY };
         return ErrorStats { rel_rmse: zero, rel_rmse_corrected: zero, bias: zero, p95: zero };

@@ -1,6 +1,9 @@
 //! Accuracy sweep (`linkgi error`): the link solver's error against the
 //! Monte Carlo reference ([`crate::reference`]) as a function of rays per
-//! vertex, bounces and smoothing, with the run time of each setting.
+//! vertex, bounces and smoothing, with the run time of each setting; the
+//! same reference path tracer at a ladder of samples per vertex beside it,
+//! at equal run time ([`path`]); and the light-move preview against the
+//! full result after the move ([`preview`]).
 //!
 //! Links depend only on the rays per vertex, so they are built once per ray
 //! count; the gather and the smoothing are redone per setting. Run time of
@@ -18,8 +21,12 @@
 
 pub mod csv;
 pub mod metrics;
+pub mod path;
 pub mod plot;
+pub mod preview;
 pub mod sweep;
 
 pub use metrics::ErrorStats;
+pub use path::PathRow;
+pub use preview::PreviewRow;
 pub use sweep::{sweep, SweepParams, SweepRow};

@@ -1,10 +1,15 @@
-//! `errors.png`: error of `E_i` (relative RMSE, reference noise removed)
-//! against run time (ms), both on log axes; every setting is a dot, one
-//! colour per smoothing setting, with a line along that setting's Pareto
-//! front (the lowest error reached by any faster-or-equal setting); the
-//! paper's default (256 rays, 3 bounces, smoothing on) is ringed. Text uses
-//! the bundled DejaVu Sans (assets/fonts), so no system font library is needed.
+//! `errors.png`: error of the total irradiance `E_d + E_i` (relative RMSE,
+//! reference noise removed) against run time (ms), both on log axes. Every
+//! link-solver setting is a dot, one colour per smoothing setting, with a
+//! line along that setting's Pareto front (the lowest error reached by any
+//! faster-or-equal setting); the paper's default (256 rays, 3 bounces,
+//! smoothing on) is ringed. The path tracer's ladder is a black line with
+//! squares, labelled with its samples per vertex; the ratio of the path
+//! tracer's error to the link solver's at equal time is printed for the
+//! auto-bounce, smoothed settings. Text uses the bundled DejaVu Sans
+//! (assets/fonts), so no system font library is needed.
 
+use super::path::{error_at, PathRow};
 use super::SweepRow;
 use crate::Error;
 use plotters::prelude::*;
@@ -25,7 +30,11 @@ fn register_font() {
 const FLOOR: f64 = 1e-4;
 
 fn err(r: &SweepRow) -> f64 {
-    r.e_indirect.rel_rmse_corrected.max(FLOOR)
+    r.e_total.rel_rmse_corrected.max(FLOOR)
+}
+
+fn path_err(p: &PathRow) -> f64 {
+    p.e_total.rel_rmse_corrected.max(FLOOR)
 }
 
 /// Lower envelope of `(time, error)` points: sorted by time, each kept if it beats every faster one.
@@ -45,26 +54,28 @@ fn plot_err<E: std::fmt::Debug>(e: E) -> Error {
     Error::Plot(format!("{e:?}"))
 }
 
-/// Draws the plot of `rows` (scene `scene`) into the PNG file `path`.
-pub fn plot(scene: &str, rows: &[SweepRow], path: &Path) -> crate::Result<()> {
+/// Draws the plot of `rows` and the path tracer's `ladder` (scene `scene`) into the PNG file `path`.
+pub fn plot(scene: &str, rows: &[SweepRow], ladder: &[PathRow], path: &Path) -> crate::Result<()> {
     register_font();
     let finite: Vec<&SweepRow> = rows.iter().filter(|r| r.total_ms.is_finite() && err(r).is_finite()).collect();
+    let ladder: Vec<&PathRow> = ladder.iter().filter(|p| p.ms.is_finite() && path_err(p).is_finite()).collect();
     if finite.is_empty() {
         return Err(Error::Plot("no finite errors to plot".into()));
     }
     let (mut x0, mut x1, mut y0, mut y1) = (f64::MAX, f64::MIN, f64::MAX, f64::MIN);
-    for r in &finite {
-        let t = r.total_ms.max(1e-3);
+    let points = finite.iter().map(|r| (r.total_ms, err(r))).chain(ladder.iter().map(|p| (p.ms, path_err(p))));
+    for (t, e) in points {
+        let t = t.max(1e-3);
         x0 = x0.min(t);
         x1 = x1.max(t);
-        y0 = y0.min(err(r));
-        y1 = y1.max(err(r));
+        y0 = y0.min(e);
+        y1 = y1.max(e);
     }
     let (x0, x1, y0, y1) = (x0 / 1.5, x1 * 1.5, y0 / 1.5, y1 * 1.5);
     let root = BitMapBackend::new(path, (1000, 700)).into_drawing_area();
     root.fill(&WHITE).map_err(plot_err)?;
     let mut chart = ChartBuilder::on(&root)
-        .caption(format!("{scene}: error of E_i vs time to solution"), ("sans-serif", 26))
+        .caption(format!("{scene}: error of E_d + E_i vs time to solution"), ("sans-serif", 26))
         .margin(20)
         .x_label_area_size(55)
         .y_label_area_size(80)
@@ -76,8 +87,8 @@ pub fn plot(scene: &str, rows: &[SweepRow], path: &Path) -> crate::Result<()> {
         .y_labels(6)
         .x_label_formatter(&|x| format!("{x:.0}"))
         .y_label_formatter(&|y| format!("{y}"))
-        .x_desc("run time: kd + links + light links + gather + smoothing (ms)")
-        .y_desc("relative RMSE of E_i vs reference")
+        .x_desc("run time (ms): links: kd + links + light links + gather + smoothing; path tracer: BVH + paths")
+        .y_desc("relative RMSE of E_d + E_i vs reference")
         .label_style(("sans-serif", 16))
         .axis_desc_style(("sans-serif", 18))
         .draw()
@@ -108,6 +119,42 @@ pub fn plot(scene: &str, rows: &[SweepRow], path: &Path) -> crate::Result<()> {
                     (r.total_ms.max(1e-3) * 1.05, err(r) * 1.08),
                     ("sans-serif", 14).into_font().color(&c),
                 )))
+                .map_err(plot_err)?;
+        }
+    }
+    if !ladder.is_empty() {
+        let pts: Vec<(f64, f64)> = ladder.iter().map(|p| (p.ms.max(1e-3), path_err(p))).collect();
+        chart
+            .draw_series(LineSeries::new(pts.clone(), BLACK.stroke_width(2)))
+            .map_err(plot_err)?
+            .label("path tracer (samples per vertex)")
+            .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 24, y)], BLACK.stroke_width(2)));
+        chart
+            .draw_series(
+                pts.iter().map(|&(x, y)| Rectangle::new([(x / 1.04, y / 1.04), (x * 1.04, y * 1.04)], BLACK.filled())),
+            )
+            .map_err(plot_err)?;
+        for (p, at) in ladder.iter().zip(&pts) {
+            chart
+                .draw_series(std::iter::once(Text::new(
+                    format!("{}", p.samples),
+                    (at.0 * 1.06, at.1 * 1.1),
+                    ("sans-serif", 14).into_font().color(&BLACK),
+                )))
+                .map_err(plot_err)?;
+        }
+        // The ratio at equal time of the auto-bounce, smoothed settings, as text in the lower left.
+        let owned: Vec<PathRow> = ladder.iter().map(|p| (*p).clone()).collect();
+        let mut lines = vec!["path tracer error / link error at equal time:".to_string()];
+        for r in finite.iter().filter(|r| r.bounces == "auto" && r.smoothing_deg > 0.0) {
+            if let Some(e) = error_at(&owned, r.total_ms) {
+                lines.push(format!("  {} rays: {:.1}x", r.rays, e / err(r)));
+            }
+        }
+        for (i, l) in lines.iter().enumerate() {
+            let y = y0 * (y1 / y0).powf(0.03 + 0.05 * (lines.len() - 1 - i) as f64);
+            chart
+                .draw_series(std::iter::once(Text::new(l.clone(), (x0 * 1.05, y), ("sans-serif", 15))))
                 .map_err(plot_err)?;
         }
     }

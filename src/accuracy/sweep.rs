@@ -45,6 +45,7 @@ pub struct SweepRow {
     pub kd_ms: f64,
     pub links_ms: f64,
     pub light_links_ms: f64,
+    /// Bounces and the hidden-vertex correction, ms.
     pub gather_ms: f64,
     pub smooth_ms: f64,
     /// kd + links + light links + gather + smoothing.
@@ -89,14 +90,19 @@ pub fn sweep(
         let solve_params = SolveParams::from_settings(&settings);
         let solver = Solver::new(scene.clone(), solve_params, &|_, _| {});
         let (kd_ms, links_ms, light_ms) = (solver.accel_build_ms(), solver.links.stats.shoot_ms, solver.light_links.ms);
-        let e_direct = solver.light_links.direct(&solver.scene.lights, solver.scene.vertex_count());
+        let n = solver.scene.vertex_count();
+        let e_direct = solver.light_links.direct(&solver.scene.lights, n);
+        let e_source = solver.light_links.bounce_source(&solver.scene.lights, n);
         let ed_err = error_stats(&e_direct, &reference.e_direct, &[]);
         for &b in &params.bounces {
             let gp = exchange::GatherParams { bounces: b, ..solve_params.gather };
-            let g = exchange::gather(&solver.links, &solver.scene.albedo, &e_direct, &gp);
+            let mut g = exchange::gather(&solver.links, &solver.scene.albedo, &e_source, &gp);
+            let t = Instant::now();
+            let e_raw = solver.correct_hidden(&g.e_indirect);
+            g.ms += t.elapsed().as_secs_f64() * 1e3;
             for smoothing in [angle, 0.0] {
                 let t = Instant::now();
-                let e_i = exchange::smooth(&g.e_indirect, &solver.scene.rings, &solver.scene.normals, smoothing);
+                let e_i = solver.smooth(&e_source, &e_raw, smoothing);
                 let smooth_ms = t.elapsed().as_secs_f64() * 1e3;
                 let total: Vec<Vec3> = e_direct.iter().zip(&e_i).map(|(d, i)| *d + *i).collect();
                 rows.push(SweepRow {

@@ -1,11 +1,13 @@
 //! `linkgi error`: sweep rays, bounces and smoothing against the Monte
-//! Carlo reference (src/accuracy, src/reference); write errors.csv and
+//! Carlo reference (src/accuracy, src/reference), run the reference path
+//! tracer at a ladder of samples per vertex beside it, score the
+//! light-move preview against the full result; write errors.csv and
 //! errors.png into the output folder and print a summary.
 
 use super::setup::{setup, Overrides, Setup};
 use anyhow::{Context, Result};
 use indicatif::{ProgressBar, ProgressStyle};
-use linkgi::accuracy::{self, SweepParams};
+use linkgi::accuracy::{self, path, preview, SweepParams};
 use linkgi::reference::{self, ReferenceParams};
 use linkgi::scene::TracerKind;
 use std::path::PathBuf;
@@ -22,12 +24,26 @@ pub struct ErrorArgs {
     /// Reference paths per vertex.
     #[arg(long, default_value_t = 4096)]
     pub ref_samples: u32,
+    /// Samples per vertex of the path tracer beside the link solver, comma-separated
+    /// (default 16, 64, 256, ... up to a quarter of --ref-samples; 0: none).
+    #[arg(long, value_delimiter = ',')]
+    pub path_samples: Option<Vec<u32>>,
     /// Reference cache folder (default target/reference-cache).
     #[arg(long)]
     pub cache: Option<PathBuf>,
     /// CPU ray tracer: bvh (wide BVH) or kd (kd-tree with ropes); overrides the scene's setting.
     #[arg(long, value_name = "bvh|kd", value_parser = super::parse_tracer)]
     pub tracer: Option<TracerKind>,
+}
+
+fn bar(len: usize, msg: &'static str) -> ProgressBar {
+    let bar = ProgressBar::new(len as u64).with_message(msg);
+    bar.set_style(
+        ProgressStyle::with_template("{msg:12} [{bar:40}] {pos}/{len} ({elapsed})")
+            .expect("valid template")
+            .progress_chars("=> "),
+    );
+    bar
 }
 
 pub fn run(args: ErrorArgs) -> Result<()> {
@@ -50,23 +66,31 @@ pub fn run(args: ErrorArgs) -> Result<()> {
         t.elapsed().as_secs_f64()
     );
     let params = SweepParams::default();
-    let bar = ProgressBar::new(params.rays.len() as u64).with_message("ray counts");
-    bar.set_style(
-        ProgressStyle::with_template("{msg:12} [{bar:40}] {pos}/{len} ({elapsed})")
-            .expect("valid template")
-            .progress_chars("=> "),
-    );
-    let rows = accuracy::sweep(&prepared, &r, &params, &|done, _| bar.set_position(done as u64));
-    bar.finish_and_clear();
+    let b = bar(params.rays.len(), "ray counts");
+    let rows = accuracy::sweep(&prepared, &r, &params, &|done, _| b.set_position(done as u64));
+    b.finish_and_clear();
+    let ladder_samples: Vec<u32> = match &args.path_samples {
+        Some(s) => s.iter().copied().filter(|&s| s > 0).collect(),
+        None => path::default_ladder(args.ref_samples),
+    };
+    let b = bar(ladder_samples.len(), "path tracer");
+    let ladder = path::ladder(&prepared, &r, &ladder_samples, &|done, _| b.set_position(done as u64));
+    b.finish_and_clear();
+    let angle = rows.iter().map(|r| r.smoothing_deg).fold(0.0, f32::max);
+    let preview = preview::score(&prepared, angle);
     let csv_path = args.out.join("errors.csv");
-    std::fs::write(&csv_path, accuracy::csv::to_csv(&prepared.name, &rows))
+    std::fs::write(&csv_path, accuracy::csv::to_csv(&prepared.name, &rows, &ladder, preview.as_ref()))
         .with_context(|| format!("writing {}", csv_path.display()))?;
     let png_path = args.out.join("errors.png");
-    accuracy::plot::plot(&prepared.name, &rows, &png_path)?;
-    println!("rays  bounces  smoothing  total ms   E_i rmse (noise-corr.)  E_i bias  E_i p95   E_d rmse  total rmse");
+    accuracy::plot::plot(&prepared.name, &rows, &ladder, &png_path)?;
+    println!(
+        "rays  bounces  smoothing  total ms   E_i rmse (noise-corr.)  E_i bias  E_i p95   E_d rmse  total rmse (corr.)  path tracer at equal time"
+    );
     for r in rows.iter().filter(|r| r.bounces == "3" || r.bounces == "auto") {
+        let equal = accuracy::csv::equal_time(&ladder, r.total_ms, r.e_total.rel_rmse_corrected)
+            .map_or(String::new(), |(p, ratio)| format!("{p:6.4} ({ratio:.1}x)"));
         println!(
-            "{:5} {:>7}  {:>9}  {:8.1}   {:6.4} ({:6.4})        {:+7.4}   {:6.4}    {:6.4}    {:6.4}",
+            "{:5} {:>7}  {:>9}  {:8.1}   {:6.4} ({:6.4})        {:+7.4}   {:6.4}    {:6.4}    {:6.4} ({:6.4})     {equal}",
             r.rays,
             r.bounces,
             if r.smoothing_deg > 0.0 { format!("{:.0} deg", r.smoothing_deg) } else { "off".into() },
@@ -76,7 +100,35 @@ pub fn run(args: ErrorArgs) -> Result<()> {
             r.e_indirect.bias,
             r.e_indirect.p95,
             r.e_direct.rel_rmse,
-            r.e_total.rel_rmse
+            r.e_total.rel_rmse,
+            r.e_total.rel_rmse_corrected,
+        );
+    }
+    if !ladder.is_empty() {
+        println!("path tracer: samples  ms        E_i rmse (corr.)  total rmse (corr.)");
+        for p in &ladder {
+            println!(
+                "             {:7}  {:8.1}  {:6.4} ({:6.4})   {:6.4} ({:6.4})",
+                p.samples,
+                p.ms,
+                p.e_indirect.rel_rmse,
+                p.e_indirect.rel_rmse_corrected,
+                p.e_total.rel_rmse,
+                p.e_total.rel_rmse_corrected
+            );
+        }
+    }
+    if let Some(p) = &preview {
+        println!(
+            "light-move preview ({} rays, {} of {} shadow rays, {:.1} ms against {:.1} ms): against the full result E_d rmse {:.4}, E_i rmse {:.4}, total rmse {:.4}",
+            p.rays,
+            p.preview_shadow_rays,
+            p.full_shadow_rays,
+            p.preview_ms,
+            p.full_ms,
+            p.e_direct.rel_rmse,
+            p.e_indirect.rel_rmse,
+            p.e_total.rel_rmse
         );
     }
     println!("wrote {} and {}", csv_path.display(), png_path.display());

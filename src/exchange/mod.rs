@@ -1,6 +1,9 @@
-//! Light exchange (docs/DESIGN.md §4): direct light through light links with
-//! one-ring oversampled visibility ([`light_links`]), bounces gathered over
-//! the vertex links ([`gather`]), feature-aware one-ring smoothing
+//! Light exchange (docs/DESIGN.md §4): direct light through light links, exact
+//! at the vertices and one-ring oversampled as the bounce source
+//! ([`light_links`]), bounces gathered over the vertex links ([`gather`]),
+//! hidden vertices' radiosity replaced as link targets by their visible
+//! neighbours' ([`hidden`]), a noise estimate of every vertex's `E_i` from
+//! its links ([`noise`]) and feature-aware, noise-aware one-ring smoothing
 //! ([`smooth`]).
 //!
 //! Units: per-vertex irradiance `E` in W/m^2 per RGB channel; radiosity
@@ -8,9 +11,13 @@
 //! W/(m^2 sr).
 
 pub mod gather;
+pub mod hidden;
 pub mod light_links;
+pub mod noise;
 pub mod smooth;
 
 pub use gather::{gather, GatherParams, GatherResult};
-pub use light_links::{LightLinkParams, LightLinks};
-pub use smooth::smooth;
+pub use hidden::HiddenParams;
+pub use light_links::{BounceSource, LightLinkParams, LightLinks};
+pub use noise::NoiseParams;
+pub use smooth::{smooth, smooth_adaptive, SmoothMode, SmoothParams};

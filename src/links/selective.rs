@@ -1,5 +1,5 @@
-//! Selective re-shooting of vertex links after a deformation (DESIGN.md
-//! §6): only the rays a deformation can have changed are traced again, and
+//! Selective re-shooting of vertex links after a deformation (docs/DESIGN.md
+//! §7): only the rays a deformation can have changed are traced again, and
 //! only the link groups whose hits changed are rebuilt. Selective photon
 //! tracing (Dmitriev et al. 2002) does this for photon paths; here it is
 //! done for vertex links, exactly: the result equals a full re-shoot with

@@ -13,7 +13,7 @@ use std::path::{Path, PathBuf};
 
 const MAGIC: &[u8; 8] = b"LGIREF01";
 /// Bump when the estimator changes, so old cached results are not reused.
-const VERSION: u64 = 1;
+const VERSION: u64 = 2;
 
 /// 64-bit FNV-1a.
 struct Fnv(u64);

@@ -19,6 +19,14 @@
 //!   by Russian roulette after `rr_start` bounces and cut at `max_depth`.
 //!   The first direction of the samples of a vertex is stratified on a
 //!   jittered grid; the rest are independent.
+//! - Standard error of `E_i`: with the `k x k` strata, the sample variance
+//!   would overstate the estimate's noise (stratification removes the
+//!   variance between strata; measured on the Cornell box: 1.57x the
+//!   variance seen between two references of 4096 and 65536 paths). The
+//!   samples are taken in pairs of neighbouring strata `(2j, 2j+1)` and the
+//!   variance of the mean is `sum_j (x_2j - x_2j+1)^2 / m^2` (collapsed
+//!   strata: still conservative, by the differences between neighbouring
+//!   strata). Without a square sample count, the sample variance.
 //! - At a hit point `y` on triangle `f`: albedo is interpolated
 //!   barycentrically from the vertices, the normal is `f`'s geometric normal
 //!   (the flat triangle is the surface: this conserves energy exactly in a
@@ -94,7 +102,7 @@ pub struct Reference {
     pub e_direct: Vec<Vec3>,
     /// Indirect irradiance, W/m^2.
     pub e_indirect: Vec<Vec3>,
-    /// Standard error of each `e_indirect` estimate (sample standard deviation / sqrt(samples)), W/m^2.
+    /// Standard error of each `e_indirect` estimate (paired-strata estimate, see the module doc), W/m^2.
     pub e_indirect_stderr: Vec<Vec3>,
     pub params: ReferenceParams,
     /// Wall-clock time of the computation (0 when loaded from the cache), ms.

@@ -135,7 +135,7 @@ impl<'a> Tracer<'a> {
         let _: u64 = rng.random();
         let k = (samples as f64).sqrt() as u32;
         let stratified = k * k == samples;
-        let (mut sum, mut sum2) = (DVec3::ZERO, DVec3::ZERO);
+        let (mut sum, mut sum2, mut pairs2, mut first) = (DVec3::ZERO, DVec3::ZERO, DVec3::ZERO, DVec3::ZERO);
         for i in 0..samples {
             let (j1, j2): (f32, f32) = (rng.random(), rng.random());
             let (u1, u2) = if stratified {
@@ -147,10 +147,22 @@ impl<'a> Tracer<'a> {
             let est = self.path(v, origin, n, e_d, dir, &mut rng).as_dvec3();
             sum += est;
             sum2 += est * est;
+            if i % 2 == 0 {
+                first = est;
+            } else {
+                pairs2 += (est - first) * (est - first);
+            }
         }
         let m = samples as f64;
         let mean = sum / m;
-        let var = ((sum2 / m - mean * mean) * (m / (m - 1.0).max(1.0))).max(DVec3::ZERO);
+        // Variance of one sample: across neighbouring strata (pairs 2j, 2j+1)
+        // when stratified, else the sample variance (see the module doc).
+        let pairs = (samples / 2) as f64;
+        let var = if stratified && pairs > 0.0 {
+            pairs2 / (2.0 * pairs)
+        } else {
+            ((sum2 / m - mean * mean) * (m / (m - 1.0).max(1.0))).max(DVec3::ZERO)
+        };
         (e_d, mean.as_vec3(), (var / m).map(f64::sqrt).as_vec3())
     }
 

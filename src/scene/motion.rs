@@ -1,5 +1,5 @@
 //! What a deformation moved: the analysis behind selective updates
-//! (DESIGN.md §6, "selective re-shooting").
+//! (docs/DESIGN.md §7).
 //!
 //! Given the prepared scene before and after a deformation (same vertices
 //! and triangles, new positions and normals), [`Motion::between`] finds

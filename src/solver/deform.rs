@@ -1,4 +1,4 @@
-//! A solver after a deformation (DESIGN.md §6, §7): [`Solver::deform`]
+//! A solver after a deformation (docs/DESIGN.md §6, §7): [`Solver::deform`]
 //! refits the acceleration structure, then redoes only what the motion can
 //! have changed ([`crate::links::selective`] for the vertex links,
 //! [`crate::exchange::LightLinks::update_deformed`] for the light links), optionally after

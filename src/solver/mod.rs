@@ -6,7 +6,9 @@
 //! with one line on stderr. Lengths in metres, irradiance in W/m^2, times in ms.
 
 use crate::bvh::{BvhBuildParams, BvhStats};
-use crate::exchange::{self, GatherParams, GatherResult, LightLinkParams, LightLinks};
+use crate::exchange::{
+    self, GatherParams, GatherResult, HiddenParams, LightLinkParams, LightLinks, SmoothMode, SmoothParams,
+};
 use crate::gpu::{self, Backend, DeviceShare, GpuDevice, GpuLinks, GpuTracer, LogicalDevice, ScheduleParams};
 use crate::kdtree::{KdBuildParams, KdStats, KdTree};
 use crate::links::{self, LinkParams, LinkStats, Links};
@@ -105,8 +107,12 @@ pub struct SolveParams {
     pub links: LinkParams,
     pub light: LightLinkParams,
     pub gather: GatherParams,
+    /// Correction of hidden vertices as link targets ([`crate::exchange::hidden`]).
+    pub hidden: HiddenParams,
     /// Feature angle of smoothing, degrees; 0: off.
     pub smoothing_angle_deg: f32,
+    /// The smoothing filter (noise-aware by default, [`crate::exchange::smooth`]).
+    pub smoothing: SmoothParams,
 }
 
 impl Default for SolveParams {
@@ -119,7 +125,9 @@ impl Default for SolveParams {
             links: LinkParams::default(),
             light: LightLinkParams::default(),
             gather: GatherParams::default(),
+            hidden: HiddenParams::default(),
             smoothing_angle_deg: 0.0,
+            smoothing: SmoothParams::default(),
         }
     }
 }
@@ -175,11 +183,15 @@ pub struct SolveStats {
 /// Per-vertex results.
 #[derive(Clone, Debug, Default)]
 pub struct Solution {
-    /// Direct irradiance, W/m^2.
+    /// Direct irradiance, exact at the vertex (point visibility), W/m^2.
     pub e_direct: Vec<Vec3>,
+    /// The direct irradiance the bounces started from (the light links'
+    /// [`crate::exchange::BounceSource`]), W/m^2.
+    pub e_source: Vec<Vec3>,
     /// Indirect irradiance after smoothing, W/m^2.
     pub e_indirect: Vec<Vec3>,
-    /// Indirect irradiance before smoothing, W/m^2.
+    /// Indirect irradiance before smoothing (after the hidden-vertex
+    /// correction; `gather.e_indirect` is before it), W/m^2.
     pub e_indirect_raw: Vec<Vec3>,
     pub gather: GatherResult,
     /// False when smoothing was skipped (feature angle 0): `e_indirect` is then `e_indirect_raw`.
@@ -350,28 +362,60 @@ impl Solver {
 
     /// Gathers the bounces and smooths.
     pub fn solve(&self) -> Solution {
-        let e_direct = self.light_links.direct(&self.scene.lights, self.scene.vertex_count());
+        let n = self.scene.vertex_count();
+        let e_direct = self.light_links.direct(&self.scene.lights, n);
+        let e_source = self.light_links.bounce_source(&self.scene.lights, n);
         let on_gpu = self.gpu.as_ref().map(|g| {
             g.links
-                .kernel(&e_direct, &self.scene.albedo)
+                .kernel(&e_source, &self.scene.albedo)
                 .and_then(|mut k| exchange::gather::drive(&mut k, &self.params.gather))
         });
         let gather = match on_gpu {
             Some(Ok(r)) => r,
             Some(Err(e)) => {
                 eprintln!("warning: {e}; gathering on the CPU");
-                exchange::gather(&self.links, &self.scene.albedo, &e_direct, &self.params.gather)
+                exchange::gather(&self.links, &self.scene.albedo, &e_source, &self.params.gather)
             }
-            None => exchange::gather(&self.links, &self.scene.albedo, &e_direct, &self.params.gather),
+            None => exchange::gather(&self.links, &self.scene.albedo, &e_source, &self.params.gather),
         };
+        let e_indirect_raw = self.correct_hidden(&gather.e_indirect);
         let smoothed = self.params.smoothing_angle_deg > 0.0;
-        let e_indirect = exchange::smooth(
-            &gather.e_indirect,
-            &self.scene.rings,
-            &self.scene.normals,
-            self.params.smoothing_angle_deg,
-        );
-        Solution { e_direct, e_indirect_raw: gather.e_indirect.clone(), e_indirect, gather, smoothed }
+        let e_indirect = self.smooth(&e_source, &e_indirect_raw, self.params.smoothing_angle_deg);
+        Solution { e_direct, e_source, e_indirect_raw, e_indirect, gather, smoothed }
+    }
+
+    /// Gathered `E_i` with hidden vertices replaced as link targets
+    /// ([`crate::exchange::hidden`]), W/m^2.
+    pub fn correct_hidden(&self, e_gathered: &[Vec3]) -> Vec<Vec3> {
+        let s = &self.scene;
+        exchange::hidden::correct(&self.links, &s.albedo, &s.rings, &s.normals, e_gathered, &self.params.hidden).0
+    }
+
+    /// `E_i` smoothed at feature angle `angle_deg` (0: unchanged) with the
+    /// solver's filter: `e_raw` gathered from `e_source`, both W/m^2.
+    pub fn smooth(&self, e_source: &[Vec3], e_raw: &[Vec3], angle_deg: f32) -> Vec<Vec3> {
+        let s = &self.scene;
+        let p = &self.params.smoothing;
+        match p.mode {
+            _ if angle_deg <= 0.0 => e_raw.to_vec(),
+            SmoothMode::Uniform => exchange::smooth(e_raw, &s.rings, &s.normals, angle_deg),
+            SmoothMode::Adaptive => {
+                let var = self.noise_variance(e_source, e_raw);
+                exchange::smooth_adaptive(e_raw, &var, &s.rings, &s.normals, angle_deg, p.passes)
+            }
+        }
+    }
+
+    /// The noise variance of every vertex's gathered `E_i` ([`crate::exchange::noise`]), (W/m^2)^2.
+    pub fn noise_variance(&self, e_source: &[Vec3], e_raw: &[Vec3]) -> Vec<Vec3> {
+        exchange::noise::variance(
+            &self.links,
+            &self.scene.albedo,
+            e_source,
+            e_raw,
+            self.params.links.rays_per_vertex,
+            &self.params.smoothing.noise,
+        )
     }
 
     /// Figures of the built structures and of `solution`.
