@@ -22,13 +22,20 @@ fn main() {
     };
     let params = SolveParams::from_settings(&rest.settings);
     println!("ray setup: {:.1} ms", setup_ms(&rest, &params));
+    if args.get(5).is_some_and(|a| a == "solve") {
+        let solver = Solver::new(at(t0), params, &|_, _| {});
+        for _ in 0..3 {
+            solve_stages(&solver);
+        }
+        return;
+    }
     if args.get(5).is_some_and(|a| a == "preview") {
         let mut solver = Solver::new(at(t0), params, &|_, _| {});
         for k in 0..4 {
             let t = Instant::now();
             let mut show = |s: &Solver| {
                 let a = t.elapsed().as_secs_f64() * 1e3;
-                let _ = s.solve();
+                let _ = s.solve_quick();
                 println!("preview {k}: solve from {a:.1} to {:.1} ms", t.elapsed().as_secs_f64() * 1e3);
             };
             let (s, _) = solver.deform(at(if k % 2 == 0 { t1 } else { t0 }), params, Some((16, &mut show)), &|_, _| {});
@@ -93,4 +100,25 @@ fn cpu_ms() -> f64 {
     let ticks = |i: usize| fields.get(i).and_then(|f| f.parse::<f64>().ok()).unwrap_or(0.0);
     // Fields after the command: state is 0, utime 11, stime 12 (clock ticks of 10 ms).
     (ticks(11) + ticks(12)) * 10.0
+}
+
+/// Times the stages of `Solver::solve` (gather, hidden correction, noise, smoothing).
+pub fn solve_stages(s: &Solver) {
+    let n = s.scene.vertex_count();
+    let t = Instant::now();
+    let src = s.light_links.bounce_source(&s.scene.lights, n);
+    let g = linkgi::exchange::gather(&s.links, &s.scene.albedo, &src, &s.params.gather);
+    let a = t.elapsed().as_secs_f64() * 1e3;
+    let raw = s.correct_hidden(&g.e_indirect);
+    let b = t.elapsed().as_secs_f64() * 1e3;
+    let t2 = Instant::now();
+    let hid = linkgi::exchange::hidden::hidden_vertices(&s.links, &s.params.hidden);
+    let (_, iters) = linkgi::exchange::hidden::correct(&s.links, &s.scene.albedo, &s.scene.rings, &s.scene.normals, &g.e_indirect, &s.params.hidden);
+    println!("hidden: {} vertices, {iters} iterations; hidden_vertices alone {:.1} ms", hid.iter().filter(|&&h| h).count(), t2.elapsed().as_secs_f64() * 1e3);
+    let var = s.noise_variance(&src, &raw);
+    let c = t.elapsed().as_secs_f64() * 1e3;
+    let _ = s.smooth(&src, &raw, s.params.smoothing_angle_deg);
+    let d = t.elapsed().as_secs_f64() * 1e3;
+    std::hint::black_box(var);
+    println!("solve stages: gather {a:.1} ({} bounces), hidden {:.1}, noise {:.1}, smooth (noise again + filter) {:.1} ms", g.bounces, b - a, c - b, d - c);
 }

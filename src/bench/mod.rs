@@ -276,7 +276,7 @@ fn time_light_move(solver: &mut Solver) -> (f64, f64) {
     }
     let t = Instant::now();
     solver.preview_lights();
-    let _ = solver.solve();
+    let _ = solver.solve_quick();
     let preview = t.elapsed().as_secs_f64() * 1e3;
     let t = Instant::now();
     solver.update_lights();
@@ -322,7 +322,7 @@ pub fn time_deformation(solver: Solver) -> (Solver, Option<DeformTimes>) {
     let t = Instant::now();
     let mut preview_ms = f64::NAN;
     let mut show = |s: &Solver| {
-        let _ = s.solve();
+        let _ = s.solve_quick();
         preview_ms = t.elapsed().as_secs_f64() * 1e3;
     };
     let (solver, _) = solver.deform(rest, params, Some((crate::solver::PREVIEW_RAYS, &mut show)), &|_, _| {});

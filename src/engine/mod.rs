@@ -23,7 +23,9 @@
 //! With [`EngineParams::deform_preview`], a selective deformation update
 //! publishes a preview first (the remade vertices' links at
 //! [`PREVIEW_RAYS`] rays), then the full result at once; `wait_idle` (and
-//! the viewer's `wait_gi`) wait for the full one.
+//! the viewer's `wait_gi`) wait for the full one. Previews are gathered
+//! with [`Solver::solve_quick`] (no hidden-vertex correction, fixed
+//! one-ring smoothing).
 //!
 //! Each finished update is published as a new `Arc<GiResult>` with a version
 //! one higher than the last. A change that fails (bad light index, wrong
@@ -175,7 +177,7 @@ fn lock<T>(m: &Mutex<T>) -> std::sync::MutexGuard<'_, T> {
 /// the result completes; `batch_done` counts the batch as handled.
 fn publish(shared: &Shared, s: &Solver, c: &mut Counters, t0: Instant, preview: bool, changes: u64, batch_done: bool) {
     let t = Instant::now();
-    let sol = s.solve();
+    let sol = if preview { s.solve_quick() } else { s.solve() };
     c.gather_ms = t.elapsed().as_secs_f64() * 1e3;
     let update_ms = t0.elapsed().as_secs_f64() * 1e3;
     let mut total = lock(&shared.counters);
