@@ -27,6 +27,7 @@ fn main() {
         for _ in 0..3 {
             solve_stages(&solver);
         }
+        hidden_tolerance(&solver);
         return;
     }
     if args.get(5).is_some_and(|a| a == "preview") {
@@ -121,4 +122,26 @@ pub fn solve_stages(s: &Solver) {
     let d = t.elapsed().as_secs_f64() * 1e3;
     std::hint::black_box(var);
     println!("solve stages: gather {a:.1} ({} bounces), hidden {:.1}, noise {:.1}, smooth (noise again + filter) {:.1} ms", g.bounces, b - a, c - b, d - c);
+}
+
+/// Hidden-vertex correction at two tolerances: iterations and the largest relative difference.
+pub fn hidden_tolerance(s: &Solver) {
+    let n = s.scene.vertex_count();
+    let src = s.light_links.bounce_source(&s.scene.lights, n);
+    let g = linkgi::exchange::gather(&s.links, &s.scene.albedo, &src, &s.params.gather);
+    let sc = &s.scene;
+    let run = |tol: f32| {
+        let p = linkgi::exchange::hidden::HiddenParams { tolerance: tol, ..s.params.hidden };
+        let t = Instant::now();
+        let (e, it) = linkgi::exchange::hidden::correct(&s.links, &sc.albedo, &sc.rings, &sc.normals, &g.e_indirect, &p);
+        (e, it, t.elapsed().as_secs_f64() * 1e3)
+    };
+    let (a, ia, ta) = run(1e-3);
+    for tol in [3e-3f32, 1e-2, 3e-2] {
+        let (b, ib, tb) = run(tol);
+        let mean = a.iter().map(|x| x.element_sum()).sum::<f32>() / n as f32;
+        let worst = a.iter().zip(&b).map(|(x, y)| (*x - *y).abs().max_element()).fold(0f32, f32::max) / (mean / 3.0);
+        let rms = (a.iter().zip(&b).map(|(x, y)| (*x - *y).length_squared()).sum::<f32>() / n as f32).sqrt() / (mean / 3.0);
+        println!("tolerance {tol}: {ib} iterations {tb:.1} ms (1e-3: {ia}, {ta:.1} ms); worst diff {worst:.2e}, rms {rms:.2e} of mean E_i");
+    }
 }

@@ -52,7 +52,9 @@ pub struct HiddenParams {
 
 impl Default for HiddenParams {
     fn default() -> Self {
-        Self { threshold: 0.25, tolerance: 1e-3, max_iterations: 50 }
+        // 3e-3: on dancer 7 iterations instead of 10 at 1e-3, E_i within
+        // 2.7e-3 (worst vertex) and 7e-5 (rms) of the mean of the 1e-3 result.
+        Self { threshold: 0.25, tolerance: 3e-3, max_iterations: 50 }
     }
 }
 
