@@ -113,7 +113,8 @@ pub fn requantize(sums: impl Iterator<Item = u32>, weight_per_ray: f64, scale: f
     for sum in sums {
         let exact = sum as f64 * unit + carry;
         let mut q = f16::from_f64(exact);
-        if !(q.to_f32() > 0.0) {
+        // `exact` is finite (finite sums and weights), so q is never NaN.
+        if q.to_f32() <= 0.0 {
             q = f16::from_bits(1);
         }
         carry = exact - q.to_f64();
@@ -191,7 +192,7 @@ pub fn merge_vertex_sums(
     debug_assert_eq!(targets.len() - first, group_sums.len());
     requantize(group_sums.iter().copied(), weight_per_ray, scale, weights);
     if let Some(sums) = sums {
-        sums.extend_from_slice(&group_sums);
+        sums.extend_from_slice(group_sums);
     }
     counts
 }
