@@ -164,3 +164,28 @@ fn noise_estimate_matches_the_spread_between_seeds() {
         assert!((0.4..2.5).contains(&ratio), "{rays} rays: noise estimate off by {ratio}");
     }
 }
+
+/// The hidden-vertex substitution applied inside every bounce (what
+/// `Solver::solve` does on the CPU, no extra passes over the links) reaches
+/// the fixed point of the correction run after the bounces
+/// (`Solver::correct_hidden`) with auto bounces, and the correction is
+/// not trivial on the Cornell box (boxes standing on the floor).
+#[test]
+fn hidden_substitution_in_the_bounces_equals_the_post_pass() {
+    let mut desc = builtin::builtin("cornell").unwrap();
+    desc.settings.rays_per_vertex = 64;
+    desc.settings.bounces = Bounces::Auto;
+    let scene = prep::prepare(&desc).unwrap();
+    let solver = Solver::new(scene, SolveParams::from_settings(&desc.settings), &|_, _| {});
+    let n = solver.scene.vertex_count();
+    let src = solver.light_links.bounce_source(&solver.scene.lights, n);
+    let plain = linkgi::exchange::gather(&solver.links, &solver.scene.albedo, &src, &solver.params.gather);
+    let post = solver.correct_hidden(&plain.e_indirect);
+    let inside = solver.gather_corrected(&src, &solver.params.gather);
+    let mean = post.iter().map(|e| e.element_sum()).sum::<f32>() / (3 * n) as f32;
+    let diff = |a: &[Vec3], b: &[Vec3]| a.iter().zip(b).map(|(x, y)| (*x - *y).abs().max_element()).fold(0f32, f32::max);
+    let (d_methods, d_correction) = (diff(&post, &inside.e_indirect), diff(&post, &plain.e_indirect));
+    println!("in-bounce vs post-pass: {:.2e} of mean; correction itself {:.2e}", d_methods / mean, d_correction / mean);
+    assert!(d_methods <= 5e-3 * mean, "in-bounce substitution off the post-pass by {} (mean {mean})", d_methods);
+    assert!(d_correction > 20.0 * d_methods, "the correction changed little: {d_correction} vs {d_methods}");
+}

@@ -96,10 +96,10 @@ pub fn sweep(
         let ed_err = error_stats(&e_direct, &reference.e_direct, &[]);
         for &b in &params.bounces {
             let gp = exchange::GatherParams { bounces: b, ..solve_params.gather };
-            let mut g = exchange::gather(&solver.links, &solver.scene.albedo, &e_source, &gp);
             let t = Instant::now();
-            let e_raw = solver.correct_hidden(&g.e_indirect);
-            g.ms += t.elapsed().as_secs_f64() * 1e3;
+            let mut g = solver.gather_corrected(&e_source, &gp);
+            g.ms = t.elapsed().as_secs_f64() * 1e3;
+            let e_raw = g.e_indirect.clone();
             for smoothing in [angle, 0.0] {
                 let t = Instant::now();
                 let e_i = solver.smooth(&e_source, &e_raw, smoothing);

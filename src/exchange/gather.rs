@@ -135,6 +135,10 @@ pub trait BounceKernel {
 pub struct CpuBounces<'a> {
     links: &'a Links,
     albedo: &'a [Vec3],
+    /// Hidden vertices and their visible neighbours ([`super::hidden::stand_ins`]):
+    /// from the second bounce on, a hidden vertex's radiosity is
+    /// `rho/pi` times its neighbours' mean irradiance of the bounce.
+    stand_ins: &'a [(usize, Vec<usize>)],
     e_i: Vec<Vec3>,
     e_b: Vec<Vec3>,
     /// Radiosity `rho/pi * E` of the newest bounce, padded to 16 bytes.
@@ -145,7 +149,16 @@ impl<'a> CpuBounces<'a> {
     pub fn new(links: &'a Links, albedo: &'a [Vec3], e_direct: &[Vec3]) -> Self {
         let n = e_direct.len();
         let b = e_direct.iter().zip(albedo).map(|(e, r)| (*e * *r / PI).extend(0.0)).collect();
-        Self { links, albedo, e_i: vec![Vec3::ZERO; n], e_b: vec![Vec3::ZERO; n], b }
+        Self { links, albedo, stand_ins: &[], e_i: vec![Vec3::ZERO; n], e_b: vec![Vec3::ZERO; n], b }
+    }
+
+    /// The kernel with the hidden-vertex substitution applied in every
+    /// bounce (the module doc of [`super::hidden`]: the same fixed point
+    /// as [`super::hidden::correct`] after the bounces, without its extra
+    /// passes over the links).
+    pub fn with_stand_ins(mut self, stand_ins: &'a [(usize, Vec<usize>)]) -> Self {
+        self.stand_ins = stand_ins;
+        self
     }
 }
 
@@ -160,6 +173,10 @@ impl BounceKernel for CpuBounces<'_> {
                 .zip(&self.e_b)
                 .zip(self.albedo)
                 .for_each(|((b, e), r)| *b = (*e * *r / PI).extend(0.0));
+            for (h, nbrs) in self.stand_ins {
+                let mean = nbrs.iter().map(|&u| self.e_b[u]).sum::<Vec3>() / nbrs.len() as f32;
+                self.b[*h] = (mean * self.albedo[*h] / PI).extend(0.0);
+            }
             totals.push(total(&self.e_b));
         }
         Ok(totals)

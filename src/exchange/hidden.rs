@@ -61,6 +61,24 @@ impl Default for HiddenParams {
 /// Cosine of the feature angle within which visible neighbours stand in for a hidden vertex.
 const COS_FEATURE: f32 = 0.866_025_4;
 
+/// The hidden vertices that have visible neighbours (within the feature
+/// angle), each with those neighbours: the substitution `H` of the module
+/// doc. Empty when the correction is off (`threshold <= 0`).
+pub fn stand_ins(links: &Links, rings: &Csr, normals: &[Vec3], params: &HiddenParams) -> Vec<(usize, Vec<usize>)> {
+    if params.threshold <= 0.0 {
+        return Vec::new();
+    }
+    let hidden = hidden_vertices(links, params);
+    (0..hidden.len())
+        .filter(|&h| hidden[h])
+        .map(|h| {
+            let nbrs = rings.row(h).iter().map(|&u| u as usize);
+            (h, nbrs.filter(|&u| !hidden[u] && normals[u].dot(normals[h]) > COS_FEATURE).collect::<Vec<_>>())
+        })
+        .filter(|(_, n)| !n.is_empty())
+        .collect()
+}
+
 /// Which vertices are hidden (see the module doc).
 pub fn hidden_vertices(links: &Links, params: &HiddenParams) -> Vec<bool> {
     let limit = (params.threshold * PI) as f64;
@@ -82,16 +100,7 @@ pub fn correct(
     if params.threshold <= 0.0 {
         return (e_indirect.to_vec(), 0);
     }
-    let hidden = hidden_vertices(links, params);
-    // Per hidden vertex with visible neighbours: those neighbours.
-    let stand_ins: Vec<(usize, Vec<usize>)> = (0..hidden.len())
-        .filter(|&h| hidden[h])
-        .map(|h| {
-            let nbrs = rings.row(h).iter().map(|&u| u as usize);
-            (h, nbrs.filter(|&u| !hidden[u] && normals[u].dot(normals[h]) > COS_FEATURE).collect::<Vec<_>>())
-        })
-        .filter(|(_, n)| !n.is_empty())
-        .collect();
+    let stand_ins = stand_ins(links, rings, normals, params);
     if stand_ins.is_empty() {
         return (e_indirect.to_vec(), 0);
     }

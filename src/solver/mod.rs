@@ -387,6 +387,13 @@ impl Solver {
                 eprintln!("warning: {e}; gathering on the CPU");
                 exchange::gather(&self.links, &self.scene.albedo, &e_source, &self.params.gather)
             }
+            // On the CPU the hidden-vertex substitution runs inside the bounces.
+            None if !quick => {
+                let gather = self.gather_corrected(&e_source, &self.params.gather);
+                let e = self.smooth(&e_source, &gather.e_indirect, self.params.smoothing_angle_deg);
+                let smoothed = self.params.smoothing_angle_deg > 0.0;
+                return Solution { e_direct, e_source, e_indirect_raw: gather.e_indirect.clone(), e_indirect: e, gather, smoothed };
+            }
             None => exchange::gather(&self.links, &self.scene.albedo, &e_source, &self.params.gather),
         };
         let smoothed = self.params.smoothing_angle_deg > 0.0;
@@ -400,6 +407,15 @@ impl Solver {
             (raw, e)
         };
         Solution { e_direct, e_source, e_indirect_raw, e_indirect, gather, smoothed }
+    }
+
+    /// The CPU bounces from `e_source` (W/m^2) with hidden vertices replaced
+    /// as link targets in every bounce ([`crate::exchange::hidden`]).
+    pub fn gather_corrected(&self, e_source: &[Vec3], params: &exchange::GatherParams) -> GatherResult {
+        let s = &self.scene;
+        let stand_ins = exchange::hidden::stand_ins(&self.links, &s.rings, &s.normals, &self.params.hidden);
+        let mut kernel = exchange::gather::CpuBounces::new(&self.links, &s.albedo, e_source).with_stand_ins(&stand_ins);
+        exchange::gather::drive(&mut kernel, params).expect("the CPU kernel cannot fail")
     }
 
     /// Gathered `E_i` with hidden vertices replaced as link targets
