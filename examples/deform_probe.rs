@@ -26,6 +26,12 @@ fn main() {
         let solver = Solver::new(at(t0), params, &|_, _| {});
         for _ in 0..3 {
             solve_stages(&solver);
+            let t = Instant::now();
+            let _ = solver.solve();
+            let a = t.elapsed().as_secs_f64() * 1e3;
+            let t = Instant::now();
+            let _ = solver.solve_quick();
+            println!("solve {a:.1} ms, solve_quick {:.1} ms", t.elapsed().as_secs_f64() * 1e3);
         }
         hidden_tolerance(&solver);
         return;
@@ -110,7 +116,12 @@ pub fn solve_stages(s: &Solver) {
     let src = s.light_links.bounce_source(&s.scene.lights, n);
     let g = linkgi::exchange::gather(&s.links, &s.scene.albedo, &src, &s.params.gather);
     let a = t.elapsed().as_secs_f64() * 1e3;
+    let t1 = Instant::now();
+    let _si = linkgi::exchange::hidden::stand_ins(&s.links, &s.scene.rings, &s.scene.normals, &s.params.hidden);
+    println!("stand_ins {:.1} ms", t1.elapsed().as_secs_f64() * 1e3);
+    let t = Instant::now();
     let raw = s.correct_hidden(&g.e_indirect);
+    let a = 0.0;
     let b = t.elapsed().as_secs_f64() * 1e3;
     let t2 = Instant::now();
     let hid = linkgi::exchange::hidden::hidden_vertices(&s.links, &s.params.hidden);
