@@ -175,7 +175,18 @@ impl GpuLinks {
             "update_bounce bind group",
             &[(0, &self.uniforms), (4, &radiosity), (5, &bounce), (6, &self.albedo), (7, &total), (8, &partials)],
         );
-        GpuBounces { links: self, bounce, total, partials, gather_groups, update_group, group_count }
+        GpuBounces {
+            links: self,
+            radiosity,
+            bounce,
+            total,
+            partials,
+            gather_groups,
+            update_group,
+            group_count,
+            stand_ins: Vec::new(),
+            albedo: albedo.to_vec(),
+        }
     }
 }
 
@@ -186,18 +197,42 @@ fn vec4s(v: &[Vec3]) -> Vec<[f32; 4]> {
 /// The per-solve state of the GPU bounce loop.
 pub struct GpuBounces<'a> {
     links: &'a GpuLinks,
+    radiosity: wgpu::Buffer,
     bounce: wgpu::Buffer,
     total: wgpu::Buffer,
     partials: wgpu::Buffer,
     gather_groups: Vec<wgpu::BindGroup>,
     update_group: wgpu::BindGroup,
     group_count: usize,
+    /// Hidden vertices and their visible neighbours
+    /// ([`crate::exchange::hidden::stand_ins`]); when set, bounces run one
+    /// per submission and the host writes each hidden vertex's radiosity
+    /// (`rho/pi` times its neighbours' mean irradiance of the bounce)
+    /// before the next, as the CPU kernel does.
+    stand_ins: Vec<(usize, Vec<usize>)>,
+    albedo: Vec<Vec3>,
+}
+
+impl GpuBounces<'_> {
+    /// Applies the hidden-vertex substitution in every bounce (see `stand_ins`).
+    pub fn with_stand_ins(mut self, stand_ins: Vec<(usize, Vec<usize>)>) -> Self {
+        self.stand_ins = stand_ins;
+        self
+    }
 }
 
 impl BounceKernel for GpuBounces<'_> {
     fn run_bounces(&mut self, count: u32) -> Result<Vec<[f64; 3]>> {
         let dev = self.links.dev.clone();
-        checked(&dev, "bounces", || self.bounces(count))?
+        if self.stand_ins.is_empty() {
+            return checked(&dev, "bounces", || self.bounces(count))?;
+        }
+        let mut totals = Vec::with_capacity(count as usize);
+        for _ in 0..count {
+            totals.extend(checked(&dev, "bounces", || self.bounces(1))??);
+            checked(&dev, "hidden vertices", || self.substitute())??;
+        }
+        Ok(totals)
     }
 
     fn finish(&mut self, tail: Vec3) -> Result<Vec<Vec3>> {
@@ -246,6 +281,19 @@ impl GpuBounces<'_> {
                 })
             })
             .collect())
+    }
+
+    /// Writes the hidden vertices' radiosity from the newest bounce.
+    fn substitute(&mut self) -> Result<()> {
+        let l = self.links;
+        let enc = l.dev.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("read E^(b)") });
+        let e: Vec<[f32; 4]> = read_back(&l.dev, enc, &self.bounce, "bounce irradiance")?;
+        for (h, nbrs) in &self.stand_ins {
+            let mean = nbrs.iter().map(|&u| Vec3::new(e[u][0], e[u][1], e[u][2])).sum::<Vec3>() / nbrs.len() as f32;
+            let b = mean * self.albedo[*h] / PI;
+            l.dev.queue.write_buffer(&self.radiosity, (*h * 16) as u64, bytemuck::cast_slice(&[b.x, b.y, b.z, 0.0f32]));
+        }
+        Ok(())
     }
 
     fn read_total(&mut self, tail: Vec3) -> Result<Vec<Vec3>> {

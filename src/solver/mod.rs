@@ -377,10 +377,17 @@ impl Solver {
         let e_direct = self.light_links.direct(&self.scene.lights, n);
         let e_source = self.light_links.bounce_source(&self.scene.lights, n);
         let on_gpu = self.gpu.as_ref().map(|g| {
+            let s = &self.scene;
+            let stand_ins = if quick {
+                Vec::new()
+            } else {
+                exchange::hidden::stand_ins(&self.links, &s.rings, &s.normals, &self.params.hidden)
+            };
             g.links
-                .kernel(&e_source, &self.scene.albedo)
-                .and_then(|mut k| exchange::gather::drive(&mut k, &self.params.gather))
+                .kernel(&e_source, &s.albedo)
+                .and_then(|k| exchange::gather::drive(&mut k.with_stand_ins(stand_ins), &self.params.gather))
         });
+        let gpu_ok = matches!(on_gpu, Some(Ok(_)));
         let gather = match on_gpu {
             Some(Ok(r)) => r,
             Some(Err(e)) => {
@@ -402,7 +409,9 @@ impl Solver {
             let e = exchange::smooth(&gather.e_indirect, &s.rings, &s.normals, self.params.smoothing_angle_deg);
             (gather.e_indirect.clone(), e)
         } else {
-            let raw = self.correct_hidden(&gather.e_indirect);
+            // The hidden-vertex substitution ran inside the bounces (GPU
+            // kernel), or, after a GPU failure, runs after them here.
+            let raw = if gpu_ok { gather.e_indirect.clone() } else { self.correct_hidden(&gather.e_indirect) };
             let e = self.smooth(&e_source, &raw, self.params.smoothing_angle_deg);
             (raw, e)
         };
