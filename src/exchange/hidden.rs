@@ -32,7 +32,14 @@
 //! until an iteration changes `E` by less than `tolerance` of its total
 //! change (sums over vertices and channels) or after `max_iterations`.
 //! Scenes without hidden vertices are left untouched at no cost.
-//! Irradiance in W/m^2.
+//!
+//! The solver does not run that iteration after the bounces: the
+//! substitution is linear, so applying `H` to every bounce's radiosity
+//! (`B_b(h) = rho_h/pi mean_u E^(b)(u)` for `b >= 1`, [`stand_ins`] given
+//! to the CPU and GPU bounce kernels) sums to the same `H B(E)` with no
+//! extra passes over the links; [`correct`] stays the oracle (cornell,
+//! auto bounces: the two agree within 8.8e-5 of the mean) and the fallback
+//! after a failed GPU gather. Irradiance in W/m^2.
 
 use crate::links::Links;
 use crate::scene::prep::Csr;
