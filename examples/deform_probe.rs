@@ -68,7 +68,10 @@ fn main() {
     let _ = solver.solve();
     let full_ms = t.elapsed().as_secs_f64() * 1e3;
     println!("full: cpu {:.0} ms", cpu_ms() - c);
-    println!("full: {full_ms:.1} ms (refit {refit}, links {:.1} ms, light {:.1} ms)", solver.links.stats.shoot_ms, solver.light_links.ms);
+    println!(
+        "full: {full_ms:.1} ms (refit {refit}, links {:.1} ms, light {:.1} ms)",
+        solver.links.stats.shoot_ms, solver.light_links.ms
+    );
     let solver = Solver::new(at(t0), params, &|_, _| {});
     let t = Instant::now();
     let c = cpu_ms();
@@ -125,14 +128,31 @@ pub fn solve_stages(s: &Solver) {
     let b = t.elapsed().as_secs_f64() * 1e3;
     let t2 = Instant::now();
     let hid = linkgi::exchange::hidden::hidden_vertices(&s.links, &s.params.hidden);
-    let (_, iters) = linkgi::exchange::hidden::correct(&s.links, &s.scene.albedo, &s.scene.rings, &s.scene.normals, &g.e_indirect, &s.params.hidden);
-    println!("hidden: {} vertices, {iters} iterations; hidden_vertices alone {:.1} ms", hid.iter().filter(|&&h| h).count(), t2.elapsed().as_secs_f64() * 1e3);
+    let (_, iters) = linkgi::exchange::hidden::correct(
+        &s.links,
+        &s.scene.albedo,
+        &s.scene.rings,
+        &s.scene.normals,
+        &g.e_indirect,
+        &s.params.hidden,
+    );
+    println!(
+        "hidden: {} vertices, {iters} iterations; hidden_vertices alone {:.1} ms",
+        hid.iter().filter(|&&h| h).count(),
+        t2.elapsed().as_secs_f64() * 1e3
+    );
     let var = s.noise_variance(&src, &raw);
     let c = t.elapsed().as_secs_f64() * 1e3;
     let _ = s.smooth(&src, &raw, s.params.smoothing_angle_deg);
     let d = t.elapsed().as_secs_f64() * 1e3;
     std::hint::black_box(var);
-    println!("solve stages: gather {a:.1} ({} bounces), hidden {:.1}, noise {:.1}, smooth (noise again + filter) {:.1} ms", g.bounces, b - a, c - b, d - c);
+    println!(
+        "solve stages: gather {a:.1} ({} bounces), hidden {:.1}, noise {:.1}, smooth (noise again + filter) {:.1} ms",
+        g.bounces,
+        b - a,
+        c - b,
+        d - c
+    );
 }
 
 /// Hidden-vertex correction at two tolerances: iterations and the largest relative difference.
@@ -144,7 +164,8 @@ pub fn hidden_tolerance(s: &Solver) {
     let run = |tol: f32| {
         let p = linkgi::exchange::hidden::HiddenParams { tolerance: tol, ..s.params.hidden };
         let t = Instant::now();
-        let (e, it) = linkgi::exchange::hidden::correct(&s.links, &sc.albedo, &sc.rings, &sc.normals, &g.e_indirect, &p);
+        let (e, it) =
+            linkgi::exchange::hidden::correct(&s.links, &sc.albedo, &sc.rings, &sc.normals, &g.e_indirect, &p);
         (e, it, t.elapsed().as_secs_f64() * 1e3)
     };
     let (a, ia, ta) = run(1e-3);
@@ -152,7 +173,8 @@ pub fn hidden_tolerance(s: &Solver) {
         let (b, ib, tb) = run(tol);
         let mean = a.iter().map(|x| x.element_sum()).sum::<f32>() / n as f32;
         let worst = a.iter().zip(&b).map(|(x, y)| (*x - *y).abs().max_element()).fold(0f32, f32::max) / (mean / 3.0);
-        let rms = (a.iter().zip(&b).map(|(x, y)| (*x - *y).length_squared()).sum::<f32>() / n as f32).sqrt() / (mean / 3.0);
+        let rms =
+            (a.iter().zip(&b).map(|(x, y)| (*x - *y).length_squared()).sum::<f32>() / n as f32).sqrt() / (mean / 3.0);
         println!("tolerance {tol}: {ib} iterations {tb:.1} ms (1e-3: {ia}, {ta:.1} ms); worst diff {worst:.2e}, rms {rms:.2e} of mean E_i");
     }
 }

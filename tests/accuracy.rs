@@ -183,7 +183,8 @@ fn hidden_substitution_in_the_bounces_equals_the_post_pass() {
     let post = solver.correct_hidden(&plain.e_indirect);
     let inside = solver.gather_corrected(&src, &solver.params.gather);
     let mean = post.iter().map(|e| e.element_sum()).sum::<f32>() / (3 * n) as f32;
-    let diff = |a: &[Vec3], b: &[Vec3]| a.iter().zip(b).map(|(x, y)| (*x - *y).abs().max_element()).fold(0f32, f32::max);
+    let diff =
+        |a: &[Vec3], b: &[Vec3]| a.iter().zip(b).map(|(x, y)| (*x - *y).abs().max_element()).fold(0f32, f32::max);
     let (d_methods, d_correction) = (diff(&post, &inside.e_indirect), diff(&post, &plain.e_indirect));
     println!("in-bounce vs post-pass: {:.2e} of mean; correction itself {:.2e}", d_methods / mean, d_correction / mean);
     assert!(d_methods <= 5e-3 * mean, "in-bounce substitution off the post-pass by {} (mean {mean})", d_methods);

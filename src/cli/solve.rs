@@ -109,7 +109,10 @@ pub fn run(args: SolveArgs) -> Result<()> {
     );
     println!("rays             {} ({} missed, {} back faces)", s.links.rays, s.links.misses, s.links.back_hits);
     if s.ray_state_bytes > 0 {
-        println!("ray state        {:.2} MB (hit id per ray, for selective updates of dynamic meshes)", mb(s.ray_state_bytes));
+        println!(
+            "ray state        {:.2} MB (hit id per ray, for selective updates of dynamic meshes)",
+            mb(s.ray_state_bytes)
+        );
     }
     println!("prep ms          {prep_ms:.1}");
     println!("{} build ms     {:.1}", if s.bvh.is_some() { "bvh" } else { "kd " }, s.accel_build_ms);

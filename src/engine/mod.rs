@@ -477,8 +477,7 @@ impl Worker {
                         c.preview_ms = t0.elapsed().as_secs_f64() * 1e3;
                         publish(&shared, p, &mut c, t0, true, 0, false);
                     };
-                    let preview: Preview<'_> =
-                        if deform_preview { Some((PREVIEW_RAYS, &mut show)) } else { None };
+                    let preview: Preview<'_> = if deform_preview { Some((PREVIEW_RAYS, &mut show)) } else { None };
                     let (s, d) = s.deform(scene.clone(), params, preview, &|_, _| {});
                     c.rebuild_ms = t.elapsed().as_secs_f64() * 1e3;
                     if d.refitted {

@@ -107,7 +107,13 @@ struct Patch {
 fn id_counts(ids: &[u32]) -> [u64; 3] {
     let mut c = [0u64; 3];
     for &id in ids {
-        c[if id == HIT_MISS { 2 } else if id & HIT_BACK != 0 { 1 } else { 0 }] += 1;
+        c[if id == HIT_MISS {
+            2
+        } else if id & HIT_BACK != 0 {
+            1
+        } else {
+            0
+        }] += 1;
     }
     c
 }
@@ -235,8 +241,11 @@ impl Context<'_> {
             } else if let Some(w) = scratch.kept[i] {
                 Some(w)
             } else {
-                let positions =
-                    if self.motion.moved_triangle[old_id as usize] { self.old_positions } else { &self.scene.positions };
+                let positions = if self.motion.moved_triangle[old_id as usize] {
+                    self.old_positions
+                } else {
+                    &self.scene.positions
+                };
                 match recorded(self.scene, positions, old_id, o, d) {
                     Some(w) => Some(w),
                     // Not met again: cannot happen for the ray and triangle it was
@@ -353,7 +362,6 @@ impl Context<'_> {
         Patch { targets, weights, sums, new: [c.front as u64, c.back as u64, c.miss as u64], old: [0; 3] }
     }
 }
-
 
 #[derive(Default)]
 struct Scratch {

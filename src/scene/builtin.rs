@@ -52,7 +52,8 @@ use glam::{Vec2, Vec3};
 use std::f32::consts::{FRAC_PI_2, PI, TAU};
 
 /// Names accepted by [`builtin`].
-pub const NAMES: &[&str] = &["cornell", "furnace", "colorlamp", "torso", "tearoom", "dancer", "sculpture", "conference"];
+pub const NAMES: &[&str] =
+    &["cornell", "furnace", "colorlamp", "torso", "tearoom", "dancer", "sculpture", "conference"];
 
 /// The built-in scene of this name, if there is one.
 pub fn builtin(name: &str) -> Option<SceneDesc> {

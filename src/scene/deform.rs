@@ -165,9 +165,11 @@ pub fn moved_normals(scene: &PreparedScene, old: &[Vec3], new: &[Vec3], normals:
     let fresh = vertex_normals(scene, new, normals);
     (0..new.len())
         .map(|v| {
-            let moved = scene.vertex_triangles.row(v).iter().any(|&t| {
-                scene.triangles[t as usize].iter().any(|&i| old[i as usize] != new[i as usize])
-            });
+            let moved = scene
+                .vertex_triangles
+                .row(v)
+                .iter()
+                .any(|&t| scene.triangles[t as usize].iter().any(|&i| old[i as usize] != new[i as usize]));
             if moved {
                 fresh[v]
             } else {

@@ -49,8 +49,7 @@ impl Motion {
             return None;
         }
         let moved: Vec<bool> = (0..n).map(|v| old.positions[v] != new.positions[v]).collect();
-        let moved_triangle: Vec<bool> =
-            new.triangles.iter().map(|t| t.iter().any(|&i| moved[i as usize])).collect();
+        let moved_triangle: Vec<bool> = new.triangles.iter().map(|t| t.iter().any(|&i| moved[i as usize])).collect();
         let remade: Vec<bool> = (0..n)
             .map(|v| {
                 moved[v]

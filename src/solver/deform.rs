@@ -115,7 +115,8 @@ impl Solver {
             stats.preview_ms = start.elapsed().as_secs_f64() * 1e3;
         }
         let mut hits = self.ray_hits.take().expect("checked above");
-        let (links, link_stats) = reshoot(&self.scene, &old_positions, &motion, &self.accel, &params.links, &self.links, &mut hits);
+        let (links, link_stats) =
+            reshoot(&self.scene, &old_positions, &motion, &self.accel, &params.links, &self.links, &mut hits);
         progress(self.scene.vertex_count(), self.scene.vertex_count());
         self.links = links;
         self.ray_hits = Some(hits);
@@ -138,7 +139,9 @@ impl Solver {
         let coarse = LinkParams { rays_per_vertex: rays, ..self.params.links };
         let groups = shoot_groups(&self.scene, &self.accel, &coarse, &remade);
         let mut light = self.light_links.clone();
-        light.preview_deformed(&self.scene, &self.accel, &self.params.light, &remade).expect("a CPU tracer cannot fail");
+        light
+            .preview_deformed(&self.scene, &self.accel, &self.params.light, &remade)
+            .expect("a CPU tracer cannot fail");
         let saved = splice_groups(&mut self.links, &groups);
         std::mem::swap(&mut self.light_links, &mut light);
         show(self);

@@ -399,7 +399,14 @@ impl Solver {
                 let gather = self.gather_corrected(&e_source, &self.params.gather);
                 let e = self.smooth(&e_source, &gather.e_indirect, self.params.smoothing_angle_deg);
                 let smoothed = self.params.smoothing_angle_deg > 0.0;
-                return Solution { e_direct, e_source, e_indirect_raw: gather.e_indirect.clone(), e_indirect: e, gather, smoothed };
+                return Solution {
+                    e_direct,
+                    e_source,
+                    e_indirect_raw: gather.e_indirect.clone(),
+                    e_indirect: e,
+                    gather,
+                    smoothed,
+                };
             }
             None => exchange::gather(&self.links, &self.scene.albedo, &e_source, &self.params.gather),
         };
