@@ -112,46 +112,28 @@ fn cpu_ms() -> f64 {
     (ticks(11) + ticks(12)) * 10.0
 }
 
-/// Times the stages of `Solver::solve` (gather, hidden correction, noise, smoothing).
+/// Times the stages of `Solver::solve`: the plain gather, the gather with
+/// the hidden-vertex substitution, the noise estimate and the smoothing.
 pub fn solve_stages(s: &Solver) {
     let n = s.scene.vertex_count();
-    let t = Instant::now();
     let src = s.light_links.bounce_source(&s.scene.lights, n);
-    let g = linkgi::exchange::gather(&s.links, &s.scene.albedo, &src, &s.params.gather);
-    let a = t.elapsed().as_secs_f64() * 1e3;
-    let t1 = Instant::now();
-    let _si = linkgi::exchange::hidden::stand_ins(&s.links, &s.scene.rings, &s.scene.normals, &s.params.hidden);
-    println!("stand_ins {:.1} ms", t1.elapsed().as_secs_f64() * 1e3);
+    let ms = |t: Instant| t.elapsed().as_secs_f64() * 1e3;
     let t = Instant::now();
-    let raw = s.correct_hidden(&g.e_indirect);
-    let a = 0.0;
-    let b = t.elapsed().as_secs_f64() * 1e3;
-    let t2 = Instant::now();
-    let hid = linkgi::exchange::hidden::hidden_vertices(&s.links, &s.params.hidden);
-    let (_, iters) = linkgi::exchange::hidden::correct(
-        &s.links,
-        &s.scene.albedo,
-        &s.scene.rings,
-        &s.scene.normals,
-        &g.e_indirect,
-        &s.params.hidden,
-    );
+    let plain = linkgi::exchange::gather(&s.links, &s.scene.albedo, &src, &s.params.gather);
+    let gather_ms = ms(t);
+    let t = Instant::now();
+    let corrected = s.gather_corrected(&src, &s.params.gather);
+    let corrected_ms = ms(t);
+    let t = Instant::now();
+    std::hint::black_box(s.noise_variance(&src, &corrected.e_indirect));
+    let noise_ms = ms(t);
+    let t = Instant::now();
+    std::hint::black_box(s.smooth(&src, &corrected.e_indirect, s.params.smoothing_angle_deg));
     println!(
-        "hidden: {} vertices, {iters} iterations; hidden_vertices alone {:.1} ms",
-        hid.iter().filter(|&&h| h).count(),
-        t2.elapsed().as_secs_f64() * 1e3
-    );
-    let var = s.noise_variance(&src, &raw);
-    let c = t.elapsed().as_secs_f64() * 1e3;
-    let _ = s.smooth(&src, &raw, s.params.smoothing_angle_deg);
-    let d = t.elapsed().as_secs_f64() * 1e3;
-    std::hint::black_box(var);
-    println!(
-        "solve stages: gather {a:.1} ({} bounces), hidden {:.1}, noise {:.1}, smooth (noise again + filter) {:.1} ms",
-        g.bounces,
-        b - a,
-        c - b,
-        d - c
+        "solve stages: gather {gather_ms:.1} ms ({} bounces), with hidden substitution {corrected_ms:.1}, \
+         noise {noise_ms:.1}, smoothing (its own noise estimate + filter) {:.1} ms",
+        plain.bounces,
+        ms(t)
     );
 }
 

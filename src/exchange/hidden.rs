@@ -38,8 +38,8 @@
 //! (`B_b(h) = rho_h/pi mean_u E^(b)(u)` for `b >= 1`, [`stand_ins`] given
 //! to the CPU and GPU bounce kernels) sums to the same `H B(E)` with no
 //! extra passes over the links; [`correct`] stays the oracle (cornell,
-//! auto bounces: the two agree within 8.8e-5 of the mean) and the fallback
-//! after a failed GPU gather. Irradiance in W/m^2.
+//! auto bounces: the two agree within 8.8e-5 of the mean). Irradiance in
+//! W/m^2.
 
 use crate::links::Links;
 use crate::scene::prep::Csr;

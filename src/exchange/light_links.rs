@@ -346,36 +346,21 @@ impl LightLinks {
         motion: &Motion,
     ) -> crate::Result<u64> {
         let start = Instant::now();
-        let valid = self.params == Some(*params) && self.positions.len() == scene.vertex_count();
         let n = scene.vertex_count();
-        let mut used = vec![!valid; self.lights.len()];
-        let (mut columns, mut traced, mut entries) = (Vec::with_capacity(scene.lights.len()), 0, 0u64);
-        for light in &scene.lights {
-            let kept =
-                (0..self.lights.len()).find(|&i| !used[i] && !self.coarse[i] && same_column(&self.lights[i], light));
-            let column = match kept {
-                Some(i) => {
-                    used[i] = true;
-                    let mut column = self.take_column(i);
-                    let redo: Vec<u32> = (0..n as u32)
-                        .into_par_iter()
-                        .filter(|&v| {
-                            motion.remade[v as usize] || shadow_meets(scene, light, params, v as usize, motion)
-                        })
-                        .collect();
-                    let c = Self::compute_light_at(scene, tracer, light, params, &redo)?;
-                    column.patch(&redo, c);
-                    entries += redo.len() as u64;
-                    column
-                }
-                None => {
-                    entries += n as u64;
-                    Self::compute_light(scene, tracer, light, params)?
-                }
-            };
-            traced += column.rays;
-            columns.push(column);
-        }
+        let valid = self.params == Some(*params) && self.positions.len() == n;
+        let coarse = self.coarse.clone();
+        let redo = |light: &Light| -> Vec<u32> {
+            (0..n as u32)
+                .into_par_iter()
+                .map_init(Vec::new, |pts, v| {
+                    (motion.remade[v as usize] || shadow_meets(scene, light, params, v as usize, motion, pts))
+                        .then_some(v)
+                })
+                .flatten()
+                .collect()
+        };
+        let (columns, traced, entries) =
+            self.patched_columns(scene, tracer, params, &|i| valid && !coarse[i], &redo)?;
         self.coarse = vec![false; columns.len()];
         self.set_columns(columns);
         self.lights = scene.lights.clone();
@@ -400,23 +385,9 @@ impl LightLinks {
     ) -> crate::Result<u64> {
         let start = Instant::now();
         let coarse_params = LightLinkParams { oversample: false, ..*params };
-        let mut used = vec![self.positions.len() != scene.vertex_count(); self.lights.len()];
-        let (mut columns, mut traced) = (Vec::with_capacity(scene.lights.len()), 0);
-        for light in &scene.lights {
-            let kept = (0..self.lights.len()).find(|&i| !used[i] && same_column(&self.lights[i], light));
-            let column = match kept {
-                Some(i) => {
-                    used[i] = true;
-                    let mut column = self.take_column(i);
-                    let c = Self::compute_light_at(scene, tracer, light, &coarse_params, remade)?;
-                    column.patch(remade, c);
-                    column
-                }
-                None => Self::compute_light(scene, tracer, light, &coarse_params)?,
-            };
-            traced += column.rays;
-            columns.push(column);
-        }
+        let valid = self.positions.len() == scene.vertex_count();
+        let (columns, traced, _) =
+            self.patched_columns(scene, tracer, &coarse_params, &|_| valid, &|_: &Light| remade.to_vec())?;
         // Without oversampling the preview's columns are the full ones.
         self.coarse = vec![params.oversample; columns.len()];
         self.set_columns(columns);
@@ -424,6 +395,44 @@ impl LightLinks {
         self.shadow_rays = traced;
         self.ms = start.elapsed().as_secs_f64() * 1e3;
         Ok(traced)
+    }
+
+    /// Columns for `scene.lights` with `params`: a light at the place of
+    /// an old column that `keep(i)` allows keeps that column, recomputed
+    /// only at the vertices `redo(light)` lists; other lights get full
+    /// columns. Returns the columns, the shadow rays traced and the
+    /// (vertex, light) entries recomputed.
+    fn patched_columns(
+        &mut self,
+        scene: &PreparedScene,
+        tracer: &dyn Tracer,
+        params: &LightLinkParams,
+        keep: &dyn Fn(usize) -> bool,
+        redo: &dyn Fn(&Light) -> Vec<u32>,
+    ) -> crate::Result<(Vec<Column>, u64, u64)> {
+        let mut used: Vec<bool> = (0..self.lights.len()).map(|i| !keep(i)).collect();
+        let (mut columns, mut traced, mut entries) = (Vec::with_capacity(scene.lights.len()), 0, 0u64);
+        for light in &scene.lights {
+            let kept = (0..self.lights.len()).find(|&i| !used[i] && same_column(&self.lights[i], light));
+            let column = match kept {
+                Some(i) => {
+                    used[i] = true;
+                    let mut column = self.take_column(i);
+                    let vertices = redo(light);
+                    let c = Self::compute_light_at(scene, tracer, light, params, &vertices)?;
+                    column.patch(&vertices, c);
+                    entries += vertices.len() as u64;
+                    column
+                }
+                None => {
+                    entries += scene.vertex_count() as u64;
+                    Self::compute_light(scene, tracer, light, params)?
+                }
+            };
+            traced += column.rays;
+            columns.push(column);
+        }
+        Ok((columns, traced, entries))
     }
 
     /// Column `i` taken out (its ray count 0).
@@ -535,9 +544,15 @@ fn shadow_rays(
 
 /// True if one of vertex `v`'s shadow segments toward `light` meets a box
 /// of `motion` (so its visibility may have changed).
-fn shadow_meets(scene: &PreparedScene, light: &Light, params: &LightLinkParams, v: usize, motion: &Motion) -> bool {
-    let mut pts = Vec::new();
-    shadow_rays(scene, light, params, v, &mut pts).rays.iter().any(|r| {
+fn shadow_meets(
+    scene: &PreparedScene,
+    light: &Light,
+    params: &LightLinkParams,
+    v: usize,
+    motion: &Motion,
+    pts: &mut Vec<Vec3>,
+) -> bool {
+    shadow_rays(scene, light, params, v, pts).rays.iter().any(|r| {
         let inv = r.dir.recip();
         motion.boxes.iter().any(|b| b.meets_segment(r.origin, inv, r.tmin, r.tmax))
     })

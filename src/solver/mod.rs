@@ -373,64 +373,61 @@ impl Solver {
     }
 
     fn solve_as(&self, quick: bool) -> Solution {
-        let n = self.scene.vertex_count();
-        let e_direct = self.light_links.direct(&self.scene.lights, n);
-        let e_source = self.light_links.bounce_source(&self.scene.lights, n);
+        let s = &self.scene;
+        let n = s.vertex_count();
+        let e_direct = self.light_links.direct(&s.lights, n);
+        let e_source = self.light_links.bounce_source(&s.lights, n);
+        // The hidden-vertex substitution runs inside the bounces, on either kernel.
+        let stand_ins = if quick { Vec::new() } else { self.stand_ins() };
         let on_gpu = self.gpu.as_ref().map(|g| {
-            let s = &self.scene;
-            let stand_ins = if quick {
-                Vec::new()
-            } else {
-                exchange::hidden::stand_ins(&self.links, &s.rings, &s.normals, &self.params.hidden)
-            };
             g.links
                 .kernel(&e_source, &s.albedo)
-                .and_then(|k| exchange::gather::drive(&mut k.with_stand_ins(stand_ins), &self.params.gather))
+                .and_then(|k| exchange::gather::drive(&mut k.with_stand_ins(stand_ins.clone()), &self.params.gather))
         });
-        let gpu_ok = matches!(on_gpu, Some(Ok(_)));
         let gather = match on_gpu {
             Some(Ok(r)) => r,
             Some(Err(e)) => {
                 eprintln!("warning: {e}; gathering on the CPU");
-                exchange::gather(&self.links, &self.scene.albedo, &e_source, &self.params.gather)
+                self.gather_cpu(&e_source, &stand_ins, &self.params.gather)
             }
-            // On the CPU the hidden-vertex substitution runs inside the bounces.
-            None if !quick => {
-                let gather = self.gather_corrected(&e_source, &self.params.gather);
-                let e = self.smooth(&e_source, &gather.e_indirect, self.params.smoothing_angle_deg);
-                let smoothed = self.params.smoothing_angle_deg > 0.0;
-                return Solution {
-                    e_direct,
-                    e_source,
-                    e_indirect_raw: gather.e_indirect.clone(),
-                    e_indirect: e,
-                    gather,
-                    smoothed,
-                };
-            }
-            None => exchange::gather(&self.links, &self.scene.albedo, &e_source, &self.params.gather),
+            None => self.gather_cpu(&e_source, &stand_ins, &self.params.gather),
         };
-        let smoothed = self.params.smoothing_angle_deg > 0.0;
-        let (e_indirect_raw, e_indirect) = if quick {
-            let s = &self.scene;
-            let e = exchange::smooth(&gather.e_indirect, &s.rings, &s.normals, self.params.smoothing_angle_deg);
-            (gather.e_indirect.clone(), e)
+        let angle = self.params.smoothing_angle_deg;
+        let e_indirect = if quick {
+            exchange::smooth(&gather.e_indirect, &s.rings, &s.normals, angle)
         } else {
-            // The hidden-vertex substitution ran inside the bounces (GPU
-            // kernel), or, after a GPU failure, runs after them here.
-            let raw = if gpu_ok { gather.e_indirect.clone() } else { self.correct_hidden(&gather.e_indirect) };
-            let e = self.smooth(&e_source, &raw, self.params.smoothing_angle_deg);
-            (raw, e)
+            self.smooth(&e_source, &gather.e_indirect, angle)
         };
-        Solution { e_direct, e_source, e_indirect_raw, e_indirect, gather, smoothed }
+        Solution {
+            e_direct,
+            e_source,
+            e_indirect_raw: gather.e_indirect.clone(),
+            e_indirect,
+            gather,
+            smoothed: angle > 0.0,
+        }
     }
 
     /// The CPU bounces from `e_source` (W/m^2) with hidden vertices replaced
     /// as link targets in every bounce ([`crate::exchange::hidden`]).
     pub fn gather_corrected(&self, e_source: &[Vec3], params: &exchange::GatherParams) -> GatherResult {
+        self.gather_cpu(e_source, &self.stand_ins(), params)
+    }
+
+    /// Hidden vertices and their visible neighbours ([`exchange::hidden::stand_ins`]).
+    fn stand_ins(&self) -> Vec<(usize, Vec<usize>)> {
         let s = &self.scene;
-        let stand_ins = exchange::hidden::stand_ins(&self.links, &s.rings, &s.normals, &self.params.hidden);
-        let mut kernel = exchange::gather::CpuBounces::new(&self.links, &s.albedo, e_source).with_stand_ins(&stand_ins);
+        exchange::hidden::stand_ins(&self.links, &s.rings, &s.normals, &self.params.hidden)
+    }
+
+    fn gather_cpu(
+        &self,
+        e_source: &[Vec3],
+        stand_ins: &[(usize, Vec<usize>)],
+        params: &exchange::GatherParams,
+    ) -> GatherResult {
+        let mut kernel =
+            exchange::gather::CpuBounces::new(&self.links, &self.scene.albedo, e_source).with_stand_ins(stand_ins);
         exchange::gather::drive(&mut kernel, params).expect("the CPU kernel cannot fail")
     }
 
