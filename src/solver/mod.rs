@@ -431,8 +431,10 @@ impl Solver {
         exchange::gather::drive(&mut kernel, params).expect("the CPU kernel cannot fail")
     }
 
-    /// Gathered `E_i` with hidden vertices replaced as link targets
-    /// ([`crate::exchange::hidden`]), W/m^2.
+    /// Gathered `E_i` with hidden vertices replaced as link targets by the
+    /// iteration after the bounces ([`crate::exchange::hidden::correct`]),
+    /// W/m^2: the oracle of the substitution [`Solver::solve`] runs inside
+    /// the bounces.
     pub fn correct_hidden(&self, e_gathered: &[Vec3]) -> Vec<Vec3> {
         let s = &self.scene;
         exchange::hidden::correct(&self.links, &s.albedo, &s.rings, &s.normals, e_gathered, &self.params.hidden).0
