@@ -77,6 +77,7 @@ fn main() {
         let iid = exchange::noise::variance(
             &s1.links,
             &scene.albedo,
+            &scene.emission,
             &sol.e_source,
             &sol.e_indirect_raw,
             n,
@@ -85,6 +86,7 @@ fn main() {
         let iid2 = exchange::noise::variance(
             &s2.links,
             &scene.albedo,
+            &scene.emission,
             &sol2.e_source,
             &sol2.e_indirect_raw,
             n,

@@ -24,6 +24,9 @@ pub enum Error {
     /// in the file (mesh, primitive, accessor, node) and what is wrong.
     #[error("{path}: {message}")]
     Gltf { path: PathBuf, message: String },
+    /// An image (a sky's environment map) could not be decoded or holds bad values.
+    #[error("{path}: {message}")]
+    Image { path: PathBuf, message: String },
     /// A mesh has invalid geometry (non-finite coordinates, bad indices, ...).
     #[error("{source_name}{}: {message}", line.map(|l| format!(":{l}")).unwrap_or_default())]
     Geometry {

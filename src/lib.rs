@@ -18,6 +18,7 @@ pub mod reference;
 pub mod render;
 pub mod sampling;
 pub mod scene;
+pub mod sky;
 pub mod solver;
 pub mod trace;
 

@@ -35,6 +35,7 @@ fn floor_scene(occluder: bool, lights: Vec<Light>) -> prep::PreparedScene {
         camera: Camera::default(),
         meshes,
         lights,
+        sky: None,
         warnings: vec![],
     };
     let s = prep::prepare(&desc).unwrap();

@@ -59,6 +59,7 @@ fn parallel_squares_match_the_analytic_form_factor() {
         camera: Camera::default(),
         meshes: vec![a.finish("A", 30.0), b.finish("B", 30.0)],
         lights: vec![Light::Directional { direction: dir, irradiance: Vec3::splat(e0) }],
+        sky: None,
         warnings: vec![],
     };
     let (solver, sol) = common::solve(&desc);

@@ -207,7 +207,7 @@ fn grey(name: &str, positions: Vec<Vec3>, triangles: Vec<[u32; 3]>) -> MeshDesc 
         triangle_material: vec![0; triangles.len()],
         positions,
         triangles,
-        materials: vec![Material { name: "grey".into(), albedo: Vec3::splat(0.8) }],
+        materials: vec![Material { name: "grey".into(), albedo: Vec3::splat(0.8), emission: Vec3::ZERO }],
         vertex_albedo: None,
         crease_angle_deg: 60.0,
         transform: Default::default(),
@@ -230,6 +230,7 @@ fn custom(meshes: Vec<MeshDesc>, lights: Vec<Light>) -> SceneDesc {
         camera: Camera::default(),
         meshes,
         lights,
+        sky: None,
         warnings: vec![],
     }
 }

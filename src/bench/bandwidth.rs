@@ -43,7 +43,7 @@ mod tests {
             offsets: vec![0, 2, 3],
             targets: vec![1, 1, 0],
             weights: vec![half::f16::ONE; 3],
-            stats: Default::default(),
+            ..Default::default()
         };
         assert_eq!(gather_bytes(&links), 3 * 6 + 3 * 4 + 2 * 28);
     }

@@ -1,6 +1,10 @@
 //! Bounce gathering over the link matrix `W` (docs/DESIGN.md §4):
-//! `B_0 = rho/pi * E_d`, `E^(b) = W B_(b-1)`, `B_b = rho/pi * E^(b)`,
-//! `E_i = sum_b E^(b)`. One pass over all links is one bounce.
+//! `B_0 = rho/pi * E_src + M_e/pi` ([`source_radiosity`]: `E_src` the
+//! direct irradiance of lights and sky, `M_e` the emitted exitance, W/m^2),
+//! `E^(b) = W B_(b-1)`, `B_b = rho/pi * E^(b)`, `E_i = sum_b E^(b)`. One
+//! pass over all links is one bounce. Emission is a source term only: an
+//! emitter's own exitance never appears in its `E_i`, the light it sends
+//! reaches other vertices through their links.
 //!
 //! Bounce count is fixed or `auto`: stop once the newest bounce adds less
 //! than `tolerance` of the running total (per channel, over all vertices).
@@ -145,10 +149,27 @@ pub struct CpuBounces<'a> {
     b: Vec<Vec4>,
 }
 
+/// The radiosity the bounces start from, W/(m^2 sr):
+/// `B_0 = rho/pi * e_source + emission/pi` (`emission` may be empty: none).
+pub fn source_radiosity(e_source: &[Vec3], albedo: &[Vec3], emission: &[Vec3]) -> Vec<Vec3> {
+    e_source
+        .par_iter()
+        .zip(albedo)
+        .enumerate()
+        .map(|(v, (e, r))| *e * *r / PI + emission.get(v).map_or(Vec3::ZERO, |m| *m / PI))
+        .collect()
+}
+
 impl<'a> CpuBounces<'a> {
+    /// The kernel starting from direct irradiance `e_direct` (no emission).
     pub fn new(links: &'a Links, albedo: &'a [Vec3], e_direct: &[Vec3]) -> Self {
-        let n = e_direct.len();
-        let b = e_direct.iter().zip(albedo).map(|(e, r)| (*e * *r / PI).extend(0.0)).collect();
+        Self::from_radiosity(links, albedo, &source_radiosity(e_direct, albedo, &[]))
+    }
+
+    /// The kernel starting from radiosity `b0` ([`source_radiosity`]).
+    pub fn from_radiosity(links: &'a Links, albedo: &'a [Vec3], b0: &[Vec3]) -> Self {
+        let n = b0.len();
+        let b = b0.iter().map(|b| b.extend(0.0)).collect();
         Self { links, albedo, stand_ins: &[], e_i: vec![Vec3::ZERO; n], e_b: vec![Vec3::ZERO; n], b }
     }
 

@@ -3,8 +3,8 @@
 //! smoothing, [`super::smooth`]).
 //!
 //! In the fixed point of the gather, `E_i(x) = sum_j w_j B(t_j)` with the
-//! total radiosity `B = rho/pi * (E_src + E_i)` (W/(m^2 sr); `E_src` the
-//! direct irradiance the bounces start from). Ray `k` of `x` stands for the
+//! total radiosity `B = rho/pi * (E_src + E_i) + M_e/pi` (W/(m^2 sr); `E_src` the
+//! direct irradiance the bounces start from, `M_e` emitted exitance). Ray `k` of `x` stands for the
 //! estimate `X_k = pi * L(hit_k)` with `L(hit) = sum_c beta_c B(c)` over the
 //! hit triangle's corners `c` (barycentrics `beta_c`), and
 //! `E_i = mean_k X_k`; its link weights are `beta_c * pi / n_C`. The merged
@@ -66,18 +66,24 @@ impl Default for NoiseParams {
 }
 
 /// Variance of every vertex's `E_i`, (W/m^2)^2 per channel, from `links`
-/// shot at `rays_per_vertex`, the per-vertex `albedo`, the direct
+/// shot at `rays_per_vertex`, the per-vertex `albedo` and emitted exitance
+/// `emission` (W/m^2, may be empty), the direct
 /// irradiance the bounces started from and the gathered `E_i` (W/m^2).
 pub fn variance(
     links: &Links,
     albedo: &[Vec3],
+    emission: &[Vec3],
     e_source: &[Vec3],
     e_indirect: &[Vec3],
     rays_per_vertex: u32,
     params: &NoiseParams,
 ) -> Vec<Vec3> {
-    let b: Vec<Vec3> =
-        albedo.iter().zip(e_source.iter().zip(e_indirect)).map(|(r, (s, i))| *r / PI * (*s + *i)).collect();
+    let b: Vec<Vec3> = albedo
+        .iter()
+        .zip(e_source.iter().zip(e_indirect))
+        .enumerate()
+        .map(|(v, (r, (s, i)))| *r / PI * (*s + *i) + emission.get(v).map_or(Vec3::ZERO, |m| *m / PI))
+        .collect();
     let n_c = rays_per_vertex.max(1) as f32;
     let factor = (params.scale * (params.reference_rays as f32 / n_c).powf(params.exponent)).min(1.0) / n_c;
     (0..links.vertex_count())

@@ -12,7 +12,7 @@ use super::buffers::{checked, compute_pipelines, dispatch_size, read_back, stora
 use super::context::GpuDevice;
 use super::layout::{GatherUniforms, GATHER_WGSL};
 use crate::error::Result;
-use crate::exchange::gather::BounceKernel;
+use crate::exchange::gather::{source_radiosity, BounceKernel};
 use crate::links::Links;
 use glam::Vec3;
 use std::f32::consts::PI;
@@ -128,14 +128,20 @@ impl GpuLinks {
         }
     }
 
-    /// A bounce kernel starting from direct irradiance `e_direct`.
+    /// A bounce kernel starting from direct irradiance `e_direct` (no emission).
     pub fn kernel(&self, e_direct: &[Vec3], albedo: &[Vec3]) -> Result<GpuBounces<'_>> {
-        checked(&self.dev, "gather setup", || self.make_kernel(e_direct, albedo))
+        self.kernel_from_radiosity(&source_radiosity(e_direct, albedo, &[]), albedo)
     }
 
-    fn make_kernel(&self, e_direct: &[Vec3], albedo: &[Vec3]) -> GpuBounces<'_> {
+    /// A bounce kernel starting from radiosity `b0`
+    /// ([`crate::exchange::gather::source_radiosity`]), as the CPU's
+    /// [`crate::exchange::gather::CpuBounces::from_radiosity`].
+    pub fn kernel_from_radiosity(&self, b0: &[Vec3], albedo: &[Vec3]) -> Result<GpuBounces<'_>> {
+        checked(&self.dev, "gather setup", || self.make_kernel(b0, albedo))
+    }
+
+    fn make_kernel(&self, b0: &[Vec3], albedo: &[Vec3]) -> GpuBounces<'_> {
         let d = &self.dev.device;
-        let b0: Vec<Vec3> = e_direct.iter().zip(albedo).map(|(e, r)| *e * *r / PI).collect();
         let zeros = vec![[0f32; 4]; self.n as usize];
         let radiosity = storage_init(d, "radiosity", &vec4s(&b0));
         let bounce = storage_init(d, "bounce irradiance", &zeros);

@@ -9,8 +9,11 @@
 //! merged links as stored, [`MERGED_LINK_BYTES`] each plus a u32 offset
 //! per vertex ([`merged_bytes`]).
 
-use super::merge::{merge_vertex_sums, HitRecord, MergeScratch};
+use super::merge::{merge_vertex_sums, HitRecord, MergeScratch, HIT_MISS};
 use super::{LinkStats, Links};
+use crate::sky::visibility::{project_misses, VertexSky};
+use crate::sky::SkyVisibility;
+use glam::Vec3;
 use half::f16;
 
 /// Bytes of one merged link as stored (u32 target + f16 weight).
@@ -34,6 +37,9 @@ pub struct GroupRun {
     /// Fixed-point sums of the links ([`super::merge::fixed_scale`]), kept
     /// only when the run records them ([`GroupRun::recording`]).
     pub sums: Vec<u32>,
+    /// Sky visibility of the vertices of the run whose rays missed:
+    /// `(vertex, coefficients)` ([`crate::sky::visibility`]).
+    pub sky: Vec<(usize, VertexSky)>,
     pub stats: LinkStats,
     record_sums: bool,
     scratch: MergeScratch,
@@ -50,8 +56,17 @@ impl GroupRun {
     }
 
     /// Appends the next vertex's group, merged from its hit records (one
-    /// per ray; triangles give the hit triangles' corner vertices).
-    pub fn push_vertex(&mut self, hits: &[HitRecord], triangles: &[[u32; 3]], weight_per_ray: f64) {
+    /// per ray; triangles give the hit triangles' corner vertices), and
+    /// its sky visibility from the rays that missed (`dirs`: the rays'
+    /// world directions in the same order, read only if one missed).
+    pub fn push_vertex(
+        &mut self,
+        hits: &[HitRecord],
+        dirs: impl Iterator<Item = Vec3>,
+        triangles: &[[u32; 3]],
+        weight_per_ray: f64,
+    ) {
+        let v = self.first + self.counts.len();
         let before = self.targets.len();
         let sums = self.record_sums.then_some(&mut self.sums);
         let c = merge_vertex_sums(
@@ -70,6 +85,12 @@ impl GroupRun {
         st.back_hits += c.back as u64;
         st.misses += c.miss as u64;
         st.raw_links += 3 * c.front as u64;
+        if c.miss > 0 {
+            let rays = hits.iter().map(|h| h.tri == HIT_MISS).zip(dirs);
+            if let Some(s) = project_misses(rays, weight_per_ray as f32) {
+                self.sky.push((v, s));
+            }
+        }
     }
 
     /// Appends `next`, which must start where this run ends.
@@ -79,6 +100,7 @@ impl GroupRun {
         self.targets.extend(next.targets);
         self.weights.extend(next.weights);
         self.sums.extend(next.sums);
+        self.sky.extend(next.sky);
         self.stats.add(&next.stats);
     }
 }
@@ -90,13 +112,14 @@ impl GroupRun {
 pub struct CsrBuilder {
     links: Links,
     sums: Vec<u32>,
+    sky: Vec<(usize, VertexSky)>,
 }
 
 impl CsrBuilder {
     pub fn new(n: usize) -> CsrBuilder {
         let mut links = Links { offsets: Vec::with_capacity(n + 1), ..Default::default() };
         links.offsets.push(0);
-        CsrBuilder { links, sums: Vec::new() }
+        CsrBuilder { links, sums: Vec::new(), sky: Vec::new() }
     }
 
     /// Appends `run`, which must start at the next vertex.
@@ -113,6 +136,7 @@ impl CsrBuilder {
         links.targets.extend(r.targets);
         links.weights.extend(r.weights);
         self.sums.extend(r.sums);
+        self.sky.extend(r.sky);
         links.stats.add(&r.stats);
         Ok(())
     }
@@ -131,6 +155,7 @@ impl CsrBuilder {
         }
         links.targets.shrink_to_fit();
         links.weights.shrink_to_fit();
+        links.sky = SkyVisibility::from_sparse(n, self.sky);
         let stats = &mut links.stats;
         stats.merged_links = links.targets.len() as u64;
         stats.raw_bytes = stats.raw_links * RAW_LINK_BYTES;

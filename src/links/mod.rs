@@ -6,8 +6,9 @@
 //! `E_i(x) ~ (pi / n_C) * sum_k L(hit_k)`. Links with the same target are
 //! merged by adding weights; the result is a CSR matrix of link groups.
 //!
-//! Misses (no environment light) and back-face hits (blocked, no light) add
-//! nothing. Weights are unitless (sr-weighted cosines): `E = W L`, with `L`
+//! Back-face hits (blocked, no light) add nothing. Misses add no link; the
+//! directions they left in are kept per vertex as its sky visibility
+//! ([`Links::sky`], [`crate::sky::visibility`]). Weights are unitless (sr-weighted cosines): `E = W L`, with `L`
 //! in W/(m^2 sr) and `E` in W/m^2; a closed scene's rows sum to pi.
 //!
 //! Storage: a link is a `u32` target plus an IEEE half-precision weight
@@ -25,6 +26,7 @@ pub mod merge;
 pub mod selective;
 pub mod shoot;
 
+use crate::sky::SkyVisibility;
 use half::f16;
 
 pub use assemble::{assemble, merged_bytes, CsrBuilder, GroupRun};
@@ -75,6 +77,9 @@ pub struct Links {
     pub offsets: Vec<u32>,
     pub targets: Vec<u32>,
     pub weights: Vec<f16>,
+    /// Links to the sky: the projection of every vertex's missed ray
+    /// directions ([`crate::sky::visibility`]); empty when no ray missed.
+    pub sky: SkyVisibility,
     pub stats: LinkStats,
 }
 

@@ -48,6 +48,7 @@ use crate::kdtree::triangle::{intersect, RayShear};
 use crate::kdtree::{Hit, KdTriangle};
 use crate::scene::motion::Motion;
 use crate::scene::prep::PreparedScene;
+use crate::sky::visibility::{project_misses, VertexSky};
 use crate::trace::CpuTracer;
 use glam::Vec3;
 use half::f16;
@@ -99,6 +100,8 @@ struct Patch {
     targets: Vec<u32>,
     weights: Vec<f16>,
     sums: Vec<u32>,
+    /// The vertex's sky visibility after the update (None: no ray missed).
+    sky: Option<VertexSky>,
     new: [u64; 3],
     old: [u64; 3],
 }
@@ -289,6 +292,7 @@ impl Context<'_> {
             targets: Vec::with_capacity(targets.len() + 4),
             weights: Vec::new(),
             sums: Vec::with_capacity(targets.len() + 4),
+            sky: None,
             new: [0; 3],
             old: [0; 3],
         };
@@ -359,7 +363,7 @@ impl Context<'_> {
             &mut weights,
             Some(&mut sums),
         );
-        Patch { targets, weights, sums, new: [c.front as u64, c.back as u64, c.miss as u64], old: [0; 3] }
+        Patch { targets, weights, sums, sky: None, new: [c.front as u64, c.back as u64, c.miss as u64], old: [0; 3] }
     }
 }
 
@@ -422,7 +426,12 @@ pub fn reshoot(
             let (mut remade_rays, mut static_rays) = (0, 0);
             for (i, row) in rows.chunks_mut(rays).enumerate() {
                 let v = c * CHUNK + i;
-                let (p, traced) = ctx.vertex(v, row, scratch);
+                let (mut p, traced) = ctx.vertex(v, row, scratch);
+                if let Some(p) = &mut p {
+                    // Its sky visibility from all its rays, as a full shoot computes it.
+                    let misses = row.iter().map(|&id| id == HIT_MISS).zip(ctx.setup.world_directions(v));
+                    p.sky = project_misses(misses, ctx.weight_per_ray as f32);
+                }
                 if motion.remade[v] {
                     remade_rays += traced;
                 } else {
@@ -441,6 +450,7 @@ pub fn reshoot(
     out.targets.reserve(links.targets.len() + extra);
     out.weights.reserve(links.targets.len() + extra);
     let mut new_sums = Vec::with_capacity(links.targets.len() + extra);
+    let mut sky = links.sky.clone();
     let mut v = 0;
     for (patches, remade_rays, static_rays) in results {
         stats.rays_reshot += remade_rays + static_rays;
@@ -456,6 +466,12 @@ pub fn reshoot(
                     s.back_hits = s.back_hits + p.new[1] - p.old[1];
                     s.misses = s.misses + p.new[2] - p.old[2];
                     stats.groups_patched += 1;
+                    if p.sky.is_some() && sky.is_empty() {
+                        sky.coeffs = vec![[0.0; crate::sky::sh::COEFFS]; n];
+                    }
+                    if !sky.is_empty() {
+                        sky.coeffs[v] = p.sky.unwrap_or_default();
+                    }
                 }
                 None => {
                     let (t, w) = links.group(v);
@@ -476,6 +492,10 @@ pub fn reshoot(
     stats.ms = start.elapsed().as_secs_f64() * 1e3;
     link_stats.shoot_ms = stats.ms;
     out.stats = link_stats;
+    if sky.coeffs.iter().all(|c| c.iter().all(|&x| x == 0.0)) {
+        sky.coeffs = Vec::new();
+    }
+    out.sky = sky;
     *sums = new_sums;
     (out, stats)
 }

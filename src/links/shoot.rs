@@ -247,7 +247,7 @@ pub fn shoot_links_recording(
                     if record {
                         chunk_ids.extend(hits.iter().map(|h| h.tri));
                     }
-                    run.push_vertex(&hits, &scene.triangles, weight_per_ray);
+                    run.push_vertex(&hits, setup.world_directions(v), &scene.triangles, weight_per_ray);
                 }
                 (run, chunk_ids)
             })

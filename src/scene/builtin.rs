@@ -71,7 +71,15 @@ pub fn builtin(name: &str) -> Option<SceneDesc> {
 }
 
 fn scene(name: &str, camera: Camera, meshes: Vec<MeshDesc>, lights: Vec<Light>) -> SceneDesc {
-    SceneDesc { name: name.to_string(), settings: Settings::default(), camera, meshes, lights, warnings: Vec::new() }
+    SceneDesc {
+        name: name.to_string(),
+        settings: Settings::default(),
+        camera,
+        meshes,
+        lights,
+        sky: None,
+        warnings: Vec::new(),
+    }
 }
 
 fn point(position: Vec3, intensity: Vec3) -> Light {

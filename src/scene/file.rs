@@ -1,6 +1,8 @@
 //! TOML scene files (format in README.md / issue 2): `[settings]`, `[camera]`,
 //! `[[mesh]]` tables naming an OBJ (`obj = "m.obj"`) or a glTF file
-//! (`gltf = "m.glb"`) relative to the scene file, `[[light]]`s.
+//! (`gltf = "m.glb"`) relative to the scene file, optionally with an
+//! `emission = [r, g, b]` (radiant exitance, W/m^2, for all its
+//! materials), `[[light]]`s and an optional `[sky]` ([`SkyFile`]).
 //!
 //! A glTF `[[mesh]]` brings every mesh of the glTF's scene (world transforms
 //! baked in, see [`super::gltf`]); the table's transform, crease angle,
@@ -12,6 +14,7 @@
 
 use super::deform::{Deform, DeformKind};
 use super::{gltf, obj, Backend, Bounces, Camera, Light, SceneDesc, Settings, TracerKind, Transform};
+use crate::sky::{EnvMap, Sky, SkyModel};
 use crate::{Error, Result};
 use glam::Vec3;
 use serde::{Deserialize, Serialize};
@@ -28,6 +31,31 @@ pub struct SceneFile {
     pub meshes: Vec<MeshFile>,
     #[serde(default, rename = "light")]
     pub lights: Vec<LightFile>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub sky: Option<SkyFile>,
+}
+
+/// `[sky]`: exactly one of `radiance` (uniform), `zenith` + `horizon`
+/// (+ `ground`, default black: the gradient sky) and `image` (EXR or
+/// Radiance HDR, equirectangular, relative to the scene file); radiance in
+/// W/(m^2 sr). `rotate_deg` turns it about +y, `intensity` scales it.
+#[derive(Debug, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SkyFile {
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub radiance: Option<[f32; 3]>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub zenith: Option<[f32; 3]>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub horizon: Option<[f32; 3]>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub ground: Option<[f32; 3]>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub image: Option<PathBuf>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub rotate_deg: Option<f32>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub intensity: Option<f32>,
 }
 
 #[derive(Debug, Default, Serialize, Deserialize)]
@@ -88,6 +116,9 @@ pub struct MeshFile {
     /// `[[mesh.deform]]` tables (dynamic meshes only); see `scene::deform` for units.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub deform: Vec<DeformFile>,
+    /// Radiant exitance of every material of the mesh, W/m^2 (replaces MTL `Ke`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub emission: Option<[f32; 3]>,
 }
 
 /// One `[[mesh.deform]]` table.
@@ -231,6 +262,53 @@ fn settings_from(path: &Path, s: &SettingsFile) -> Result<Settings> {
     Ok(settings)
 }
 
+fn sky_from(path: &Path, dir: &Path, s: &SkyFile) -> Result<Sky> {
+    let colour = |what: &str, v: [f32; 3]| -> Result<Vec3> {
+        let v = finite3(path, what, v)?;
+        if v.min_element() < 0.0 {
+            return Err(scene_err(path, format!("{what} = {v} is negative")));
+        }
+        Ok(v)
+    };
+    let mut sky = match (&s.radiance, &s.zenith, &s.horizon, &s.image) {
+        (Some(r), None, None, None) if s.ground.is_none() => Sky::uniform(colour("sky.radiance", *r)?),
+        (None, Some(z), Some(h), None) => Sky::gradient(
+            colour("sky.zenith", *z)?,
+            colour("sky.horizon", *h)?,
+            s.ground.map(|g| colour("sky.ground", g)).transpose()?.unwrap_or(Vec3::ZERO),
+        ),
+        (None, None, None, Some(img)) if s.ground.is_none() => Sky::image(img.clone(), EnvMap::load(&dir.join(img))?),
+        _ => {
+            return Err(scene_err(
+                path,
+                "[sky] needs exactly one of radiance = [r, g, b], zenith + horizon (+ ground), or image = \"sky.exr\"",
+            ))
+        }
+    };
+    sky.rotate_deg = s.rotate_deg.unwrap_or(0.0);
+    sky.intensity = s.intensity.unwrap_or(1.0);
+    sky.validate().map_err(|m| scene_err(path, format!("[sky]: {m}")))?;
+    Ok(sky)
+}
+
+fn sky_to_file(s: &Sky) -> SkyFile {
+    let mut f = SkyFile {
+        rotate_deg: (s.rotate_deg != 0.0).then_some(s.rotate_deg),
+        intensity: (s.intensity != 1.0).then_some(s.intensity),
+        ..Default::default()
+    };
+    match &s.model {
+        SkyModel::Uniform { radiance } => f.radiance = Some(radiance.to_array()),
+        SkyModel::Gradient { zenith, horizon, ground } => {
+            f.zenith = Some(zenith.to_array());
+            f.horizon = Some(horizon.to_array());
+            f.ground = Some(ground.to_array());
+        }
+        SkyModel::Image { path, .. } => f.image = Some(path.clone()),
+    }
+    f
+}
+
 fn light_from(path: &Path, l: &LightFile) -> Result<Light> {
     Ok(match l {
         LightFile::Point { position, intensity } => {
@@ -309,7 +387,20 @@ pub fn parse_toml(path: &Path, text: &str) -> Result<SceneDesc> {
             return Err(scene_err(path, format!("mesh '{mesh_name}': [[mesh.deform]] needs dynamic = true")));
         }
         let deform = m.deform.iter().map(|d| deform_from(path, &mesh_name, d)).collect::<Result<Vec<_>>>()?;
+        let emission = match m.emission {
+            None => None,
+            Some(e) => {
+                let e = finite3(path, "mesh.emission", e)?;
+                if e.min_element() < 0.0 {
+                    return Err(scene_err(path, format!("mesh '{mesh_name}': emission = {e} is negative")));
+                }
+                Some(e)
+            }
+        };
         for mut mesh in loaded {
+            if let Some(e) = emission {
+                mesh.materials.iter_mut().for_each(|mat| mat.emission = e);
+            }
             mesh.crease_angle_deg = m.crease_angle_deg;
             mesh.transform = transform;
             mesh.dynamic = m.dynamic;
@@ -318,8 +409,9 @@ pub fn parse_toml(path: &Path, text: &str) -> Result<SceneDesc> {
         }
     }
     let lights = file.lights.iter().map(|l| light_from(path, l)).collect::<Result<Vec<_>>>()?;
+    let sky = file.sky.as_ref().map(|s| sky_from(path, dir, s)).transpose()?;
     let name = path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
-    Ok(SceneDesc { name, settings, camera, meshes, lights, warnings })
+    Ok(SceneDesc { name, settings, camera, meshes, lights, sky, warnings })
 }
 
 /// Loads a scene TOML file.
@@ -339,6 +431,7 @@ pub fn load_bare_obj(path: &Path) -> Result<SceneDesc> {
         camera: Camera::default(),
         meshes: vec![mesh],
         lights: vec![],
+        sky: None,
         warnings,
     })
 }
@@ -384,6 +477,8 @@ pub fn to_toml(scene: &SceneDesc, obj_names: &[String]) -> String {
                 },
                 dynamic: m.dynamic,
                 deform: m.deform.iter().map(deform_to_file).collect(),
+                // Emission travels in the MTL (`Ke`).
+                emission: None,
             })
             .collect(),
         lights: scene
@@ -398,6 +493,7 @@ pub fn to_toml(scene: &SceneDesc, obj_names: &[String]) -> String {
                 }
             })
             .collect(),
+        sky: scene.sky.as_ref().map(sky_to_file),
     };
     toml::to_string(&file).expect("scene description serializes")
 }

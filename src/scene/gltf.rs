@@ -34,9 +34,11 @@
 //! inverts it.
 //!
 //! Ignored, each with a warning: spot cones (a spot light becomes a point
-//! light of the same intensity), light `range`, `emissiveFactor` (linkgi has
-//! no emitters yet), skins and morph targets (the bind pose is used),
-//! orthographic cameras, and extensions other than `KHR_lights_punctual`.
+//! light of the same intensity), light `range`, emissive textures (a
+//! material's emission is `pi * emissiveFactor * emissive_strength`,
+//! W/m^2, uniform), skins and morph targets (the bind pose is used),
+//! orthographic cameras, and extensions other than `KHR_lights_punctual`
+//! and `KHR_materials_emissive_strength`.
 //! Extensions a file *requires* that the crate does not know are an error.
 //!
 //! Bad files are errors ([`Error::Gltf`]) naming the file and the place
@@ -88,6 +90,7 @@ pub fn load_scene(path: &Path) -> Result<SceneDesc> {
         camera: g.camera.unwrap_or_default(),
         meshes: g.meshes,
         lights: g.lights,
+        sky: None,
         warnings,
     })
 }

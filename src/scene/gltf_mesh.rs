@@ -256,7 +256,7 @@ pub(super) fn build_mesh(
                         material_name(&gmat)
                     ));
                 }
-                materials.push(Material { name: material_name(&gmat), albedo });
+                materials.push(Material { name: material_name(&gmat), albedo, emission: emission_of(&gmat) });
                 material_of.insert(gmat.index(), (materials.len() - 1) as u32);
                 (materials.len() - 1) as u32
             }
@@ -355,6 +355,19 @@ fn material_name(m: &::gltf::Material) -> String {
     }
 }
 
+/// Radiant exitance of a glTF material, W/m^2: its emitted radiance
+/// `emissiveFactor * emissive_strength` (KHR_materials_emissive_strength,
+/// default 1) taken as W/(m^2 sr), times pi. Zero when not finite and
+/// non-negative (warned by [`material_factor`]).
+fn emission_of(m: &::gltf::Material) -> Vec3 {
+    let e = Vec3::from(m.emissive_factor()) * m.emissive_strength().unwrap_or(1.0) * std::f32::consts::PI;
+    if e.is_finite() && e.min_element() >= 0.0 {
+        e
+    } else {
+        Vec3::ZERO
+    }
+}
+
 /// The material's `baseColorFactor` (rgb), before clamping; warns about
 /// emission and about fallbacks.
 fn material_factor(cx: &mut MeshContext, m: &::gltf::Material, warnings: &mut Vec<String>) -> Vec3 {
@@ -366,11 +379,18 @@ fn material_factor(cx: &mut MeshContext, m: &::gltf::Material, warnings: &mut Ve
         return Vec3::splat(DEFAULT_ALBEDO);
     };
     let first = cx.warned.insert(index);
-    if first && Vec3::from(m.emissive_factor()) != Vec3::ZERO {
+    if first && m.emissive_texture().is_some() {
         warnings.push(format!(
-            "{file}: material '{}' has emissiveFactor {:?}, which is ignored (linkgi has no emitters)",
+            "{file}: material '{}' has an emissiveTexture, which is ignored (emission is uniform per material: emissiveFactor)",
             material_name(m),
-            m.emissive_factor()
+        ));
+    }
+    if first && emission_of(m) == Vec3::ZERO && Vec3::from(m.emissive_factor()) != Vec3::ZERO {
+        warnings.push(format!(
+            "{file}: material '{}' has emissiveFactor {:?} x strength {:?}, not finite and non-negative; using 0",
+            material_name(m),
+            m.emissive_factor(),
+            m.emissive_strength()
         ));
     }
     let c = m.pbr_metallic_roughness().base_color_factor();

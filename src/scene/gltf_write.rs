@@ -109,10 +109,21 @@ fn build(scene: &SceneDesc) -> (Value, Vec<u8>) {
         let first_material = materials.len();
         for m in &mesh.materials {
             let factor = if colours.is_some() { Vec3::ONE } else { m.albedo };
-            materials.push(json!({
+            let mut material = json!({
                 "name": m.name,
                 "pbrMetallicRoughness": {"baseColorFactor": [factor.x, factor.y, factor.z, 1.0], "metallicFactor": 0.0, "roughnessFactor": 1.0},
-            }));
+            });
+            if m.emission != Vec3::ZERO {
+                // Emitted radiance M / pi as factor (at most 1) times strength.
+                let radiance = m.emission / std::f32::consts::PI;
+                let strength = radiance.max_element().max(1.0);
+                let f = radiance / strength;
+                material["emissiveFactor"] = json!([f.x, f.y, f.z]);
+                if strength > 1.0 {
+                    material["extensions"] = json!({"KHR_materials_emissive_strength": {"emissiveStrength": strength}});
+                }
+            }
+            materials.push(material);
         }
         let mut primitives = Vec::new();
         let mut start = 0;
@@ -186,9 +197,16 @@ fn build(scene: &SceneDesc) -> (Value, Vec<u8>) {
     if !cameras.is_empty() {
         doc["cameras"] = json!(cameras);
     }
+    let mut used = Vec::new();
     if !lights.is_empty() {
-        doc["extensionsUsed"] = json!(["KHR_lights_punctual"]);
+        used.push("KHR_lights_punctual");
         doc["extensions"] = json!({"KHR_lights_punctual": {"lights": lights}});
+    }
+    if materials.iter().any(|m| m.get("extensions").is_some()) {
+        used.push("KHR_materials_emissive_strength");
+    }
+    if !used.is_empty() {
+        doc["extensionsUsed"] = json!(used);
     }
     (doc, b.bin)
 }

@@ -33,6 +33,9 @@ pub struct Material {
     pub name: String,
     /// Diffuse albedo per channel, in [0, MAX_ALBEDO].
     pub albedo: Vec3,
+    /// Emitted radiant exitance per channel, W/m^2 (MTL `Ke`, the scene
+    /// file's `emission`); zero for surfaces that do not glow.
+    pub emission: Vec3,
 }
 
 /// Placement of a mesh: scale, then rotate (x, then y, then z, degrees), then translate.
@@ -298,6 +301,8 @@ pub struct SceneDesc {
     pub camera: Camera,
     pub meshes: Vec<MeshDesc>,
     pub lights: Vec<Light>,
+    /// Sky light (`[sky]` in the scene file), if any ([`crate::sky`]).
+    pub sky: Option<crate::sky::Sky>,
     /// Problems that were fixed up while loading (clamped albedo, missing MTL, ...),
     /// for the caller to show. Empty for built-in scenes.
     pub warnings: Vec<String>,

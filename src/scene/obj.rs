@@ -142,6 +142,19 @@ fn clamp_albedo(path: &Path, name: &str, kd: Vec3, warnings: &mut Vec<String>) -
     c
 }
 
+/// MTL `Ke` as radiant exitance (W/m^2): non-finite or negative values are
+/// replaced by zero with a warning naming the file and material.
+fn checked_emission(path: &Path, name: &str, ke: Vec3, warnings: &mut Vec<String>) -> Vec3 {
+    if ke.is_finite() && ke.min_element() >= 0.0 {
+        return ke;
+    }
+    warnings.push(format!(
+        "{}: material '{name}' has Ke {ke} (emission must be finite and non-negative); using 0",
+        path.display()
+    ));
+    Vec3::ZERO
+}
+
 /// Loads an OBJ (and its MTL) as one mesh. Settings from the scene file
 /// (crease angle, transform, dynamic) are left at defaults for the caller.
 pub fn load_obj(path: &Path, warnings: &mut Vec<String>) -> Result<MeshDesc> {
@@ -173,7 +186,12 @@ pub fn load_obj(path: &Path, warnings: &mut Vec<String>) -> Result<MeshDesc> {
             .iter()
             .map(|m| {
                 let kd = Vec3::from(m.diffuse.unwrap_or([DEFAULT_ALBEDO; 3]));
-                Material { name: m.name.clone(), albedo: clamp_albedo(path, &m.name, kd, warnings) }
+                let ke = Vec3::from(m.emissive.unwrap_or([0.0; 3]));
+                Material {
+                    name: m.name.clone(),
+                    albedo: clamp_albedo(path, &m.name, kd, warnings),
+                    emission: checked_emission(path, &m.name, ke, warnings),
+                }
             })
             .collect(),
         Err(e) => {
@@ -198,7 +216,7 @@ pub fn load_obj(path: &Path, warnings: &mut Vec<String>) -> Result<MeshDesc> {
         let mat = match mesh.material_id {
             Some(id) if id < mats.len() => id as u32,
             _ => *default_mat.get_or_insert_with(|| {
-                mats.push(Material { name: "default".into(), albedo: Vec3::splat(DEFAULT_ALBEDO) });
+                mats.push(Material { name: "default".into(), albedo: Vec3::splat(DEFAULT_ALBEDO), emission: Vec3::ZERO });
                 (mats.len() - 1) as u32
             }),
         };
@@ -232,7 +250,11 @@ pub fn write_obj(mesh: &MeshDesc, path: &Path) -> Result<()> {
     let mtl_name = mtl_path.file_name().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
     let mut mtl = String::new();
     for m in &mesh.materials {
-        let _ = writeln!(mtl, "newmtl {}\nKd {} {} {}\n", m.name, m.albedo.x, m.albedo.y, m.albedo.z);
+        let _ = writeln!(mtl, "newmtl {}\nKd {} {} {}", m.name, m.albedo.x, m.albedo.y, m.albedo.z);
+        if m.emission != Vec3::ZERO {
+            let _ = writeln!(mtl, "Ke {} {} {}", m.emission.x, m.emission.y, m.emission.z);
+        }
+        let _ = writeln!(mtl);
     }
     let mut obj = String::with_capacity(mesh.positions.len() * 32 + mesh.triangles.len() * 24);
     let _ = writeln!(

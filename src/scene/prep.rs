@@ -83,6 +83,11 @@ pub struct PreparedScene {
     pub normals: Vec<Vec3>,
     /// Albedo per solver vertex and channel, in [0, 1).
     pub albedo: Vec<Vec3>,
+    /// Emitted radiant exitance per solver vertex and channel, W/m^2 (its
+    /// material's; vertices are split at material borders).
+    pub emission: Vec<Vec3>,
+    /// Sky light, if any.
+    pub sky: Option<crate::sky::Sky>,
     /// Triangles over solver vertices, counter-clockwise seen from the front.
     pub triangles: Vec<[u32; 3]>,
     /// Welded position id per solver vertex (equal ids: same point in space, same mesh).
@@ -128,6 +133,7 @@ struct MeshPrep {
     positions: Vec<Vec3>,
     normals: Vec<Vec3>,
     albedo: Vec<Vec3>,
+    emission: Vec<Vec3>,
     triangles: Vec<[u32; 3]>,
     position_id: Vec<u32>,
     welded_count: u32,
@@ -162,6 +168,12 @@ fn prepare_mesh(mesh: &super::MeshDesc) -> Result<MeshPrep> {
         if mat as usize >= mesh.materials.len() {
             return Err(geom_err(name, format!("triangle {ti} uses material {mat}, which does not exist")));
         }
+    }
+    if let Some(m) = mesh.materials.iter().find(|m| !(m.emission.is_finite() && m.emission.min_element() >= 0.0)) {
+        return Err(geom_err(
+            name,
+            format!("material '{}' has emission {}: it must be finite and non-negative", m.name, m.emission),
+        ));
     }
     if let Some(va) = &mesh.vertex_albedo {
         if va.len() != mesh.positions.len() {
@@ -260,6 +272,7 @@ fn prepare_mesh(mesh: &super::MeshDesc) -> Result<MeshPrep> {
     let mut positions = Vec::new();
     let mut normals: Vec<Vec3> = Vec::new();
     let mut albedo = Vec::new();
+    let mut emission = Vec::new();
     let mut position_id = Vec::new();
     let mut triangles = Vec::with_capacity(tris.len());
     for (ti, t) in tris.iter().enumerate() {
@@ -270,6 +283,7 @@ fn prepare_mesh(mesh: &super::MeshDesc) -> Result<MeshPrep> {
                 positions.push(welded_pos[t[k] as usize]);
                 normals.push(Vec3::ZERO);
                 albedo.push(corner_albedo(ti as u32, t[k]));
+                emission.push(mesh.materials[tri_mat[ti] as usize].emission);
                 position_id.push(t[k]);
                 (positions.len() - 1) as u32
             });
@@ -293,6 +307,7 @@ fn prepare_mesh(mesh: &super::MeshDesc) -> Result<MeshPrep> {
         positions,
         normals,
         albedo: albedo.iter().map(|a: &Vec3| a.clamp(Vec3::ZERO, Vec3::splat(super::MAX_ALBEDO))).collect(),
+        emission,
         triangles,
         position_id,
         welded_count: welded_pos.len() as u32,
@@ -310,6 +325,8 @@ pub fn prepare(scene: &SceneDesc) -> Result<PreparedScene> {
         positions: vec![],
         normals: vec![],
         albedo: vec![],
+        emission: vec![],
+        sky: scene.sky.clone(),
         triangles: vec![],
         position_id: vec![],
         boundary: vec![],
@@ -326,6 +343,7 @@ pub fn prepare(scene: &SceneDesc) -> Result<PreparedScene> {
         out.positions.extend(&mp.positions);
         out.normals.extend(&mp.normals);
         out.albedo.extend(&mp.albedo);
+        out.emission.extend(&mp.emission);
         out.triangles.extend(mp.triangles.iter().map(|t| t.map(|i| i + vbase)));
         out.position_id.extend(mp.position_id.iter().map(|&i| i + pos_base));
         out.dropped_triangles += mp.dropped;
@@ -351,6 +369,9 @@ pub fn prepare(scene: &SceneDesc) -> Result<PreparedScene> {
         if !ok {
             return Err(Error::Setting(format!("light {l:?} has non-finite or zero values")));
         }
+    }
+    if let Some(sky) = &out.sky {
+        sky.validate().map_err(|m| Error::Setting(format!("{}: {m}", scene.name)))?;
     }
     out.build_topology();
     Ok(out)

@@ -62,7 +62,7 @@ impl MeshBuilder {
 
     /// Adds a material and returns its index.
     pub fn add_material(&mut self, name: &str, albedo: Vec3) -> u32 {
-        self.materials.push(Material { name: name.to_string(), albedo });
+        self.materials.push(Material { name: name.to_string(), albedo, emission: Vec3::ZERO });
         (self.materials.len() - 1) as u32
     }
 

@@ -185,8 +185,12 @@ pub struct SolveStats {
 pub struct Solution {
     /// Direct irradiance, exact at the vertex (point visibility), W/m^2.
     pub e_direct: Vec<Vec3>,
+    /// Irradiance from the sky ([`crate::sky`]), W/m^2: direct light,
+    /// reported on its own (zero without a sky or where no ray missed).
+    pub e_sky: Vec<Vec3>,
     /// The direct irradiance the bounces started from (the light links'
-    /// [`crate::exchange::BounceSource`]), W/m^2.
+    /// [`crate::exchange::BounceSource`] plus `e_sky`), W/m^2. Emitters add
+    /// `M_e / pi` to the first radiosity ([`crate::exchange::gather::source_radiosity`]).
     pub e_source: Vec<Vec3>,
     /// Indirect irradiance after smoothing, W/m^2.
     pub e_indirect: Vec<Vec3>,
@@ -376,21 +380,26 @@ impl Solver {
         let s = &self.scene;
         let n = s.vertex_count();
         let e_direct = self.light_links.direct(&s.lights, n);
-        let e_source = self.light_links.bounce_source(&s.lights, n);
+        let e_sky = self.e_sky();
+        let mut e_source = self.light_links.bounce_source(&s.lights, n);
+        if s.sky.is_some() {
+            e_source.iter_mut().zip(&e_sky).for_each(|(e, k)| *e += *k);
+        }
+        let b0 = exchange::gather::source_radiosity(&e_source, &s.albedo, &s.emission);
         // The hidden-vertex substitution runs inside the bounces, on either kernel.
         let stand_ins = if quick { Vec::new() } else { self.stand_ins() };
         let on_gpu = self.gpu.as_ref().map(|g| {
             g.links
-                .kernel(&e_source, &s.albedo)
+                .kernel_from_radiosity(&b0, &s.albedo)
                 .and_then(|k| exchange::gather::drive(&mut k.with_stand_ins(stand_ins.clone()), &self.params.gather))
         });
         let gather = match on_gpu {
             Some(Ok(r)) => r,
             Some(Err(e)) => {
                 eprintln!("warning: {e}; gathering on the CPU");
-                self.gather_cpu(&e_source, &stand_ins, &self.params.gather)
+                self.gather_cpu(&b0, &stand_ins, &self.params.gather)
             }
-            None => self.gather_cpu(&e_source, &stand_ins, &self.params.gather),
+            None => self.gather_cpu(&b0, &stand_ins, &self.params.gather),
         };
         let angle = self.params.smoothing_angle_deg;
         let e_indirect = if quick {
@@ -400,6 +409,7 @@ impl Solver {
         };
         Solution {
             e_direct,
+            e_sky,
             e_source,
             e_indirect_raw: gather.e_indirect.clone(),
             e_indirect,
@@ -408,10 +418,19 @@ impl Solver {
         }
     }
 
-    /// The CPU bounces from `e_source` (W/m^2) with hidden vertices replaced
-    /// as link targets in every bounce ([`crate::exchange::hidden`]).
+    /// The CPU bounces from `e_source` (W/m^2, plus the scene's emission)
+    /// with hidden vertices replaced as link targets in every bounce
+    /// ([`crate::exchange::hidden`]).
     pub fn gather_corrected(&self, e_source: &[Vec3], params: &exchange::GatherParams) -> GatherResult {
-        self.gather_cpu(e_source, &self.stand_ins(), params)
+        let s = &self.scene;
+        let b0 = exchange::gather::source_radiosity(e_source, &s.albedo, &s.emission);
+        self.gather_cpu(&b0, &self.stand_ins(), params)
+    }
+
+    /// Irradiance from the scene's sky at every vertex ([`crate::sky::SkyVisibility::irradiance`]), W/m^2.
+    pub fn e_sky(&self) -> Vec<Vec3> {
+        let sky = self.scene.sky.as_ref().map(|k| k.projection());
+        self.links.sky.irradiance(sky.as_ref(), self.scene.vertex_count())
     }
 
     /// Hidden vertices and their visible neighbours ([`exchange::hidden::stand_ins`]).
@@ -420,14 +439,10 @@ impl Solver {
         exchange::hidden::stand_ins(&self.links, &s.rings, &s.normals, &self.params.hidden)
     }
 
-    fn gather_cpu(
-        &self,
-        e_source: &[Vec3],
-        stand_ins: &[(usize, Vec<usize>)],
-        params: &exchange::GatherParams,
-    ) -> GatherResult {
+    /// The CPU bounces from radiosity `b0`, W/(m^2 sr).
+    fn gather_cpu(&self, b0: &[Vec3], stand_ins: &[(usize, Vec<usize>)], params: &exchange::GatherParams) -> GatherResult {
         let mut kernel =
-            exchange::gather::CpuBounces::new(&self.links, &self.scene.albedo, e_source).with_stand_ins(stand_ins);
+            exchange::gather::CpuBounces::from_radiosity(&self.links, &self.scene.albedo, b0).with_stand_ins(stand_ins);
         exchange::gather::drive(&mut kernel, params).expect("the CPU kernel cannot fail")
     }
 
@@ -460,6 +475,7 @@ impl Solver {
         exchange::noise::variance(
             &self.links,
             &self.scene.albedo,
+            &self.scene.emission,
             e_source,
             e_raw,
             self.params.links.rays_per_vertex,

@@ -1,0 +1,128 @@
+//! Equirectangular environment images (OpenEXR through the `exr` crate,
+//! Radiance `.hdr` through `image`): linear radiance in W/(m^2 sr) per
+//! pixel, RGB.
+//!
+//! Mapping: pixel column `i` of `w` has azimuth `phi = 2 pi (i + 0.5) / w`,
+//! measured from +x counter-clockwise seen from above (toward -z first);
+//! row `j` of `h` has polar angle `theta = pi (j + 0.5) / h` from +y (the
+//! top row is the zenith). The direction is
+//! `(sin theta cos phi, cos theta, -sin theta sin phi)`; a pixel covers
+//! `(2 pi / w)(pi / h) sin theta` sr. Lookups are bilinear, wrapping in
+//! azimuth and clamping at the poles.
+
+use crate::{Error, Result};
+use glam::Vec3;
+use std::path::Path;
+
+/// An equirectangular radiance image, W/(m^2 sr).
+#[derive(Clone, Debug, PartialEq)]
+pub struct EnvMap {
+    pub width: usize,
+    pub height: usize,
+    /// Row-major from the top (zenith) row.
+    pub pixels: Vec<Vec3>,
+}
+
+fn image_err(path: &Path, message: impl Into<String>) -> Error {
+    Error::Image { path: path.to_path_buf(), message: message.into() }
+}
+
+impl EnvMap {
+    /// Checks size and values: at least 2 x 1 pixels, every value finite and non-negative.
+    pub fn new(width: usize, height: usize, pixels: Vec<Vec3>) -> std::result::Result<EnvMap, String> {
+        if width < 2 || height < 1 || pixels.len() != width * height {
+            return Err(format!("{width} x {height} pixels with {} values", pixels.len()));
+        }
+        if let Some((i, p)) = pixels.iter().enumerate().find(|(_, p)| !(p.is_finite() && p.min_element() >= 0.0)) {
+            return Err(format!(
+                "pixel ({}, {}) holds {p}: radiance must be finite and non-negative",
+                i % width,
+                i / width
+            ));
+        }
+        Ok(EnvMap { width, height, pixels })
+    }
+
+    /// Loads `.exr` or `.hdr` (by extension); errors name the file.
+    pub fn load(path: &Path) -> Result<EnvMap> {
+        if !path.exists() {
+            return Err(Error::Io {
+                path: path.to_path_buf(),
+                source: std::io::Error::new(std::io::ErrorKind::NotFound, "no such file"),
+            });
+        }
+        let ext = path.extension().map(|e| e.to_string_lossy().to_ascii_lowercase());
+        let (w, h, px) = match ext.as_deref() {
+            Some("exr") => read_exr(path)?,
+            Some("hdr") => read_hdr(path)?,
+            _ => return Err(image_err(path, "sky image: expected an .exr or .hdr file")),
+        };
+        EnvMap::new(w, h, px).map_err(|m| image_err(path, m))
+    }
+
+    /// Direction of the centre of pixel `(i, j)`.
+    pub fn direction(&self, i: usize, j: usize) -> Vec3 {
+        let phi = std::f64::consts::TAU * (i as f64 + 0.5) / self.width as f64;
+        let theta = std::f64::consts::PI * (j as f64 + 0.5) / self.height as f64;
+        let (st, ct) = theta.sin_cos();
+        Vec3::new((st * phi.cos()) as f32, ct as f32, (-st * phi.sin()) as f32)
+    }
+
+    /// Solid angle of a pixel of row `j`, sr.
+    pub fn pixel_solid_angle(&self, j: usize) -> f32 {
+        let theta = std::f64::consts::PI * (j as f64 + 0.5) / self.height as f64;
+        (std::f64::consts::TAU / self.width as f64 * std::f64::consts::PI / self.height as f64 * theta.sin()) as f32
+    }
+
+    /// Bilinear radiance along unit direction `d`.
+    pub fn lookup(&self, d: Vec3) -> Vec3 {
+        let theta = d.y.clamp(-1.0, 1.0).acos();
+        let mut phi = (-d.z).atan2(d.x);
+        if phi < 0.0 {
+            phi += std::f32::consts::TAU;
+        }
+        let x = phi / std::f32::consts::TAU * self.width as f32 - 0.5;
+        let y = (theta / std::f32::consts::PI * self.height as f32 - 0.5).clamp(0.0, (self.height - 1) as f32);
+        let (x0, y0) = (x.floor(), y.floor());
+        let (fx, fy) = (x - x0, y - y0);
+        let w = self.width as i64;
+        let col = |c: i64| c.rem_euclid(w) as usize;
+        let (c0, c1) = (col(x0 as i64), col(x0 as i64 + 1));
+        let (r0, r1) = (y0 as usize, (y0 as usize + 1).min(self.height - 1));
+        let p = |c: usize, r: usize| self.pixels[r * self.width + c];
+        (p(c0, r0) * (1.0 - fx) + p(c1, r0) * fx) * (1.0 - fy) + (p(c0, r1) * (1.0 - fx) + p(c1, r1) * fx) * fy
+    }
+}
+
+fn read_exr(path: &Path) -> Result<(usize, usize, Vec<Vec3>)> {
+    use exr::prelude::*;
+    let image = read_first_rgba_layer_from_file(
+        path,
+        |size, _| (size.width(), vec![Vec3::ZERO; size.width() * size.height()]),
+        |(w, px): &mut (usize, Vec<Vec3>), pos, (r, g, b, _a): (f32, f32, f32, f32)| {
+            px[pos.y() * *w + pos.x()] = Vec3::new(r, g, b);
+        },
+    )
+    .map_err(|e| image_err(path, format!("not a readable OpenEXR image: {e}")))?;
+    let size = image.layer_data.size;
+    let (_, px) = image.layer_data.channel_data.pixels;
+    Ok((size.width(), size.height(), px))
+}
+
+fn read_hdr(path: &Path) -> Result<(usize, usize, Vec<Vec3>)> {
+    let file = std::fs::File::open(path).map_err(|source| Error::Io { path: path.to_path_buf(), source })?;
+    let dec = image::codecs::hdr::HdrDecoder::new(std::io::BufReader::new(file))
+        .map_err(|e| image_err(path, format!("not a readable Radiance HDR image: {e}")))?;
+    let meta = dec.metadata();
+    let px = dec.read_image_hdr().map_err(|e| image_err(path, format!("Radiance HDR pixels: {e}")))?;
+    Ok((meta.width as usize, meta.height as usize, px.into_iter().map(|p| Vec3::from(p.0)).collect()))
+}
+
+/// Writes `map` as an OpenEXR file (tests and examples make sky images with it).
+pub fn write_exr(map: &EnvMap, path: &Path) -> Result<()> {
+    exr::prelude::write_rgb_file(path, map.width, map.height, |x, y| {
+        let p = map.pixels[y * map.width + x];
+        (p.x, p.y, p.z)
+    })
+    .map_err(|e| Error::Io { path: path.to_path_buf(), source: std::io::Error::other(e.to_string()) })
+}
