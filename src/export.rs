@@ -1,11 +1,14 @@
 //! Export of a solved scene for other tools: `mesh.ply` (binary little-endian
-//! PLY; per vertex position, normal, albedo, direct and smoothed indirect
-//! irradiance in W/m^2; faces as `uchar`-counted `uint` lists, in the
-//! solver's vertex order with transforms applied) and `scene.json` (lights,
-//! settings, stats).
+//! PLY; per vertex position, normal, albedo, direct, smoothed indirect and
+//! sky irradiance in W/m^2 and emitted exitance in W/m^2; faces as
+//! `uchar`-counted `uint` lists, in the solver's vertex order with
+//! transforms applied) and `scene.json` (lights, sky, emitters, settings,
+//! stats). Emitters' light reaches other vertices through links, so it is
+//! part of `e_indirect_*`.
 
 use crate::scene::prep::PreparedScene;
 use crate::scene::{Bounces, Light};
+use crate::sky::SkyModel;
 use crate::solver::{Solution, SolveStats};
 use crate::{Error, Result};
 use glam::Vec3;
@@ -14,7 +17,7 @@ use std::io::Write;
 use std::path::Path;
 
 /// Vertex properties written to the PLY, in order (all `float`).
-pub const PLY_VERTEX_PROPERTIES: [&str; 15] = [
+pub const PLY_VERTEX_PROPERTIES: [&str; 21] = [
     "x",
     "y",
     "z",
@@ -30,6 +33,12 @@ pub const PLY_VERTEX_PROPERTIES: [&str; 15] = [
     "e_indirect_r",
     "e_indirect_g",
     "e_indirect_b",
+    "e_sky_r",
+    "e_sky_g",
+    "e_sky_b",
+    "emission_r",
+    "emission_g",
+    "emission_b",
 ];
 
 fn io_err(path: &Path) -> impl FnOnce(std::io::Error) -> Error + '_ {
@@ -71,7 +80,15 @@ fn ply_with(scene: &PreparedScene, names: &[&str], vertex: impl Fn(usize) -> Vec
 /// Writes the PLY bytes for `scene` and `solution`.
 pub fn ply_bytes(scene: &PreparedScene, solution: &Solution) -> Vec<u8> {
     ply_with(scene, &PLY_VERTEX_PROPERTIES, |v| {
-        vec![scene.positions[v], scene.normals[v], scene.albedo[v], solution.e_direct[v], solution.e_indirect[v]]
+        vec![
+            scene.positions[v],
+            scene.normals[v],
+            scene.albedo[v],
+            solution.e_direct[v],
+            solution.e_indirect[v],
+            solution.e_sky.get(v).copied().unwrap_or_default(),
+            scene.emission[v],
+        ]
     })
 }
 
@@ -88,6 +105,21 @@ fn number_or_null(x: f64) -> serde_json::Value {
         json!(x)
     } else {
         serde_json::Value::Null
+    }
+}
+
+fn sky_model_json(m: &SkyModel) -> serde_json::Value {
+    match m {
+        SkyModel::Uniform { radiance } => json!({"kind": "uniform", "radiance": radiance.to_array()}),
+        SkyModel::Gradient { zenith, horizon, ground } => json!({
+            "kind": "gradient",
+            "zenith": zenith.to_array(),
+            "horizon": horizon.to_array(),
+            "ground": ground.to_array(),
+        }),
+        SkyModel::Image { path, map, .. } => {
+            json!({"kind": "image", "image": path.display().to_string(), "width": map.width, "height": map.height})
+        }
     }
 }
 
@@ -110,8 +142,30 @@ pub fn scene_json(scene: &PreparedScene, stats: &SolveStats) -> serde_json::Valu
         Bounces::Fixed(n) => json!(n),
         Bounces::Auto => json!("auto"),
     };
+    let emitters: Vec<_> = scene
+        .meshes
+        .iter()
+        .filter_map(|m| {
+            let r = m.vertices.start as usize..m.vertices.end as usize;
+            let max = scene.emission[r].iter().fold(Vec3::ZERO, |a, e| a.max(*e));
+            (max != Vec3::ZERO).then(|| json!({"mesh": m.name, "emission_max": max.to_array()}))
+        })
+        .collect();
+    let sky = scene.sky.as_ref().map(|k| {
+        let p = k.projection();
+        json!({
+            "description": k.describe(),
+            "model": sky_model_json(&k.model),
+            "rotate_deg": k.rotate_deg,
+            "intensity": k.intensity,
+            "sh_coefficients": p.coeffs.iter().map(|c| c.to_array()).collect::<Vec<_>>(),
+            "max_truncation": p.max_truncation.to_array(),
+        })
+    });
     json!({
         "lights": lights,
+        "sky": sky,
+        "emitters": emitters,
         "settings": {
             "rays_per_vertex": s.rays_per_vertex,
             "bounces": bounces,

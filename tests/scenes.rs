@@ -55,9 +55,10 @@ fn ply_export_carries_the_solution() {
     for p in linkgi::export::PLY_VERTEX_PROPERTIES {
         assert!(header.contains(&format!("property float {p}\n")), "{p}");
     }
-    assert_eq!(bytes.len(), header_end + n * 15 * 4 + t * 13);
+    let props = linkgi::export::PLY_VERTEX_PROPERTIES.len();
+    assert_eq!(bytes.len(), header_end + n * props * 4 + t * 13);
     // Vertex 7's indirect red and the last face read back.
-    let rec = header_end + 7 * 60;
+    let rec = header_end + 7 * props * 4;
     let f = |i: usize| f32::from_le_bytes(bytes[rec + 4 * i..rec + 4 * i + 4].try_into().unwrap());
     assert_eq!(f(0), solver.scene.positions[7].x);
     assert_eq!(f(12), sol.e_indirect[7].x);

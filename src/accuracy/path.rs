@@ -14,7 +14,6 @@
 use super::metrics::{error_stats, ErrorStats};
 use crate::reference::{self, Reference, ReferenceParams};
 use crate::scene::prep::PreparedScene;
-use glam::Vec3;
 use serde::Serialize;
 use std::time::Instant;
 
@@ -47,7 +46,7 @@ pub fn ladder(
     samples: &[u32],
     progress: &dyn Fn(usize, usize),
 ) -> Vec<PathRow> {
-    let total_ref: Vec<Vec3> = reference.e_direct.iter().zip(&reference.e_indirect).map(|(d, i)| *d + *i).collect();
+    let total_ref = reference.total();
     let se = &reference.e_indirect_stderr;
     let mut rows = Vec::new();
     for (k, &s) in samples.iter().enumerate() {
@@ -56,13 +55,13 @@ pub fn ladder(
         let t = Instant::now();
         let r = reference::compute(scene, &params);
         let ms = t.elapsed().as_secs_f64() * 1e3;
-        let total: Vec<Vec3> = r.e_direct.iter().zip(&r.e_indirect).map(|(d, i)| *d + *i).collect();
+        let total = r.total();
         rows.push(PathRow {
             samples: s,
             ms,
             e_indirect: error_stats(&r.e_indirect, &reference.e_indirect, se),
             e_direct: error_stats(&r.e_direct, &reference.e_direct, &[]),
-            e_total: error_stats(&total, &total_ref, se),
+            e_total: error_stats(&total, &total_ref, &reference.e_total_stderr),
         });
         progress(k + 1, samples.len());
     }

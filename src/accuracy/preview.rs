@@ -71,9 +71,7 @@ pub fn score(scene: &PreparedScene, smoothing_deg: f32) -> Option<PreviewRow> {
     solver.update_lights();
     let full = solver.solve();
     let full_ms = t.elapsed().as_secs_f64() * 1e3;
-    let total = |s: &crate::solver::Solution| -> Vec<Vec3> {
-        s.e_direct.iter().zip(&s.e_indirect).map(|(d, i)| *d + *i).collect()
-    };
+    let total = |s: &crate::solver::Solution| -> Vec<Vec3> { s.total() };
     Some(PreviewRow {
         rays: settings.rays_per_vertex,
         smoothing_deg,

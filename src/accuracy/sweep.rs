@@ -82,7 +82,7 @@ pub fn sweep(
     } else {
         30.0
     });
-    let total_ref: Vec<Vec3> = reference.e_direct.iter().zip(&reference.e_indirect).map(|(d, i)| *d + *i).collect();
+    let total_ref = reference.total();
     let mut rows = Vec::new();
     for (k, &rays) in params.rays.iter().enumerate() {
         let mut settings = scene.settings;
@@ -92,7 +92,9 @@ pub fn sweep(
         let (kd_ms, links_ms, light_ms) = (solver.accel_build_ms(), solver.links.stats.shoot_ms, solver.light_links.ms);
         let n = solver.scene.vertex_count();
         let e_direct = solver.light_links.direct(&solver.scene.lights, n);
-        let e_source = solver.light_links.bounce_source(&solver.scene.lights, n);
+        let e_sky = solver.e_sky();
+        let mut e_source = solver.light_links.bounce_source(&solver.scene.lights, n);
+        e_source.iter_mut().zip(&e_sky).for_each(|(e, k)| *e += *k);
         let ed_err = error_stats(&e_direct, &reference.e_direct, &[]);
         for &b in &params.bounces {
             let gp = exchange::GatherParams { bounces: b, ..solve_params.gather };
@@ -104,7 +106,7 @@ pub fn sweep(
                 let t = Instant::now();
                 let e_i = solver.smooth(&e_source, &e_raw, smoothing);
                 let smooth_ms = t.elapsed().as_secs_f64() * 1e3;
-                let total: Vec<Vec3> = e_direct.iter().zip(&e_i).map(|(d, i)| *d + *i).collect();
+                let total: Vec<Vec3> = (0..n).map(|v| e_direct[v] + e_sky[v] + e_i[v]).collect();
                 rows.push(SweepRow {
                     rays,
                     bounces: label(b),
@@ -118,7 +120,7 @@ pub fn sweep(
                     total_ms: kd_ms + links_ms + light_ms + g.ms + smooth_ms,
                     e_indirect: error_stats(&e_i, &reference.e_indirect, &reference.e_indirect_stderr),
                     e_direct: ed_err,
-                    e_total: error_stats(&total, &total_ref, &reference.e_indirect_stderr),
+                    e_total: error_stats(&total, &total_ref, &reference.e_total_stderr),
                 });
             }
         }

@@ -1,9 +1,10 @@
 //! Disk cache of reference results: one file `<key>.ref` per scene and
 //! parameter set, where the key is a 64-bit FNV-1a hash of the geometry
-//! (positions, normals, triangles), albedo, lights and reference parameters
-//! and a format version. The file holds a magic tag, the vertex count and
-//! `E_d`, `E_i` and the standard error of `E_i` per vertex as little-endian
-//! `f32` (W/m^2). A file that does not match (size, magic, count) is ignored.
+//! (positions, normals, triangles), albedo, emission, sky (its description
+//! and coefficients), lights and reference parameters and a format version.
+//! The file holds a magic tag, the vertex count and `E_d`, `E_sky`, `E_i`
+//! and the standard errors of `E_i` and of `E_sky + E_i` per vertex as
+//! little-endian `f32` (W/m^2). A file that does not match (size, magic, count) is ignored.
 
 use super::{Reference, ReferenceParams};
 use crate::scene::prep::PreparedScene;
@@ -11,9 +12,11 @@ use crate::scene::Light;
 use glam::Vec3;
 use std::path::{Path, PathBuf};
 
-const MAGIC: &[u8; 8] = b"LGIREF01";
+const MAGIC: &[u8; 8] = b"LGIREF02";
 /// Bump when the estimator changes, so old cached results are not reused.
-const VERSION: u64 = 2;
+const VERSION: u64 = 3;
+/// Per-vertex Vec3 parts stored: E_d, E_sky, E_i, stderr of E_i, stderr of E_sky + E_i.
+const PARTS: usize = 5;
 
 /// 64-bit FNV-1a.
 struct Fnv(u64);
@@ -50,6 +53,13 @@ pub fn key(scene: &PreparedScene, params: &ReferenceParams) -> u64 {
     h.f32s(&v3(&scene.positions));
     h.f32s(&v3(&scene.normals));
     h.f32s(&v3(&scene.albedo));
+    h.f32s(&v3(&scene.emission));
+    if let Some(sky) = &scene.sky {
+        let p = sky.projection();
+        h.bytes(sky.describe().as_bytes());
+        h.f32s(&v3(&p.coeffs));
+        h.f32s(&p.max_truncation.to_array());
+    }
     h.u64(scene.triangles.len() as u64);
     h.bytes(bytemuck::cast_slice(&scene.triangles));
     for l in &scene.lights {
@@ -80,7 +90,7 @@ fn file(dir: &Path, key: u64) -> PathBuf {
 /// The cached result for `key`, if a valid one for `n` vertices is there.
 pub fn load(dir: &Path, key: u64, n: usize, params: &ReferenceParams) -> Option<Reference> {
     let bytes = std::fs::read(file(dir, key)).ok()?;
-    if bytes.len() != 16 + 36 * n || &bytes[..8] != MAGIC || bytes[8..16] != (n as u64).to_le_bytes() {
+    if bytes.len() != 16 + 12 * PARTS * n || &bytes[..8] != MAGIC || bytes[8..16] != (n as u64).to_le_bytes() {
         return None;
     }
     let floats: Vec<f32> = bytes[16..].chunks_exact(4).map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]])).collect();
@@ -88,8 +98,10 @@ pub fn load(dir: &Path, key: u64, n: usize, params: &ReferenceParams) -> Option<
         |k: usize| -> Vec<Vec3> { floats[k * 3 * n..(k + 1) * 3 * n].chunks_exact(3).map(Vec3::from_slice).collect() };
     Some(Reference {
         e_direct: part(0),
-        e_indirect: part(1),
-        e_indirect_stderr: part(2),
+        e_sky: part(1),
+        e_indirect: part(2),
+        e_indirect_stderr: part(3),
+        e_total_stderr: part(4),
         params: *params,
         ms: 0.0,
         from_cache: true,
@@ -100,10 +112,10 @@ pub fn load(dir: &Path, key: u64, n: usize, params: &ReferenceParams) -> Option<
 pub fn store(dir: &Path, key: u64, r: &Reference) -> std::io::Result<()> {
     std::fs::create_dir_all(dir)?;
     let n = r.e_direct.len();
-    let mut bytes = Vec::with_capacity(16 + 36 * n);
+    let mut bytes = Vec::with_capacity(16 + 12 * PARTS * n);
     bytes.extend_from_slice(MAGIC);
     bytes.extend_from_slice(&(n as u64).to_le_bytes());
-    for part in [&r.e_direct, &r.e_indirect, &r.e_indirect_stderr] {
+    for part in [&r.e_direct, &r.e_sky, &r.e_indirect, &r.e_indirect_stderr, &r.e_total_stderr] {
         for v in part.iter() {
             for x in v.to_array() {
                 bytes.extend_from_slice(&x.to_le_bytes());

@@ -17,6 +17,14 @@
 //!   path's estimate is `sum_k (prod_{j<=k} rho(y_j)) * E_d(y_k)` along the
 //!   path `x -> y_1 -> y_2 ...` (next-event estimation at every `y_k`), ended
 //!   by Russian roulette after `rr_start` bounces and cut at `max_depth`.
+//!   Emitters add `prod_{j<k} rho(y_j) * M_e(y_k)` (their radiance `M_e/pi`
+//!   times pi per cosine-sampled direction) at every `y_k`, the vertex's
+//!   own emission included when a ray dives under its own triangle.
+//! - Sky: a path that leaves the scene along `w` adds `pi L_sky(w)` times
+//!   its throughput. Leaving along the vertex's own first direction is
+//!   direct sky light, `E_sky` (reported apart from `E_i`); after a bounce
+//!   it is indirect. No next-event estimation toward the sky: unbiased,
+//!   noisier for small openings.
 //!   The first direction of the samples of a vertex is stratified on a
 //!   jittered grid; the rest are independent.
 //! - Standard error of `E_i`: with the `k x k` strata, the sample variance
@@ -31,8 +39,7 @@
 //!   barycentrically from the vertices, the normal is `f`'s geometric normal
 //!   (the flat triangle is the surface: this conserves energy exactly in a
 //!   closed scene), and `E_d(y)` is evaluated at `y` itself. A back face
-//!   ends the path (it brings no light); a ray that leaves the scene adds
-//!   nothing.
+//!   ends the path (it brings no light).
 //! - At the vertex `x` the hemisphere is around the vertex normal. Rays
 //!   start `offset * l` (l: mean incident edge length) off the surface along
 //!   the normal and toward the one-ring, so rays along a crease land on the
@@ -104,11 +111,24 @@ pub struct Reference {
     pub e_indirect: Vec<Vec3>,
     /// Standard error of each `e_indirect` estimate (paired-strata estimate, see the module doc), W/m^2.
     pub e_indirect_stderr: Vec<Vec3>,
+    /// Irradiance from the sky (rays from the vertex that leave the scene), W/m^2.
+    pub e_sky: Vec<Vec3>,
+    /// Standard error of `e_sky + e_indirect`, the noise of the total, W/m^2.
+    pub e_total_stderr: Vec<Vec3>,
     pub params: ReferenceParams,
     /// Wall-clock time of the computation (0 when loaded from the cache), ms.
     pub ms: f64,
     /// True if the result was read from the disk cache.
     pub from_cache: bool,
+}
+
+impl Reference {
+    /// Total irradiance `E_d + E_sky + E_i` per vertex, W/m^2.
+    pub fn total(&self) -> Vec<Vec3> {
+        (0..self.e_direct.len())
+            .map(|v| self.e_direct[v] + self.e_sky.get(v).copied().unwrap_or_default() + self.e_indirect[v])
+            .collect()
+    }
 }
 
 /// Computes the reference with a wide BVH built here (the fastest CPU tracer).
@@ -121,13 +141,15 @@ pub fn compute(scene: &PreparedScene, params: &ReferenceParams) -> Reference {
 pub fn compute_with_tree(scene: &PreparedScene, accel: &dyn CpuTracer, params: &ReferenceParams) -> Reference {
     let start = Instant::now();
     let tracer = path::Tracer::new(scene, accel, params);
-    let per_vertex: Vec<(Vec3, Vec3, Vec3)> =
+    let per_vertex: Vec<path::VertexEstimate> =
         (0..scene.vertex_count()).into_par_iter().map(|v| tracer.vertex(v)).collect();
     let mut out = Reference { params: *params, ..Default::default() };
-    for (d, i, s) in per_vertex {
-        out.e_direct.push(d);
-        out.e_indirect.push(i);
-        out.e_indirect_stderr.push(s);
+    for e in per_vertex {
+        out.e_direct.push(e.e_direct);
+        out.e_sky.push(e.e_sky);
+        out.e_indirect.push(e.e_indirect);
+        out.e_indirect_stderr.push(e.e_indirect_stderr);
+        out.e_total_stderr.push(e.e_total_stderr);
     }
     out.ms = start.elapsed().as_secs_f64() * 1e3;
     out

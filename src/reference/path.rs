@@ -123,8 +123,8 @@ impl<'a> Tracer<'a> {
         e
     }
 
-    /// `(E_d, E_i, standard error of E_i)` of vertex `v`.
-    pub fn vertex(&self, v: usize) -> (Vec3, Vec3, Vec3) {
+    /// Vertex `v`'s estimates.
+    pub fn vertex(&self, v: usize) -> VertexEstimate {
         let s = self.scene;
         let (origin, offset) = self.vertex_origin(v);
         let n = s.normals[v];
@@ -136,6 +136,18 @@ impl<'a> Tracer<'a> {
         let k = (samples as f64).sqrt() as u32;
         let stratified = k * k == samples;
         let (mut sum, mut sum2, mut pairs2, mut first) = (DVec3::ZERO, DVec3::ZERO, DVec3::ZERO, DVec3::ZERO);
+        // The same for the sky part and for sky + indirect.
+        let mut sky = [DVec3::ZERO; 4];
+        let mut both = [DVec3::ZERO; 4];
+        let moments = |m: &mut [DVec3; 4], i: u32, x: DVec3| {
+            m[0] += x;
+            m[1] += x * x;
+            if i % 2 == 0 {
+                m[3] = x;
+            } else {
+                m[2] += (x - m[3]) * (x - m[3]);
+            }
+        };
         for i in 0..samples {
             let (j1, j2): (f32, f32) = (rng.random(), rng.random());
             let (u1, u2) = if stratified {
@@ -144,7 +156,10 @@ impl<'a> Tracer<'a> {
                 (j1, j2)
             };
             let dir = cosine_direction(n, u1.min(1.0 - f32::EPSILON), u2);
-            let est = self.path(v, origin, n, e_d, dir, &mut rng).as_dvec3();
+            let (sky_part, est) = self.path(v, origin, n, e_d, dir, &mut rng);
+            let (sky_part, est) = (sky_part.as_dvec3(), est.as_dvec3());
+            moments(&mut sky, i, sky_part);
+            moments(&mut both, i, sky_part + est);
             sum += est;
             sum2 += est * est;
             if i % 2 == 0 {
@@ -154,19 +169,31 @@ impl<'a> Tracer<'a> {
             }
         }
         let m = samples as f64;
-        let mean = sum / m;
         // Variance of one sample: across neighbouring strata (pairs 2j, 2j+1)
         // when stratified, else the sample variance (see the module doc).
         let pairs = (samples / 2) as f64;
-        let var = if stratified && pairs > 0.0 {
-            pairs2 / (2.0 * pairs)
-        } else {
-            ((sum2 / m - mean * mean) * (m / (m - 1.0).max(1.0))).max(DVec3::ZERO)
+        let stderr = |sum: DVec3, sum2: DVec3, pairs2: DVec3| {
+            let mean = sum / m;
+            let var = if stratified && pairs > 0.0 {
+                pairs2 / (2.0 * pairs)
+            } else {
+                ((sum2 / m - mean * mean) * (m / (m - 1.0).max(1.0))).max(DVec3::ZERO)
+            };
+            (var / m).map(f64::sqrt).as_vec3()
         };
-        (e_d, mean.as_vec3(), (var / m).map(f64::sqrt).as_vec3())
+        VertexEstimate {
+            e_direct: e_d,
+            e_sky: (sky[0] / m).as_vec3(),
+            e_indirect: (sum / m).as_vec3(),
+            e_indirect_stderr: stderr(sum, sum2, pairs2),
+            e_total_stderr: stderr(both[0], both[1], both[2]),
+        }
     }
 
-    /// One path's estimate of `E_i` at vertex `v`, starting along `dir`.
+    /// One path's estimates `(E_sky, E_i)` at vertex `v`, starting along
+    /// `dir`: the sky seen along `dir` itself is direct sky light, all
+    /// else (emission and sky met after a surface, light reflected by
+    /// surfaces) is indirect.
     fn path(
         &self,
         v: usize,
@@ -175,7 +202,7 @@ impl<'a> Tracer<'a> {
         v_direct: Vec3,
         mut dir: Vec3,
         rng: &mut Pcg64Mcg,
-    ) -> Vec3 {
+    ) -> (Vec3, Vec3) {
         let s = self.scene;
         let mut at = At::Vertex;
         let mut beta = Vec3::ONE;
@@ -186,22 +213,35 @@ impl<'a> Tracer<'a> {
                 At::Triangle { origin, .. } => origin,
             };
             let ray = Ray { origin, dir, tmin: 0.0, tmax: f32::INFINITY, skip: NO_SKIP };
-            let Some(hit) = self.kd.intersect(&ray) else { break };
+            let Some(hit) = self.kd.intersect(&ray) else {
+                // Left the scene: sky radiance, pi L per cosine-sampled direction.
+                if let Some(sky) = &s.sky {
+                    let l = beta * sky.radiance(dir) * PI;
+                    if depth == 0 {
+                        return (l, est);
+                    }
+                    est += l;
+                }
+                break;
+            };
             let tri = s.triangles[hit.tri as usize];
-            let (rho, e_d, next) = if hit.front {
+            let (rho, e_d, emitted, next) = if hit.front {
                 let w = hit.barycentrics();
                 let p = (0..3).map(|k| s.positions[tri[k] as usize] * w[k]).sum::<Vec3>();
                 let rho = (0..3).map(|k| s.albedo[tri[k] as usize] * w[k]).sum::<Vec3>();
+                let m_e = (0..3).map(|k| s.emission[tri[k] as usize] * w[k]).sum::<Vec3>();
                 let normal = self.tri_normals[hit.tri as usize];
                 let o = p + normal * self.tri_offsets[hit.tri as usize];
                 let e_d = self.direct(p, normal, o, self.tri_offsets[hit.tri as usize]);
-                (rho, e_d, At::Triangle { origin: o, normal })
+                (rho, e_d, m_e, At::Triangle { origin: o, normal })
             } else if matches!(at, At::Vertex) && tri.contains(&(v as u32)) {
                 // Dived under one of the vertex's own triangles: a hit at the vertex itself.
-                (s.albedo[v], v_direct, At::Vertex)
+                (s.albedo[v], v_direct, s.emission[v], At::Vertex)
             } else {
                 break; // a back face brings no light
             };
+            // Emitted radiance M_e / pi, times pi per cosine-sampled direction.
+            est += beta * emitted;
             beta *= rho;
             est += beta * e_d;
             if depth + 1 >= self.params.rr_start {
@@ -222,6 +262,17 @@ impl<'a> Tracer<'a> {
             dir = cosine_direction(n, u1, u2);
             at = next;
         }
-        est
+        (Vec3::ZERO, est)
     }
+}
+
+/// One vertex's reference estimates, W/m^2.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct VertexEstimate {
+    pub e_direct: Vec3,
+    pub e_sky: Vec3,
+    pub e_indirect: Vec3,
+    pub e_indirect_stderr: Vec3,
+    /// Standard error of `e_sky + e_indirect`.
+    pub e_total_stderr: Vec3,
 }

@@ -202,6 +202,15 @@ pub struct Solution {
     pub smoothed: bool,
 }
 
+impl Solution {
+    /// Total irradiance `E_d + E_sky + E_i` per vertex, W/m^2.
+    pub fn total(&self) -> Vec<Vec3> {
+        (0..self.e_direct.len())
+            .map(|v| self.e_direct[v] + self.e_sky.get(v).copied().unwrap_or_default() + self.e_indirect[v])
+            .collect()
+    }
+}
+
 /// A scene with its acceleration structure, vertex links and light links built.
 pub struct Solver {
     pub scene: PreparedScene,
