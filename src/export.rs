@@ -152,14 +152,11 @@ pub fn scene_json(scene: &PreparedScene, stats: &SolveStats) -> serde_json::Valu
         })
         .collect();
     let sky = scene.sky.as_ref().map(|k| {
-        let p = k.projection();
         json!({
             "description": k.describe(),
             "model": sky_model_json(&k.model),
             "rotate_deg": k.rotate_deg,
             "intensity": k.intensity,
-            "sh_coefficients": p.coeffs.iter().map(|c| c.to_array()).collect::<Vec<_>>(),
-            "max_truncation": p.max_truncation.to_array(),
         })
     });
     json!({

@@ -100,15 +100,16 @@ pub fn load(scene: &str, overrides: &Overrides) -> Result<SceneDesc> {
 }
 
 /// Steps 1-4: [`load`], then prepares the scene and warns about dropped
-/// triangles and a scene without lights.
+/// triangles and a scene without any light (lights, emitters or sky).
 pub fn setup(scene: &str, overrides: &Overrides) -> Result<Setup> {
     let desc = load(scene, overrides)?;
     let prepared = prep::prepare(&desc).with_context(|| format!("preparing scene {scene}"))?;
     if prepared.dropped_triangles > 0 {
         eprintln!("warning: dropped {} zero-area triangles", prepared.dropped_triangles);
     }
-    if prepared.lights.is_empty() {
-        eprintln!("warning: the scene has no lights: all irradiance is zero");
+    let emits = prepared.emission.iter().any(|e| *e != glam::Vec3::ZERO);
+    if prepared.lights.is_empty() && prepared.sky.is_none() && !emits {
+        eprintln!("warning: the scene has no lights, emitters or sky: all irradiance is zero");
     }
     let settings = desc.settings;
     Ok(Setup { desc, prepared, settings })

@@ -114,6 +114,20 @@ pub fn run(args: SolveArgs) -> Result<()> {
             mb(s.ray_state_bytes)
         );
     }
+    if let Some(sky) = &solver.scene.sky {
+        let seeing = solution.e_sky.iter().filter(|e| **e != glam::Vec3::ZERO).count();
+        println!(
+            "sky              {} ({} vertices see it, mean E_sky {:.3} W/m^2, visibility {:.2} MB)",
+            sky.describe(),
+            seeing,
+            solution.e_sky.iter().map(|e| e.element_sum() / 3.0).sum::<f32>() / solution.e_sky.len().max(1) as f32,
+            mb(solver.links.sky.bytes())
+        );
+    }
+    let emitters = solver.scene.emission.iter().filter(|e| **e != glam::Vec3::ZERO).count();
+    if emitters > 0 {
+        println!("emitters         {emitters} vertices emit");
+    }
     println!("prep ms          {prep_ms:.1}");
     println!("{} build ms     {:.1}", if s.bvh.is_some() { "bvh" } else { "kd " }, s.accel_build_ms);
     println!("links ms         {:.1} ({:.2} M rays/s)", s.links.shoot_ms, s.links.rays_per_second() / 1e6);

@@ -98,8 +98,7 @@ fn merge_batch(setup: &RaySetup, triangles: &[[u32; 3]], first: usize, hits: &mu
             let mut run = GroupRun::new(first + ci * CHUNK);
             for (i, vh) in chunk.chunks_mut(rays).enumerate() {
                 fix_wedges(setup, run.first + i, vh);
-                let v = run.first + i;
-                run.push_vertex(vh, setup.world_directions(v), triangles, weight_per_ray);
+                run.push_vertex(vh, triangles, weight_per_ray);
             }
             run
         })

@@ -11,9 +11,8 @@
 
 use super::merge::{merge_vertex_sums, HitRecord, MergeScratch, HIT_MISS};
 use super::{LinkStats, Links};
-use crate::sky::visibility::{project_misses, VertexSky};
+use crate::sky::visibility::miss_mask;
 use crate::sky::SkyVisibility;
-use glam::Vec3;
 use half::f16;
 
 /// Bytes of one merged link as stored (u32 target + f16 weight).
@@ -38,8 +37,8 @@ pub struct GroupRun {
     /// only when the run records them ([`GroupRun::recording`]).
     pub sums: Vec<u32>,
     /// Sky visibility of the vertices of the run whose rays missed:
-    /// `(vertex, coefficients)` ([`crate::sky::visibility`]).
-    pub sky: Vec<(usize, VertexSky)>,
+    /// `(vertex, miss mask)` ([`crate::sky::visibility`]).
+    pub sky: Vec<(usize, Vec<u64>)>,
     pub stats: LinkStats,
     record_sums: bool,
     scratch: MergeScratch,
@@ -57,15 +56,8 @@ impl GroupRun {
 
     /// Appends the next vertex's group, merged from its hit records (one
     /// per ray; triangles give the hit triangles' corner vertices), and
-    /// its sky visibility from the rays that missed (`dirs`: the rays'
-    /// world directions in the same order, read only if one missed).
-    pub fn push_vertex(
-        &mut self,
-        hits: &[HitRecord],
-        dirs: impl Iterator<Item = Vec3>,
-        triangles: &[[u32; 3]],
-        weight_per_ray: f64,
-    ) {
+    /// notes which of its rays missed (its sky visibility).
+    pub fn push_vertex(&mut self, hits: &[HitRecord], triangles: &[[u32; 3]], weight_per_ray: f64) {
         let v = self.first + self.counts.len();
         let before = self.targets.len();
         let sums = self.record_sums.then_some(&mut self.sums);
@@ -86,9 +78,8 @@ impl GroupRun {
         st.misses += c.miss as u64;
         st.raw_links += 3 * c.front as u64;
         if c.miss > 0 {
-            let rays = hits.iter().map(|h| h.tri == HIT_MISS).zip(dirs);
-            if let Some(s) = project_misses(rays, weight_per_ray as f32) {
-                self.sky.push((v, s));
+            if let Some(m) = miss_mask(hits.iter().map(|h| h.tri == HIT_MISS), hits.len()) {
+                self.sky.push((v, m));
             }
         }
     }
@@ -112,7 +103,7 @@ impl GroupRun {
 pub struct CsrBuilder {
     links: Links,
     sums: Vec<u32>,
-    sky: Vec<(usize, VertexSky)>,
+    sky: Vec<(usize, Vec<u64>)>,
 }
 
 impl CsrBuilder {

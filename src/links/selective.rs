@@ -48,7 +48,7 @@ use crate::kdtree::triangle::{intersect, RayShear};
 use crate::kdtree::{Hit, KdTriangle};
 use crate::scene::motion::Motion;
 use crate::scene::prep::PreparedScene;
-use crate::sky::visibility::{project_misses, VertexSky};
+use crate::sky::visibility::miss_mask;
 use crate::trace::CpuTracer;
 use glam::Vec3;
 use half::f16;
@@ -100,8 +100,8 @@ struct Patch {
     targets: Vec<u32>,
     weights: Vec<f16>,
     sums: Vec<u32>,
-    /// The vertex's sky visibility after the update (None: no ray missed).
-    sky: Option<VertexSky>,
+    /// The vertex's miss mask after the update (None: no ray missed).
+    sky: Option<Vec<u64>>,
     new: [u64; 3],
     old: [u64; 3],
 }
@@ -428,9 +428,8 @@ pub fn reshoot(
                 let v = c * CHUNK + i;
                 let (mut p, traced) = ctx.vertex(v, row, scratch);
                 if let Some(p) = &mut p {
-                    // Its sky visibility from all its rays, as a full shoot computes it.
-                    let misses = row.iter().map(|&id| id == HIT_MISS).zip(ctx.setup.world_directions(v));
-                    p.sky = project_misses(misses, ctx.weight_per_ray as f32);
+                    // Its sky visibility from all its rays, as a full shoot records it.
+                    p.sky = miss_mask(row.iter().map(|&id| id == HIT_MISS), rays);
                 }
                 if motion.remade[v] {
                     remade_rays += traced;
@@ -466,12 +465,7 @@ pub fn reshoot(
                     s.back_hits = s.back_hits + p.new[1] - p.old[1];
                     s.misses = s.misses + p.new[2] - p.old[2];
                     stats.groups_patched += 1;
-                    if p.sky.is_some() && sky.is_empty() {
-                        sky.coeffs = vec![[0.0; crate::sky::sh::COEFFS]; n];
-                    }
-                    if !sky.is_empty() {
-                        sky.coeffs[v] = p.sky.unwrap_or_default();
-                    }
+                    sky.set(v, n, rays, p.sky.as_deref());
                 }
                 None => {
                     let (t, w) = links.group(v);
@@ -492,9 +486,7 @@ pub fn reshoot(
     stats.ms = start.elapsed().as_secs_f64() * 1e3;
     link_stats.shoot_ms = stats.ms;
     out.stats = link_stats;
-    if sky.coeffs.iter().all(|c| c.iter().all(|&x| x == 0.0)) {
-        sky.coeffs = Vec::new();
-    }
+    sky.compact();
     out.sky = sky;
     *sums = new_sums;
     (out, stats)

@@ -22,7 +22,7 @@ use super::merge::{HitRecord, HIT_BACK, HIT_MISS};
 use super::selective::RayHits;
 use super::Links;
 use crate::kdtree::Hit;
-use crate::sampling::{vertex_frame, vertex_rotations, DirectionSet};
+use crate::sampling::{vertex_frame, vertex_rotations, world_direction, DirectionSet};
 use crate::scene::prep::PreparedScene;
 use crate::trace::CpuTracer;
 use glam::Vec3;
@@ -132,8 +132,8 @@ impl RaySetup {
     /// is computed once).
     #[inline]
     pub fn world_directions(&self, v: usize) -> impl Iterator<Item = Vec3> + '_ {
-        let (t, b, n) = vertex_frame(self.normals[v], self.rotations[v]);
-        self.directions.dirs.iter().map(move |d| (t * d.x + b * d.y + n * d.z).normalize())
+        let frame = vertex_frame(self.normals[v], self.rotations[v]);
+        self.directions.dirs.iter().map(move |d| world_direction(frame, *d))
     }
 
     /// Traces all rays of vertex `v` with `tracer` into `out` (one record per ray).
@@ -247,7 +247,7 @@ pub fn shoot_links_recording(
                     if record {
                         chunk_ids.extend(hits.iter().map(|h| h.tri));
                     }
-                    run.push_vertex(&hits, setup.world_directions(v), &scene.triangles, weight_per_ray);
+                    run.push_vertex(&hits, &scene.triangles, weight_per_ray);
                 }
                 (run, chunk_ids)
             })

@@ -9,6 +9,7 @@
 use super::{Reference, ReferenceParams};
 use crate::scene::prep::PreparedScene;
 use crate::scene::Light;
+use crate::sky::SkyModel;
 use glam::Vec3;
 use std::path::{Path, PathBuf};
 
@@ -55,10 +56,13 @@ pub fn key(scene: &PreparedScene, params: &ReferenceParams) -> u64 {
     h.f32s(&v3(&scene.albedo));
     h.f32s(&v3(&scene.emission));
     if let Some(sky) = &scene.sky {
-        let p = sky.projection();
         h.bytes(sky.describe().as_bytes());
-        h.f32s(&v3(&p.coeffs));
-        h.f32s(&p.max_truncation.to_array());
+        h.f32s(&[sky.rotate_deg, sky.intensity]);
+        match &sky.model {
+            SkyModel::Uniform { radiance } => h.f32s(&radiance.to_array()),
+            SkyModel::Gradient { zenith, horizon, ground } => h.f32s(&v3(&[*zenith, *horizon, *ground])),
+            SkyModel::Image { map, .. } => h.f32s(&v3(&map.pixels)),
+        }
     }
     h.u64(scene.triangles.len() as u64);
     h.bytes(bytemuck::cast_slice(&scene.triangles));

@@ -1,7 +1,7 @@
 //! Built-in scenes, generated in code (deterministic: the same scene every call).
 //!
-//! Units are metres, y up. Every room is a closed box whose faces point
-//! inward, so no ray leaves the scene; cameras stand inside the rooms; all
+//! Units are metres, y up. Every room but `window`'s is a closed box whose
+//! faces point inward, so no ray leaves the scene; cameras stand inside the rooms; all
 //! albedos are below 0.9. Furniture and figures are separate meshes from the
 //! room. No face lies hidden against, or buried in, another surface (as in
 //! the original Cornell box data): what stands on the floor, a table top or
@@ -28,6 +28,12 @@
 //!   outer surfaces (a thin closed shell, open at top and bottom) around a
 //!   point light, so the room is lit mostly by light bounced off the shade.
 //!   About 1600 vertices (the paper's COLORLAMP).
+//! - `window`: `colorlamp`'s room with a 1 x 1 m window in the +x wall
+//!   onto a gradient sky (zenith (2.0, 2.6, 3.6), horizon (2.2, 2.2, 2.1),
+//!   ground (0.5, 0.45, 0.35) W/(m^2 sr)), the cabinet, and the lamp whose
+//!   shade glows (exitance (30, 17, 4) W/m^2) with no point light: the
+//!   scene of emitters and sky light. The only built-in scene that is
+//!   not closed.
 //! - `torso`: a figure (superellipsoid body, sphere head, neck, cylinder arms
 //!   and legs, separate pieces in one *dynamic* mesh) standing in a
 //!   4 x 2.8 x 4 m room, two point lights. About 7100 vertices (TORSO).
@@ -53,7 +59,7 @@ use std::f32::consts::{FRAC_PI_2, PI, TAU};
 
 /// Names accepted by [`builtin`].
 pub const NAMES: &[&str] =
-    &["cornell", "furnace", "colorlamp", "torso", "tearoom", "dancer", "sculpture", "conference"];
+    &["cornell", "furnace", "colorlamp", "window", "torso", "tearoom", "dancer", "sculpture", "conference"];
 
 /// The built-in scene of this name, if there is one.
 pub fn builtin(name: &str) -> Option<SceneDesc> {
@@ -61,6 +67,7 @@ pub fn builtin(name: &str) -> Option<SceneDesc> {
         "cornell" => cornell(),
         "furnace" => furnace(0.5, 4, Vec3::new(0.3, -0.2, 0.1), 1.0),
         "colorlamp" => colorlamp(),
+        "window" => window(),
         "torso" => torso(),
         "tearoom" => tearoom(),
         "dancer" => dancer(),
@@ -268,9 +275,23 @@ fn colorlamp() -> SceneDesc {
     );
 
     let lamp_at = Vec3::new(-1.0, 0.0, -1.0);
+    scene(
+        "colorlamp",
+        camera(Vec3::new(1.6, 1.4, 1.7), Vec3::new(-0.6, 0.9, -0.7), 60.0),
+        vec![r.finish("colorlamp/room", 30.0), floor_lamp("colorlamp/lamp", lamp_at, Vec3::ZERO), cabinet("colorlamp")],
+        vec![point(lamp_at + Vec3::new(0.0, 1.47, 0.0), Vec3::new(2.5, 2.3, 2.0))],
+    )
+}
+
+/// The floor lamp of `colorlamp` and `window` standing at `at`: base disc
+/// and stand, and the orange conical shade, whose material emits
+/// `shade_emission` (W/m^2, both sides).
+fn floor_lamp(name: &str, at: Vec3, shade_emission: Vec3) -> MeshDesc {
+    let lamp_at = at;
     let mut l = MeshBuilder::new();
     let metal = l.add_material("metal", Vec3::new(0.3, 0.3, 0.32));
     let orange = l.add_material("shade", Vec3::new(0.8, 0.45, 0.1));
+    l.materials[orange as usize].emission = shade_emission;
     // Base disc and stand as one surface of revolution, open at the bottom
     // where the base stands on the floor.
     let mut profile = vec![
@@ -284,19 +305,51 @@ fn colorlamp() -> SceneDesc {
     profile.push(Vec2::new(0.0, 1.38));
     l.revolve(lamp_at, &profile, 16, metal, false);
     shade(&mut l, lamp_at + Vec3::new(0.0, 1.32, 0.0), 0.26, 0.15, 0.3, 0.006, 36, 5, orange);
+    l.finish(name, 50.0)
+}
 
-    // A low cabinet against the far wall catches the lamp's light.
+/// The low cabinet against the far wall of `colorlamp` and `window`.
+fn cabinet(scene: &str) -> MeshDesc {
     let mut f = MeshBuilder::new();
     let wood = f.add_material("wood", Vec3::new(0.5, 0.32, 0.18));
     let (lo, hi) = (Vec3::new(0.2, 0.0, -1.95), Vec3::new(1.4, 0.6, -1.5));
     f.cuboid_open(lo, hi, divisions(hi - lo, 0.15), standing(wood), false);
+    f.finish(&format!("{scene}/cabinet"), 30.0)
+}
 
-    scene(
-        "colorlamp",
-        camera(Vec3::new(1.6, 1.4, 1.7), Vec3::new(-0.6, 0.9, -0.7), 60.0),
-        vec![r.finish("colorlamp/room", 30.0), l.finish("colorlamp/lamp", 50.0), f.finish("colorlamp/cabinet", 30.0)],
-        vec![point(lamp_at + Vec3::new(0.0, 1.47, 0.0), Vec3::new(2.5, 2.3, 2.0))],
-    )
+/// `colorlamp`'s room with a window: a 1 x 1 m opening in the +x wall
+/// (y in [1, 2], z in [-0.5, 0.5]) onto a gradient sky, the cabinet, and
+/// the floor lamp with its shade glowing (exitance (30, 17, 4) W/m^2 on
+/// both sides) instead of a point light.
+fn window() -> SceneDesc {
+    let mut r = MeshBuilder::new();
+    let wall = r.add_material("wall", Vec3::splat(0.7));
+    let blue = r.add_material("blue wall", Vec3::new(0.3, 0.4, 0.65));
+    let floor = r.add_material("floor", Vec3::new(0.55, 0.4, 0.28));
+    let ceiling = r.add_material("ceiling", Vec3::splat(0.8));
+    // A 0.25 m grid (exact in binary); the +x face's cells are (y, z): the
+    // window is cells y 4..8, z 6..10.
+    r.cuboid_holed(
+        Vec3::new(-2.0, 0.0, -2.0),
+        Vec3::new(2.0, 2.5, 2.0),
+        [16, 10, 16],
+        [Some(blue), Some(wall), Some(floor), Some(ceiling), Some(wall), Some(wall)],
+        true,
+        Some((1, [4, 8, 6, 10])),
+    );
+    let mut s = scene(
+        "window",
+        camera(Vec3::new(-1.7, 1.5, 1.8), Vec3::new(0.4, 0.9, -0.8), 70.0),
+        vec![
+            r.finish("window/room", 30.0),
+            floor_lamp("window/lamp", Vec3::new(-1.0, 0.0, -1.0), Vec3::new(30.0, 17.0, 4.0)),
+            cabinet("window"),
+        ],
+        vec![],
+    );
+    s.sky =
+        Some(crate::sky::Sky::gradient(Vec3::new(2.0, 2.6, 3.6), Vec3::new(2.2, 2.2, 2.1), Vec3::new(0.5, 0.45, 0.35)));
+    s
 }
 
 /// Signed power `sign(x) |x|^e`.

@@ -216,7 +216,11 @@ pub fn load_obj(path: &Path, warnings: &mut Vec<String>) -> Result<MeshDesc> {
         let mat = match mesh.material_id {
             Some(id) if id < mats.len() => id as u32,
             _ => *default_mat.get_or_insert_with(|| {
-                mats.push(Material { name: "default".into(), albedo: Vec3::splat(DEFAULT_ALBEDO), emission: Vec3::ZERO });
+                mats.push(Material {
+                    name: "default".into(),
+                    albedo: Vec3::splat(DEFAULT_ALBEDO),
+                    emission: Vec3::ZERO,
+                });
                 (mats.len() - 1) as u32
             }),
         };

@@ -217,6 +217,23 @@ impl MeshBuilder {
     /// of a box resting on the floor. The box is then open there: the edges
     /// around a missing face are borders, each used by one triangle.
     pub fn cuboid_open(&mut self, min: Vec3, max: Vec3, res: [u32; 3], mats: [Option<u32>; 6], inward: bool) {
+        self.cuboid_holed(min, max, res, mats, inward, None);
+    }
+
+    /// [`MeshBuilder::cuboid_open`] with a rectangular hole (a window) in
+    /// one face: `hole = (face, cells)` leaves out the grid cells `(i, j)`
+    /// of that face with `cells[0] <= i < cells[1]` and
+    /// `cells[2] <= j < cells[3]` (i along the face's first in-plane axis
+    /// `(a + 1) % 3`, j along `(a + 2) % 3`, for a face normal to axis a).
+    pub fn cuboid_holed(
+        &mut self,
+        min: Vec3,
+        max: Vec3,
+        res: [u32; 3],
+        mats: [Option<u32>; 6],
+        inward: bool,
+        hole: Option<(usize, [u32; 4])>,
+    ) {
         let res = res.map(|n| n.max(1));
         let (lo, hi) = (min.to_array(), max.to_array());
         for a in 0..3 {
@@ -239,6 +256,11 @@ impl MeshBuilder {
                 let at = |i: u32, j: u32| base + j * (res[b] + 1) + i;
                 for j in 0..res[c] {
                     for i in 0..res[b] {
+                        if let Some((face, [i0, i1, j0, j1])) = hole {
+                            if face == 2 * a + side && (i0..i1).contains(&i) && (j0..j1).contains(&j) {
+                                continue;
+                            }
+                        }
                         let (p, q, r, s) = (at(i, j), at(i + 1, j), at(i + 1, j + 1), at(i, j + 1));
                         if flip {
                             self.add_triangle(p, r, q, mat);

@@ -1,87 +1,143 @@
-//! Per-vertex sky visibility: what a vertex's link rays that left the
-//! scene say about the sky, stored so that any sky (changed, rotated,
-//! rescaled) is integrated without new rays.
+//! Per-vertex sky visibility: which of a vertex's link rays left the
+//! scene, one bit a ray, so that any sky (changed, rotated, rescaled) is
+//! integrated again without tracing.
 //!
 //! With cosine-distributed directions (pdf `cos / pi`), the sky irradiance
 //! of a vertex is estimated from its `n` rays as
 //! `E_sky = (pi / n) * sum_{k missed} L(w_k)` (W/m^2, `L` in W/(m^2 sr)).
-//! Each vertex keeps the projection of its missed directions onto the
-//! spherical harmonics of [`super::sh`]: `v_i = (pi / n) sum_{k missed} Y_i(w_k)`
-//! (sr-weighted, unitless), so that `E_sky = sum_i v_i L_i` with the sky's
-//! coefficients `L_i`. This equals the ray estimate for the sky's
-//! band-limited part `L_trunc` exactly: it differs from re-shooting with the
-//! full sky by `(pi / n) sum_missed (L - L_trunc)(w_k)`, at most
-//! `pi * missed / n * max |L - L_trunc|` ([`super::SkyProjection::max_truncation`]).
-//! 16 f32 a vertex (64 bytes), kept only when some ray missed.
+//! The missed directions `w_k` are not stored: they are the vertex's
+//! direction set turned into its frame ([`crate::sampling::world_direction`]),
+//! regenerated from the seed, so `E_sky` is exactly the estimate a new
+//! shoot with the current sky would give, for any sky. Cost of a sky
+//! change: one direction and one radiance lookup per missed ray.
+//! Storage: `ceil(n / 64)` u64 words a vertex (32 bytes at 256 rays), kept
+//! only when some ray missed.
 
-use super::sh::{basis, COEFFS};
-use super::SkyProjection;
+use super::Sky;
+use crate::sampling::{vertex_frame, world_direction};
 use glam::Vec3;
 use rayon::prelude::*;
 
-/// Coefficients of one vertex.
-pub type VertexSky = [f32; COEFFS];
-
-/// Sky visibility of every vertex (see the module doc); empty when no
+/// Which rays of every vertex missed (see the module doc); empty when no
 /// ray of any vertex left the scene.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct SkyVisibility {
-    /// One entry per vertex, or none at all.
-    pub coeffs: Vec<VertexSky>,
+    /// u64 words per vertex, `ceil(rays_per_vertex / 64)`.
+    pub words: usize,
+    /// Bit `k % 64` of word `v * words + k / 64`: ray `k` of vertex `v` missed.
+    pub masks: Vec<u64>,
 }
 
-/// The coefficients of a vertex from its rays in order: `(missed, direction)`,
-/// `weight_per_ray = pi / n`. `None` when no ray missed. Summed in ray
-/// order in f32 (the same bits whoever calls it with the same rays).
-pub fn project_misses(rays: impl Iterator<Item = (bool, Vec3)>, weight_per_ray: f32) -> Option<VertexSky> {
-    let mut acc = [0f32; COEFFS];
+/// The miss mask of a vertex from its rays' `missed` flags in ray order;
+/// `None` when no ray missed.
+pub fn miss_mask(missed: impl Iterator<Item = bool>, rays: usize) -> Option<Vec<u64>> {
+    let mut mask = vec![0u64; rays.div_ceil(64)];
     let mut any = false;
-    for (missed, d) in rays {
-        if missed {
+    for (k, m) in missed.enumerate() {
+        if m {
+            mask[k / 64] |= 1 << (k % 64);
             any = true;
-            for (a, y) in acc.iter_mut().zip(basis(d)) {
-                *a += y;
-            }
         }
     }
-    any.then(|| acc.map(|a| a * weight_per_ray))
+    any.then_some(mask)
+}
+
+/// The vertex frames and shared local directions the rays were shot with.
+pub struct RayFrames<'a> {
+    pub normals: &'a [Vec3],
+    /// Rotation of each vertex's frame about its normal, radians.
+    pub rotations: &'a [f32],
+    /// The local direction set, in ray order.
+    pub directions: &'a [Vec3],
 }
 
 impl SkyVisibility {
-    /// Dense visibility of `n` vertices from `(vertex, coefficients)` of
-    /// those that saw the sky; empty when there are none.
-    pub fn from_sparse(n: usize, seen: impl IntoIterator<Item = (usize, VertexSky)>) -> SkyVisibility {
-        let mut coeffs = Vec::new();
-        for (v, c) in seen {
-            if coeffs.is_empty() {
-                coeffs = vec![[0f32; COEFFS]; n];
+    /// Visibility of `n` vertices from the masks ([`miss_mask`], all of
+    /// one length) of those that saw the sky; empty when there are none.
+    pub fn from_sparse(n: usize, seen: impl IntoIterator<Item = (usize, Vec<u64>)>) -> SkyVisibility {
+        let mut out = SkyVisibility::default();
+        for (v, m) in seen {
+            if out.is_empty() {
+                out.words = m.len();
+                out.masks = vec![0u64; n * out.words];
             }
-            coeffs[v] = c;
+            out.masks[v * out.words..(v + 1) * out.words].copy_from_slice(&m);
         }
-        SkyVisibility { coeffs }
+        out
     }
 
     /// True when no vertex sees the sky.
     pub fn is_empty(&self) -> bool {
-        self.coeffs.is_empty()
+        self.masks.is_empty()
     }
 
-    /// Coefficients of vertex `v` (zero when none are kept).
-    pub fn vertex(&self, v: usize) -> VertexSky {
-        self.coeffs.get(v).copied().unwrap_or([0.0; COEFFS])
+    /// Vertex `v`'s mask (all zero when none are kept).
+    pub fn vertex(&self, v: usize) -> &[u64] {
+        if self.is_empty() {
+            &[]
+        } else {
+            &self.masks[v * self.words..(v + 1) * self.words]
+        }
+    }
+
+    /// Sets vertex `v`'s mask (`None`: no ray missed) for `n` vertices of
+    /// `rays` rays, allocating the masks on the first miss.
+    pub fn set(&mut self, v: usize, n: usize, rays: usize, mask: Option<&[u64]>) {
+        if self.is_empty() {
+            let Some(_) = mask else { return };
+            self.words = rays.div_ceil(64);
+            self.masks = vec![0u64; n * self.words];
+        }
+        let w = self.words;
+        match mask {
+            Some(m) => self.masks[v * w..(v + 1) * w].copy_from_slice(m),
+            None => self.masks[v * w..(v + 1) * w].fill(0),
+        }
+    }
+
+    /// Drops the masks when every one is zero (as a fresh shoot would have none).
+    pub fn compact(&mut self) {
+        if self.masks.iter().all(|&m| m == 0) {
+            *self = SkyVisibility::default();
+        }
+    }
+
+    /// Rays that missed, over all vertices.
+    pub fn missed_rays(&self) -> u64 {
+        self.masks.iter().map(|m| m.count_ones() as u64).sum()
     }
 
     /// Bytes held.
     pub fn bytes(&self) -> u64 {
-        std::mem::size_of_val(self.coeffs.as_slice()) as u64
+        std::mem::size_of_val(self.masks.as_slice()) as u64
     }
 
-    /// Sky irradiance `E_sky` of each of `n` vertices under `sky`, W/m^2
-    /// (zero everywhere without visibility or sky). The band-limited sky
-    /// can ring below zero where the sky has strong contrast; such values
-    /// are clamped to zero per channel.
-    pub fn irradiance(&self, sky: Option<&SkyProjection>, n: usize) -> Vec<Vec3> {
+    /// Sky irradiance `E_sky` of each of `n` vertices under `sky`, W/m^2:
+    /// `pi / n_rays * sum_{missed} L(w_k)` with the directions of `frames`
+    /// (zero everywhere without visibility or sky).
+    pub fn irradiance(&self, sky: Option<&Sky>, frames: &RayFrames, n: usize) -> Vec<Vec3> {
         let Some(sky) = sky.filter(|_| !self.is_empty()) else { return vec![Vec3::ZERO; n] };
-        self.coeffs.par_iter().map(|c| c.iter().zip(&sky.coeffs).map(|(v, l)| *l * *v).sum::<Vec3>().max(Vec3::ZERO)).collect()
+        let radiance = sky.radiance_fn();
+        let scale = std::f32::consts::PI / frames.directions.len() as f32;
+        (0..n)
+            .into_par_iter()
+            .map(|v| {
+                let mask = self.vertex(v);
+                if mask.iter().all(|&m| m == 0) {
+                    return Vec3::ZERO;
+                }
+                let frame = vertex_frame(frames.normals[v], frames.rotations[v]);
+                let mut sum = Vec3::ZERO;
+                for (w, &bits) in mask.iter().enumerate() {
+                    let mut b = bits;
+                    while b != 0 {
+                        let k = w * 64 + b.trailing_zeros() as usize;
+                        b &= b - 1;
+                        sum += radiance(world_direction(frame, frames.directions[k]));
+                    }
+                }
+                sum * scale
+            })
+            .collect()
     }
 }

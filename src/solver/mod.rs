@@ -438,8 +438,21 @@ impl Solver {
 
     /// Irradiance from the scene's sky at every vertex ([`crate::sky::SkyVisibility::irradiance`]), W/m^2.
     pub fn e_sky(&self) -> Vec<Vec3> {
-        let sky = self.scene.sky.as_ref().map(|k| k.projection());
-        self.links.sky.irradiance(sky.as_ref(), self.scene.vertex_count())
+        let s = &self.scene;
+        let n = s.vertex_count();
+        if s.sky.is_none() || self.links.sky.is_empty() {
+            return vec![Vec3::ZERO; n];
+        }
+        let p = &self.params.links;
+        let k = (p.rays_per_vertex as f64).sqrt().round() as u32;
+        let rotations = crate::sampling::vertex_rotations(&s.rings, p.seed);
+        let directions = crate::sampling::DirectionSet::new(k, p.seed);
+        let frames = crate::sky::visibility::RayFrames {
+            normals: &s.normals,
+            rotations: &rotations,
+            directions: &directions.dirs,
+        };
+        self.links.sky.irradiance(s.sky.as_ref(), &frames, n)
     }
 
     /// Hidden vertices and their visible neighbours ([`exchange::hidden::stand_ins`]).
@@ -449,7 +462,12 @@ impl Solver {
     }
 
     /// The CPU bounces from radiosity `b0`, W/(m^2 sr).
-    fn gather_cpu(&self, b0: &[Vec3], stand_ins: &[(usize, Vec<usize>)], params: &exchange::GatherParams) -> GatherResult {
+    fn gather_cpu(
+        &self,
+        b0: &[Vec3],
+        stand_ins: &[(usize, Vec<usize>)],
+        params: &exchange::GatherParams,
+    ) -> GatherResult {
         let mut kernel =
             exchange::gather::CpuBounces::from_radiosity(&self.links, &self.scene.albedo, b0).with_stand_ins(stand_ins);
         exchange::gather::drive(&mut kernel, params).expect("the CPU kernel cannot fail")

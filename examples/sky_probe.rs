@@ -1,0 +1,44 @@
+//! Error of the link solver against the reference on a scene, per mesh and
+//! per quantity (E_sky, E_i, total): `cargo run --release --example sky_probe -- window 256 1024`.
+use glam::Vec3;
+use linkgi::accuracy::metrics::error_stats;
+use linkgi::reference::{self, ReferenceParams};
+use linkgi::scene::{self, prep, Bounces};
+use linkgi::solver::{SolveParams, Solver};
+
+fn main() {
+    let args: Vec<String> = std::env::args().collect();
+    let name = args.get(1).map(String::as_str).unwrap_or("window");
+    let rays: u32 = args.get(2).and_then(|s| s.parse().ok()).unwrap_or(256);
+    let samples: u32 = args.get(3).and_then(|s| s.parse().ok()).unwrap_or(1024);
+    let mut desc = scene::load(name).unwrap();
+    desc.settings.rays_per_vertex = rays;
+    desc.settings.bounces = Bounces::Auto;
+    let s = prep::prepare(&desc).unwrap();
+    let solver = Solver::new(s, SolveParams::from_settings(&desc.settings), &|_, _| {});
+    let sol = solver.solve();
+    let r = reference::compute_cached(
+        &solver.scene,
+        &ReferenceParams { samples_per_vertex: samples, ..Default::default() },
+        &reference::cache::default_dir(),
+    );
+    let total = sol.total();
+    let rt = r.total();
+    for m in &solver.scene.meshes {
+        let rg = m.vertices.start as usize..m.vertices.end as usize;
+        let pick = |v: &[Vec3]| v[rg.clone()].to_vec();
+        let t = error_stats(&pick(&total), &pick(&rt), &pick(&r.e_total_stderr));
+        let k = error_stats(&pick(&sol.e_sky), &pick(&r.e_sky), &[]);
+        let i = error_stats(&pick(&sol.e_indirect), &pick(&r.e_indirect), &pick(&r.e_indirect_stderr));
+        let mean = |v: &[Vec3]| v[rg.clone()].iter().map(|e| e.element_sum() / 3.0).sum::<f32>() / rg.len() as f32;
+        println!(
+            "{:24} total {:.4} (bias {:+.4})  sky {:.4} (bias {:+.4}, mean {:.3} vs {:.3})  E_i {:.4} (bias {:+.4}, mean {:.3} vs {:.3})",
+            m.name, t.rel_rmse_corrected, t.bias, k.rel_rmse, k.bias, mean(&sol.e_sky), mean(&r.e_sky),
+            i.rel_rmse_corrected, i.bias, mean(&sol.e_indirect), mean(&r.e_indirect)
+        );
+    }
+    let t = error_stats(&total, &rt, &r.e_total_stderr);
+    println!("all: total {t:?}");
+    let raw: Vec<Vec3> = (0..total.len()).map(|v| sol.e_direct[v] + sol.e_sky[v] + sol.e_indirect_raw[v]).collect();
+    println!("all, unsmoothed: {:?}", error_stats(&raw, &rt, &r.e_total_stderr));
+}

@@ -1,0 +1,91 @@
+//! Emissive surfaces: the emissive furnace and emission as a source of the gather.
+//!
+//! Inside a closed enclosure whose whole surface emits exitance `M_e` and
+//! reflects with albedo rho, the uniform radiosity `B = M_e + rho E` with
+//! `E = B` (every photon lands on the enclosure) gives
+//! `E = M_e / (1 - rho)` everywhere: exact for any closed shape, so the
+//! tessellated sphere needs no area correction.
+
+mod common;
+
+use glam::Vec3;
+use linkgi::scene::{builtin, prep, Bounces, SceneDesc};
+
+fn emissive_furnace(rho: f32, m_e: Vec3) -> SceneDesc {
+    let mut d = common::with_settings(builtin::furnace(rho, 4, Vec3::ZERO, 1.0), 256, Bounces::Auto, 30.0);
+    d.lights.clear();
+    for m in &mut d.meshes {
+        m.materials.iter_mut().for_each(|mat| mat.emission = m_e);
+    }
+    d
+}
+
+#[test]
+fn emissive_furnace_irradiance_is_emission_over_one_minus_albedo() {
+    let m_e = Vec3::new(2.0, 1.0, 0.25);
+    for rho in [0.5f32, 0.9] {
+        let (solver, sol) = common::solve(&emissive_furnace(rho, m_e));
+        let expect = m_e / (1.0 - rho);
+        let mut max_err = 0f32;
+        for e in &sol.e_indirect {
+            max_err = max_err.max(((*e / expect) - Vec3::ONE).abs().max_element());
+        }
+        let mean = (common::mean(&sol.e_indirect) / expect - Vec3::ONE).abs().max_element();
+        eprintln!("rho {rho}: mean err {mean:.4}, max err {max_err:.4}, {} bounces", sol.gather.bounces);
+        assert!(mean < 0.02, "rho {rho}: mean error {mean}");
+        assert!(max_err < 0.05, "rho {rho}: per-vertex error {max_err}");
+        // Emission is not direct light: no lights, no sky.
+        assert!(sol.e_direct.iter().chain(&sol.e_sky).all(|e| *e == Vec3::ZERO));
+        assert_eq!(solver.scene.emission.len(), solver.scene.vertex_count());
+    }
+}
+
+/// The gather is linear in its sources: light and emission solved apart
+/// add up to both solved together, and doubling the emission doubles its
+/// part (energy is neither created nor lost by mixing sources).
+#[test]
+fn emission_adds_linearly_to_light() {
+    let lit = common::with_settings(builtin::builtin("cornell").unwrap(), 64, Bounces::Fixed(4), 0.0);
+    let mut glowing = lit.clone();
+    // The short box glows.
+    glowing.meshes[1].materials.iter_mut().for_each(|m| m.emission = Vec3::new(3.0, 2.0, 1.0));
+    let mut dark = glowing.clone();
+    dark.lights.clear();
+    let (_, a) = common::solve(&lit);
+    let (_, b) = common::solve(&dark);
+    let (_, both) = common::solve(&glowing);
+    let mut doubled = dark.clone();
+    doubled.meshes[1].materials.iter_mut().for_each(|m| m.emission *= 2.0);
+    let (_, b2) = common::solve(&doubled);
+    let scale = common::mean(&both.e_indirect_raw).max_element();
+    for v in 0..a.e_indirect_raw.len() {
+        let sum = a.e_indirect_raw[v] + b.e_indirect_raw[v];
+        assert!((both.e_indirect_raw[v] - sum).abs().max_element() <= 1e-4 * scale, "vertex {v}");
+        assert!((b2.e_indirect_raw[v] - 2.0 * b.e_indirect_raw[v]).abs().max_element() <= 1e-4 * scale, "vertex {v}");
+    }
+    assert!(common::mean(&b.e_indirect_raw).min_element() > 0.0, "the glow lights the room");
+}
+
+/// Stiff and extreme cases: albedo 0.99 with auto bounces and an exitance
+/// of 1e6 W/m^2 stay finite and exact within the furnace tolerance.
+#[test]
+fn emissive_furnace_stiff_and_intense() {
+    let m_e = Vec3::splat(1e6);
+    let (_, sol) = common::solve(&emissive_furnace(0.99, m_e));
+    let expect = m_e.x / 0.01;
+    let mean = common::mean(&sol.e_indirect).x;
+    eprintln!("rho 0.99: mean {mean:.4e} vs {expect:.4e}, {} bounces", sol.gather.bounces);
+    assert!((mean / expect - 1.0).abs() < 0.02, "mean {mean} vs {expect}");
+    assert!(sol.e_indirect.iter().all(|e| e.is_finite() && (e.x / expect - 1.0).abs() < 0.05));
+}
+
+/// Bad emission is rejected with the mesh named.
+#[test]
+fn non_finite_emission_is_an_error() {
+    let mut d = emissive_furnace(0.5, Vec3::ONE);
+    d.meshes[0].materials[0].emission = Vec3::new(1.0, f32::NAN, 0.0);
+    let e = prep::prepare(&d).unwrap_err().to_string();
+    assert!(e.contains("furnace/sphere") && e.contains("emission"), "{e}");
+    d.meshes[0].materials[0].emission = Vec3::new(-1.0, 0.0, 0.0);
+    assert!(prep::prepare(&d).is_err());
+}
