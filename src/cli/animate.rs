@@ -131,6 +131,9 @@ pub fn run(args: AnimateArgs) -> Result<()> {
             albedo: &prepared.albedo,
             triangles: &prepared.triangles,
             e_indirect: &gi.e_indirect,
+            e_sky: &gi.e_sky,
+            emission: &gi.emission,
+            background: gi.sky.as_ref().map_or(glam::Vec3::ZERO, |s| s.mean_radiance()),
             lights: &lights,
             camera: desc.camera,
         };

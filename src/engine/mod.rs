@@ -11,6 +11,7 @@
 //! |---|---|
 //! | light moved / added / removed | light links of the lights at a new position or direction + gather |
 //! | light intensity changed | gather (its light links are kept) |
+//! | emission of a mesh, the sky (set, changed, turned, removed) | gather (sky light from the kept miss masks, no rays) |
 //! | mesh deformed (new positions; static meshes must not move) | CPU: BVH refit + selective re-shooting of links and light links ([`Solver::deform`]) + gather; GPU: everything |
 //! | settings: rays or seed | kd-tree + links + light links + gather |
 //! | settings: bounces or smoothing | gather |
@@ -38,6 +39,7 @@
 use crate::scene::deform::moved_normals;
 use crate::scene::prep::PreparedScene;
 use crate::scene::{Light, Settings};
+use crate::sky::Sky;
 use crate::solver::{Compute, DeformStats, Preview, SolveParams, Solver, PREVIEW_RAYS};
 use crossbeam_channel::{Receiver, Sender};
 use glam::Vec3;
@@ -63,6 +65,14 @@ pub enum Change {
     },
     /// New solver settings (`backend` is ignored: the engine keeps its compute).
     Settings(Settings),
+    /// Emitted exitance of every vertex of mesh `mesh` (index into the
+    /// prepared scene's meshes), W/m^2.
+    SetEmission {
+        mesh: usize,
+        emission: Vec3,
+    },
+    /// Replace the sky (None: no sky).
+    SetSky(Option<Sky>),
     /// Test hook: the worker panics while handling this change.
     #[doc(hidden)]
     Panic,
@@ -77,6 +87,12 @@ pub struct GiResult {
     pub e_indirect: Vec<Vec3>,
     /// Direct irradiance per solver vertex, W/m^2.
     pub e_direct: Vec<Vec3>,
+    /// Irradiance from the sky per solver vertex, W/m^2.
+    pub e_sky: Vec<Vec3>,
+    /// Emitted exitance per solver vertex the result was computed with, W/m^2.
+    pub emission: Vec<Vec3>,
+    /// The sky the result was computed with.
+    pub sky: Option<Sky>,
     /// The lights the result was computed for.
     pub lights: Vec<Light>,
     /// When the result was published.
@@ -188,6 +204,9 @@ fn publish(shared: &Shared, s: &Solver, c: &mut Counters, t0: Instant, preview: 
         bounces: sol.gather.bounces,
         e_indirect: sol.e_indirect,
         e_direct: sol.e_direct,
+        e_sky: sol.e_sky,
+        emission: s.scene.emission.clone(),
+        sky: s.scene.sky.clone(),
         lights: s.scene.lights.clone(),
         published: Instant::now(),
         update_ms,
@@ -426,6 +445,25 @@ impl Worker {
                         ..SolveParams::from_settings(&scene.settings)
                     };
                 }
+                Change::SetEmission { mesh, emission } => {
+                    let m = scene
+                        .meshes
+                        .get(mesh)
+                        .ok_or(format!("set emission of mesh {mesh}: the scene has {} meshes", scene.meshes.len()))?;
+                    if !(emission.is_finite() && emission.min_element() >= 0.0) {
+                        return Err(format!("set emission of mesh {mesh}: {emission} is not finite and non-negative"));
+                    }
+                    let r = m.vertices.start as usize..m.vertices.end as usize;
+                    scene.emission[r].fill(emission);
+                    dirty.gather = true;
+                }
+                Change::SetSky(sky) => {
+                    if let Some(s) = &sky {
+                        s.validate().map_err(|e| format!("set sky: {e}"))?;
+                    }
+                    scene.sky = sky;
+                    dirty.gather = true;
+                }
                 Change::Panic => dirty.panic = true,
             }
         }
@@ -504,6 +542,8 @@ impl Worker {
             };
             s.params = params;
             s.scene.settings = scene.settings;
+            s.scene.emission = scene.emission.clone();
+            s.scene.sky = scene.sky.clone();
             if dirty.lights && c.light_link_updates == 0 {
                 s.scene.lights = scene.lights.clone();
                 if light_preview {

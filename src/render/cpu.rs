@@ -2,8 +2,9 @@
 //! through a CPU tracer (a wide BVH of the frame's triangles unless one is given); at a front-face hit the
 //! normal, albedo and `E_i` are interpolated with the hit's barycentrics and
 //! each light's visibility is one shadow ray from the hit offset along the
-//! normal (hard shadows). Back faces and misses are black. Radiance as in
-//! [`super`]: `L = rho / pi * (E_d + E_i)`; rows run in parallel (rayon).
+//! normal (hard shadows). Back faces are black, misses the frame's
+//! background. Radiance as in [`super`]:
+//! `L = rho / pi * (E_d + E_sky + E_i) + M_e / pi`; rows run in parallel (rayon).
 
 use super::{pixel_ray, Frame, HdrImage, RenderParams, RenderStats, View};
 use crate::bvh::{Bvh, BvhBuildParams};
@@ -49,7 +50,7 @@ pub fn render_cpu(
 }
 
 fn shade(frame: &Frame, kd: &dyn CpuTracer, view: View, offset: f32, ray: Ray) -> Vec3 {
-    let Some(hit) = kd.intersect(&ray) else { return Vec3::ZERO };
+    let Some(hit) = kd.intersect(&ray) else { return frame.background };
     if !hit.front {
         return Vec3::ZERO;
     }
@@ -60,6 +61,9 @@ fn shade(frame: &Frame, kd: &dyn CpuTracer, view: View, offset: f32, ray: Ray) -
     let n = lerp(frame.normals).normalize_or_zero();
     let rho = lerp(frame.albedo);
     let e_i = lerp(frame.e_indirect);
+    let at = |f: &dyn Fn(usize) -> Vec3| f(t[0] as usize) * b[0] + f(t[1] as usize) * b[1] + f(t[2] as usize) * b[2];
+    let e_sky = at(&|v| frame.sky_at(v));
+    let emitted = at(&|v| frame.emitted_at(v));
     let origin = p + n * offset;
     let mut e_d = Vec3::ZERO;
     if view != View::Indirect {
@@ -91,10 +95,9 @@ fn shade(frame: &Frame, kd: &dyn CpuTracer, view: View, offset: f32, ray: Ray) -
             }
         }
     }
-    let e = match view {
-        View::Combined => e_d + e_i,
-        View::Direct => e_d,
-        View::Indirect => e_i,
-    };
-    rho / PI * e
+    match view {
+        View::Combined => rho / PI * (e_d + e_sky + e_i) + emitted,
+        View::Direct => rho / PI * (e_d + e_sky) + emitted,
+        View::Indirect => rho / PI * e_i,
+    }
 }

@@ -27,7 +27,7 @@ pub const MAX_SHADOW_LAYERS: usize = 56;
 const HDR_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
 const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
 
-/// One vertex of the render mesh (48 bytes): `vs_main` locations 0-3.
+/// One vertex of the render mesh (72 bytes): `vs_main` locations 0-5.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct RenderVertex {
@@ -35,6 +35,10 @@ pub struct RenderVertex {
     pub normal: [f32; 3],
     pub albedo: [f32; 3],
     pub e_indirect: [f32; 3],
+    /// Irradiance from the sky, W/m^2.
+    pub e_sky: [f32; 3],
+    /// Emitted radiance `M_e / pi`, W/(m^2 sr).
+    pub emitted: [f32; 3],
 }
 
 /// Pipelines on one device, reused for every frame.
@@ -75,7 +79,9 @@ impl GpuRenderer {
             label: Some("render.wgsl"),
             source: wgpu::ShaderSource::Wgsl(RENDER_WGSL.into()),
         });
-        let all = wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32x3, 2 => Float32x3, 3 => Float32x3];
+        let all = wgpu::vertex_attr_array![
+            0 => Float32x3, 1 => Float32x3, 2 => Float32x3, 3 => Float32x3, 4 => Float32x3, 5 => Float32x3
+        ];
         let pos_only = wgpu::vertex_attr_array![0 => Float32x3];
         let main = d.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
             label: Some("render main pipeline"),
@@ -225,6 +231,8 @@ impl GpuRenderer {
                 normal: frame.normals[i].into(),
                 albedo: frame.albedo[i].into(),
                 e_indirect: frame.e_indirect[i].into(),
+                e_sky: frame.sky_at(i).into(),
+                emitted: frame.emitted_at(i).into(),
             })
             .collect();
         let vbuf = d.create_buffer_init(&wgpu::util::BufferInitDescriptor {
@@ -345,7 +353,12 @@ impl GpuRenderer {
                     depth_slice: None,
                     resolve_target: None,
                     ops: wgpu::Operations {
-                        load: wgpu::LoadOp::Clear(wgpu::Color::BLACK),
+                        load: wgpu::LoadOp::Clear(wgpu::Color {
+                            r: frame.background.x as f64,
+                            g: frame.background.y as f64,
+                            b: frame.background.z as f64,
+                            a: 1.0,
+                        }),
                         store: wgpu::StoreOp::Store,
                     },
                 })],

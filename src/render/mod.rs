@@ -80,12 +80,20 @@ pub struct Frame<'a> {
     pub albedo: &'a [Vec3],
     pub triangles: &'a [[u32; 3]],
     pub e_indirect: &'a [Vec3],
+    /// Irradiance from the sky per vertex, W/m^2 (empty: none).
+    pub e_sky: &'a [Vec3],
+    /// Emitted exitance per vertex, W/m^2 (empty: none); drawn as radiance `M_e / pi`.
+    pub emission: &'a [Vec3],
+    /// Radiance of pixels that see no surface, W/(m^2 sr) (the sky's mean; black without one).
+    pub background: Vec3,
     pub lights: &'a [Light],
     pub camera: Camera,
 }
 
 impl<'a> Frame<'a> {
-    /// A frame of `scene` as prepared, with `e_indirect` per vertex.
+    /// A frame of `scene` as prepared, with `e_indirect` per vertex, the
+    /// scene's emitters and its sky as background (no sky irradiance: see
+    /// [`Frame::with_sky`]).
     pub fn of(scene: &'a PreparedScene, e_indirect: &'a [Vec3], camera: Camera) -> Frame<'a> {
         Frame {
             positions: &scene.positions,
@@ -93,21 +101,47 @@ impl<'a> Frame<'a> {
             albedo: &scene.albedo,
             triangles: &scene.triangles,
             e_indirect,
+            e_sky: &[],
+            emission: &scene.emission,
+            background: scene.sky.as_ref().map_or(Vec3::ZERO, |s| s.mean_radiance()),
             lights: &scene.lights,
             camera,
         }
     }
 
+    /// The frame with sky irradiance `e_sky` per vertex (W/m^2).
+    pub fn with_sky(self, e_sky: &'a [Vec3]) -> Frame<'a> {
+        Frame { e_sky, ..self }
+    }
+
+    /// Sky irradiance of vertex `v` (zero when none is given).
+    pub fn sky_at(&self, v: usize) -> Vec3 {
+        self.e_sky.get(v).copied().unwrap_or_default()
+    }
+
+    /// Emitted radiance of vertex `v`, `M_e / pi` (zero when none is given).
+    pub fn emitted_at(&self, v: usize) -> Vec3 {
+        self.emission.get(v).map_or(Vec3::ZERO, |m| *m / std::f32::consts::PI)
+    }
+
     /// Checks counts and the light limit.
     pub fn validate(&self) -> crate::Result<()> {
         let n = self.positions.len();
-        if self.normals.len() != n || self.albedo.len() != n || self.e_indirect.len() != n {
+        let optional = |len: usize| len == n || len == 0;
+        if self.normals.len() != n
+            || self.albedo.len() != n
+            || self.e_indirect.len() != n
+            || !optional(self.e_sky.len())
+            || !optional(self.emission.len())
+        {
             return Err(crate::Error::Setting(format!(
-                "render: {} positions, {} normals, {} albedos, {} indirect values",
+                "render: {} positions, {} normals, {} albedos, {} indirect, {} sky and {} emission values",
                 n,
                 self.normals.len(),
                 self.albedo.len(),
-                self.e_indirect.len()
+                self.e_indirect.len(),
+                self.e_sky.len(),
+                self.emission.len()
             )));
         }
         if self.lights.len() > MAX_LIGHTS {

@@ -28,9 +28,9 @@
 //!   outer surfaces (a thin closed shell, open at top and bottom) around a
 //!   point light, so the room is lit mostly by light bounced off the shade.
 //!   About 1600 vertices (the paper's COLORLAMP).
-//! - `window`: `colorlamp`'s room with a 1 x 1 m window in the +x wall
-//!   onto a gradient sky (zenith (2.0, 2.6, 3.6), horizon (2.2, 2.2, 2.1),
-//!   ground (0.5, 0.45, 0.35) W/(m^2 sr)), the cabinet, and the lamp whose
+//! - `window`: `colorlamp`'s room with a 2 x 1.25 m window in the +x wall
+//!   onto a gradient sky (zenith (4.0, 5.2, 7.2), horizon (4.4, 4.4, 4.2),
+//!   ground (1.0, 0.9, 0.7) W/(m^2 sr)), the cabinet, and the lamp whose
 //!   shade glows (exitance (30, 17, 4) W/m^2) with no point light: the
 //!   scene of emitters and sky light. The only built-in scene that is
 //!   not closed.
@@ -317,8 +317,8 @@ fn cabinet(scene: &str) -> MeshDesc {
     f.finish(&format!("{scene}/cabinet"), 30.0)
 }
 
-/// `colorlamp`'s room with a window: a 1 x 1 m opening in the +x wall
-/// (y in [1, 2], z in [-0.5, 0.5]) onto a gradient sky, the cabinet, and
+/// `colorlamp`'s room with a window: a 2 x 1.25 m opening in the +x wall
+/// (y in [0.75, 2], z in [-1, 1]) onto a gradient sky, the cabinet, and
 /// the floor lamp with its shade glowing (exitance (30, 17, 4) W/m^2 on
 /// both sides) instead of a point light.
 fn window() -> SceneDesc {
@@ -328,14 +328,14 @@ fn window() -> SceneDesc {
     let floor = r.add_material("floor", Vec3::new(0.55, 0.4, 0.28));
     let ceiling = r.add_material("ceiling", Vec3::splat(0.8));
     // A 0.25 m grid (exact in binary); the +x face's cells are (y, z): the
-    // window is cells y 4..8, z 6..10.
+    // window is cells y 3..8, z 4..12.
     r.cuboid_holed(
         Vec3::new(-2.0, 0.0, -2.0),
         Vec3::new(2.0, 2.5, 2.0),
         [16, 10, 16],
         [Some(blue), Some(wall), Some(floor), Some(ceiling), Some(wall), Some(wall)],
         true,
-        Some((1, [4, 8, 6, 10])),
+        Some((1, [3, 8, 4, 12])),
     );
     let mut s = scene(
         "window",
@@ -348,7 +348,7 @@ fn window() -> SceneDesc {
         vec![],
     );
     s.sky =
-        Some(crate::sky::Sky::gradient(Vec3::new(2.0, 2.6, 3.6), Vec3::new(2.2, 2.2, 2.1), Vec3::new(0.5, 0.45, 0.35)));
+        Some(crate::sky::Sky::gradient(Vec3::new(4.0, 5.2, 7.2), Vec3::new(4.4, 4.4, 4.2), Vec3::new(1.0, 0.9, 0.7)));
     s
 }
 

@@ -119,16 +119,19 @@ impl Viewer {
         let mut actions = Vec::new();
         let capture = Capture { scene: self.pending.scene.is_some(), window: self.pending.window.is_some() };
         let drawn = {
-            let e_indirect = match &gi {
-                Some(g) if g.e_indirect.len() == self.positions.len() => &g.e_indirect,
-                _ => &self.zeros,
-            };
+            let current = gi.as_ref().filter(|g| g.e_indirect.len() == self.positions.len());
             let frame = Frame {
                 positions: &self.positions,
                 normals: &self.normals,
                 albedo: &self.prepared.albedo,
                 triangles: &self.prepared.triangles,
-                e_indirect,
+                e_indirect: current.map_or(&self.zeros, |g| &g.e_indirect),
+                e_sky: current.map_or(&[][..], |g| &g.e_sky),
+                emission: current.map_or(&self.prepared.emission, |g| &g.emission),
+                background: current
+                    .and_then(|g| g.sky.as_ref())
+                    .or(self.prepared.sky.as_ref())
+                    .map_or(glam::Vec3::ZERO, |s| s.mean_radiance()),
                 lights: &self.lights,
                 camera: self.orbit.camera(),
             };
