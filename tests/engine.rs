@@ -282,3 +282,53 @@ fn deformation_preview_then_selective_full_result() {
         }
     }
 }
+
+/// Emission edits and sky changes (set, turned, brighter, removed) are
+/// gather-only updates: no structure, link or light-link work, and each
+/// result equals a fresh solve of the edited scene.
+#[test]
+fn emission_and_sky_edits_are_gather_only() {
+    use linkgi::solver::Solver;
+    let (mut e, scene) = start("window", 16, 0);
+    assert!(e.wait_idle(WAIT));
+    let c0 = e.counters();
+    let lamp = scene.meshes.iter().position(|m| m.name.contains("lamp")).unwrap();
+    let fresh = |scene: &prep::PreparedScene| {
+        Solver::new(scene.clone(), SolveParams::from_settings(&scene.settings), &|_, _| {}).solve()
+    };
+    let mut edited = scene.clone();
+    // The whole lamp glows blue.
+    e.send(Change::SetEmission { mesh: lamp, emission: Vec3::new(0.0, 5.0, 40.0) });
+    let r = edited.meshes[lamp].vertices.start as usize..edited.meshes[lamp].vertices.end as usize;
+    edited.emission[r].fill(Vec3::new(0.0, 5.0, 40.0));
+    assert!(e.wait_idle(WAIT));
+    let got = e.latest().unwrap();
+    let want = fresh(&edited);
+    assert_eq!(got.e_indirect, want.e_indirect);
+    assert_eq!(got.emission, edited.emission);
+    // The sky turned and brighter, then gone.
+    let mut sky = edited.sky.clone().unwrap();
+    sky.rotate_deg = 45.0;
+    sky.intensity = 3.0;
+    e.send(Change::SetSky(Some(sky.clone())));
+    edited.sky = Some(sky);
+    assert!(e.wait_idle(WAIT));
+    let got = e.latest().unwrap();
+    let want = fresh(&edited);
+    assert_eq!((got.e_sky.clone(), got.e_indirect.clone()), (want.e_sky, want.e_indirect));
+    e.send(Change::SetSky(None));
+    assert!(e.wait_idle(WAIT));
+    let dark = e.latest().unwrap();
+    assert!(dark.e_sky.iter().all(|k| *k == Vec3::ZERO));
+    let c = e.counters();
+    assert_eq!(
+        (c.kd_builds, c.link_builds, c.light_link_updates, c.gathers),
+        (c0.kd_builds, c0.link_builds, c0.light_link_updates, c0.gathers + 3)
+    );
+    // Bad edits fail and keep the last result.
+    e.send(Change::SetEmission { mesh: 99, emission: Vec3::ONE });
+    e.send(Change::SetEmission { mesh: 0, emission: Vec3::NAN });
+    assert!(e.wait_idle(WAIT));
+    assert!(e.counters().errors >= 1);
+    assert_eq!(e.latest().unwrap().version, dark.version);
+}

@@ -88,7 +88,9 @@ fn rel(a: Vec3, b: Vec3, floor: f32) -> f32 {
     ((a - b).abs() / a.abs().max(b.abs()).max(Vec3::splat(floor))).max_element()
 }
 
-fn agree_on(name: &str) {
+/// CPU and GPU pipelines on built-in `name`; `share`: the fraction of
+/// same-ray vertices whose unsmoothed E_i must agree within 1e-4.
+fn agree_on_within(name: &str, share: f64) {
     let Some(dev) = device() else { return };
     let desc = scene::load(name).expect("built-in");
     let scene = prep::prepare(&desc).expect("prepares");
@@ -131,16 +133,29 @@ fn agree_on(name: &str) {
         assert!(bad as f64 <= 1e-3 * c.len() as f64, "{name}: light {l}: {bad} vertices differ");
     }
 
-    // Final E_i (GPU links, GPU visibility, GPU bounces vs all-CPU).
+    // Final E_i (GPU links, GPU visibility, GPU bounces vs all-CPU), before
+    // smoothing, at the vertices whose rays all met the same triangles (a
+    // vertex whose ray met an emitter on one side only differs by that
+    // ray, and smoothing would spread it to its neighbours).
     let (cs, gs) = (cpu.solve(), gpu.solve());
     let mean = common::mean(&cs.e_indirect).max_element().max(1e-30);
-    let errs: Vec<f32> = cs.e_indirect.iter().zip(&gs.e_indirect).map(|(a, b)| rel(*a, *b, 1e-2 * mean)).collect();
+    let errs: Vec<f32> = (0..scene.vertex_count())
+        .filter(|&v| vertex_same[v])
+        .map(|v| rel(cs.e_indirect_raw[v], gs.e_indirect_raw[v], 1e-2 * mean))
+        .collect();
     let worst = errs.iter().cloned().fold(0.0, f32::max);
     let within = errs.iter().filter(|&&e| e <= 1e-4).count();
     eprintln!("{name}: E_i within 1e-4 at {within}/{} vertices, worst {worst:.2e}", errs.len());
-    assert!(within as f64 >= 0.999 * errs.len() as f64, "{name}: E_i within 1e-4 at only {within}/{}", errs.len());
+    assert!(within as f64 >= share * errs.len() as f64, "{name}: E_i within 1e-4 at only {within}/{}", errs.len());
     let (mc, mg) = (common::mean(&cs.e_indirect), common::mean(&gs.e_indirect));
     assert!(rel(mc, mg, 1e-30) <= 1e-4, "{name}: mean E_i {mc} vs {mg}");
+    // Sky light from the GPU's misses: the same rays missed.
+    let same_sky = cs.e_sky.iter().zip(&gs.e_sky).filter(|(a, b)| rel(**a, **b, 1e-6) <= 1e-5).count();
+    assert!(same_sky as f64 >= 0.999 * cs.e_sky.len() as f64, "{name}: E_sky equal at {same_sky}/{}", cs.e_sky.len());
+}
+
+fn agree_on(name: &str) {
+    agree_on_within(name, 0.999)
 }
 
 #[test]
@@ -162,6 +177,37 @@ fn gpu_agrees_torso() {
 #[test]
 fn gpu_agrees_tearoom() {
     agree_on("tearoom");
+}
+/// Emitters and sky light: the GPU's misses give the same sky visibility.
+/// Here a ray that meets the glowing shade on one side only (20 of 617k
+/// rays differ, at 2 vertices) changes its vertex's radiosity a lot, and
+/// the bounces carry that to the vertices that see it (35 of 2407 differ
+/// by up to 1.2%): 98% must agree within 1e-4. The kernels themselves
+/// agree within 1e-5 on the same links (`gpu_gather_with_emission_matches_cpu`).
+#[test]
+fn gpu_agrees_window() {
+    agree_on_within("window", 0.98);
+}
+
+/// Both bounce kernels from the same first radiosity with emission and
+/// sky light (`source_radiosity`), the same links: within 1e-5.
+#[test]
+fn gpu_gather_with_emission_matches_cpu() {
+    let Some(dev) = device() else { return };
+    let desc = common::with_settings(scene::load("window").expect("built-in"), 64, Bounces::Fixed(5), 0.0);
+    let (solver, sol) = common::solve(&desc);
+    let s = &solver.scene;
+    let b0 = exchange::gather::source_radiosity(&sol.e_source, &s.albedo, &s.emission);
+    let params = GatherParams { bounces: Bounces::Fixed(5), ..Default::default() };
+    let cpu = drive(&mut exchange::gather::CpuBounces::from_radiosity(&solver.links, &s.albedo, &b0), &params)
+        .expect("cpu gather");
+    let gl = GpuLinks::new(dev.clone(), &solver.links, &s.albedo).expect("upload");
+    let gpu = drive(&mut gl.kernel_from_radiosity(&b0, &s.albedo).expect("kernel"), &params).expect("gather");
+    let mean = common::mean(&cpu.e_indirect).max_element();
+    assert!(mean > 0.0);
+    for (a, b) in cpu.e_indirect.iter().zip(&gpu.e_indirect) {
+        assert!(rel(*a, *b, 1e-3 * mean) <= 1e-5, "{a} vs {b}");
+    }
 }
 
 /// The gather alone: the same links on both sides, fixed and auto bounces

@@ -10,6 +10,8 @@ fn same_geometry(a: &prep::PreparedScene, b: &prep::PreparedScene) {
     assert!(a.positions == b.positions, "positions differ");
     assert!(a.triangles == b.triangles, "triangles differ");
     assert!(a.albedo == b.albedo, "albedo differs");
+    assert!(a.emission == b.emission, "emission differs");
+    assert_eq!(a.sky, b.sky);
     assert_eq!(a.lights, b.lights);
     assert_eq!(a.settings, b.settings);
 }
@@ -35,6 +37,12 @@ fn written_scene_reads_back() {
     let dir = std::env::temp_dir().join(format!("linkgi-scenes-{}", std::process::id()));
     let mut desc = builtin::closed_room(3, 0.4);
     desc.settings.bounces = Bounces::Auto;
+    // Emission travels in the MTL (`Ke`), the sky in the TOML.
+    desc.meshes[0].materials[0].emission = glam::Vec3::new(0.5, 2.0, 0.0);
+    let mut sky = linkgi::sky::Sky::gradient(glam::Vec3::ONE, glam::Vec3::splat(0.5), glam::Vec3::ZERO);
+    sky.rotate_deg = 30.0;
+    sky.intensity = 2.0;
+    desc.sky = Some(sky);
     let path = scene::file::write_scene(&desc, &dir).unwrap();
     let back = scene::load(path.to_str().unwrap()).unwrap();
     same_geometry(&prep::prepare(&back).unwrap(), &prep::prepare(&desc).unwrap());
