@@ -135,6 +135,41 @@ fn scripted_view_writes_screenshots_that_follow_the_script() {
     assert!(hi as i32 - lo as i32 > 100, "screenshot a has no contrast ({lo}..{hi})");
 }
 
+/// The panel's emission and sky controls through the script: turning the
+/// lamp shade off in `window` changes the picture; with the sky at zero as
+/// well nothing lights the room (and the background is black).
+#[test]
+fn scripted_emission_and_sky_edits() {
+    if !tools_present("scripted_emission_and_sky_edits", &["xvfb-run"]) {
+        return;
+    }
+    let dir = fresh_dir("view_emission_sky");
+    let shots = dir.join("shots");
+    let script = dir.join("script.txt");
+    std::fs::write(
+        &script,
+        "0 wait_gi\n0 screenshot a.png\n0 set_emission 1 0\n0 wait_gi\n0 screenshot b.png\n\
+         0 set_sky 0 45\n0 wait_gi\n0 screenshot c.png\n0 quit\n",
+    )
+    .unwrap();
+    let out = Command::new("xvfb-run")
+        .args(["-a", env!("CARGO_BIN_EXE_linkgi"), "view", "window", "--rays", "64", "--size", &format!("{W}x{H}")])
+        .arg("--script")
+        .arg(&script)
+        .arg("--screenshot-dir")
+        .arg(&shots)
+        .output()
+        .expect("run linkgi view");
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "linkgi view failed: {stderr}");
+    let mean = |i: &image::RgbImage| i.as_raw().iter().map(|&v| v as f64).sum::<f64>() / i.as_raw().len() as f64;
+    let (a, b, c) = (load(&shots.join("a.png")), load(&shots.join("b.png")), load(&shots.join("c.png")));
+    eprintln!("means: lamp on {:.1}, lamp off {:.1}, sky off too {:.1}", mean(&a), mean(&b), mean(&c));
+    assert!(mean_abs_diff(&a, &b) > 3.0, "turning the lamp off barely changed the picture");
+    assert!(mean(&b) > 10.0, "the sky alone lights nothing: mean {:.1}", mean(&b));
+    assert!(mean(&c) < 1.0, "no lamp, no sky, yet the picture has mean {:.2}", mean(&c));
+}
+
 #[test]
 fn bad_script_names_file_and_line() {
     let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("view_bad_script");

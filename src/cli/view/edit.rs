@@ -1,5 +1,6 @@
 //! Light editing in `linkgi view`: what the keys, the panel and the script
-//! do to the lights (move, set the strength, add, remove), the rays per
+//! do to the lights (move, set the strength, add, remove), to emitters
+//! (a mesh's emission) and the sky (intensity, rotation), the rays per
 //! vertex, and where the point lights are on screen (the rings the mouse
 //! drags). Every edit updates the viewer's copy and sends the engine the
 //! [`Change`]; the edits themselves are [`Light`] methods.
@@ -71,6 +72,34 @@ impl Viewer {
         self.intensity_range.remove(index);
         self.selected = self.selected.min(self.lights.len().saturating_sub(1));
         self.engine.send(Change::RemoveLight(index));
+        Ok(())
+    }
+
+    /// Sets mesh `mesh`'s emission to `value` W/m^2 in its strongest
+    /// channel, colour kept (a mesh that did not glow glows white).
+    pub(super) fn set_emission(&mut self, mesh: usize, value: f32) -> Result<()> {
+        let Some(current) = self.mesh_emission.get(mesh).copied() else {
+            bail!("mesh {mesh} does not exist (the scene has {})", self.mesh_emission.len())
+        };
+        if !(value.is_finite() && value >= 0.0) {
+            bail!("emission {value} must be finite and >= 0");
+        }
+        let m = current.max_element();
+        let emission = if m > 0.0 { current * (value / m) } else { Vec3::splat(value) };
+        self.mesh_emission[mesh] = emission;
+        self.engine.send(Change::SetEmission { mesh, emission });
+        Ok(())
+    }
+
+    /// Sets the sky's intensity (multiplier) and rotation about +y (degrees).
+    pub(super) fn set_sky(&mut self, intensity: f32, rotate_deg: f32) -> Result<()> {
+        let Some(sky) = &mut self.sky else { bail!("the scene has no sky") };
+        if !(intensity.is_finite() && intensity >= 0.0 && rotate_deg.is_finite()) {
+            bail!("sky intensity {intensity} must be finite and >= 0, rotation {rotate_deg} finite");
+        }
+        sky.intensity = intensity;
+        sky.rotate_deg = rotate_deg;
+        self.engine.send(Change::SetSky(Some(sky.clone())));
         Ok(())
     }
 

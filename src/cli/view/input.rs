@@ -44,6 +44,9 @@ impl Viewer {
             UiAction::Screenshot => self.pending.scene = Some(self.screenshot_path(None)),
             UiAction::AddLight => self.add_light()?,
             UiAction::RemoveLight => self.remove_light(self.selected)?,
+            UiAction::SelectMesh(i) => self.selected_mesh = i.min(self.mesh_emission.len().saturating_sub(1)),
+            UiAction::Emission(v) => self.set_emission(self.selected_mesh, v)?,
+            UiAction::Sky { intensity, rotate_deg } => self.set_sky(intensity, rotate_deg)?,
         }
         Ok(())
     }

@@ -108,6 +108,12 @@ struct Viewer {
     lights: Vec<Light>,
     intensity_range: Vec<(f32, f32)>,
     selected: usize,
+    /// Emitted exitance per mesh as edited (the strongest vertex's), W/m^2.
+    mesh_emission: Vec<Vec3>,
+    /// The mesh the panel's emission slider edits.
+    selected_mesh: usize,
+    /// The sky as edited.
+    sky: Option<linkgi::sky::Sky>,
     settings: Settings,
     rays_k: u32,
     orbit: Orbit,
@@ -159,6 +165,14 @@ pub fn run(args: ViewArgs) -> Result<()> {
     let Setup { desc, prepared, settings } = setup(&args.scene, &args.overrides)?;
     let backend = settings.backend;
     for step in &script {
+        let at = || format!("{}:{}", script_file.display(), step.line);
+        match step.action {
+            Action::SetEmission { mesh, .. } if mesh >= prepared.meshes.len() => {
+                bail!("{}: mesh {mesh}: the scene has {} mesh(es)", at(), prepared.meshes.len())
+            }
+            Action::SetSky { .. } if prepared.sky.is_none() => bail!("{}: set_sky: the scene has no sky", at()),
+            _ => {}
+        }
         if let Action::MoveLight { index, .. } | Action::SetIntensity { index, .. } = step.action {
             if index >= prepared.lights.len() {
                 bail!(
@@ -189,7 +203,18 @@ pub fn run(args: ViewArgs) -> Result<()> {
             (base * 1e-2, base * 1e2)
         })
         .collect();
+    let mesh_emission = prepared
+        .meshes
+        .iter()
+        .map(|m| {
+            let r = m.vertices.start as usize..m.vertices.end as usize;
+            prepared.emission[r].iter().fold(Vec3::ZERO, |a, e| if e.max_element() > a.max_element() { *e } else { a })
+        })
+        .collect();
     let mut viewer = Viewer {
+        mesh_emission,
+        selected_mesh: 0,
+        sky: prepared.sky.clone(),
         rest: prepared.positions.clone(),
         rest_normals: prepared.normals.clone(),
         positions: prepared.positions.clone(),

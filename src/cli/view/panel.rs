@@ -1,7 +1,8 @@
 //! The viewer's egui panel: figures (fps, GI updates per second, age of the
 //! shown GI, links, bounces, stage times) and controls (view mode, light
-//! selection and intensity, rays per vertex, exposure, deformation,
-//! screenshot), plus markers over the point lights.
+//! selection and intensity, a mesh's emission, the sky's intensity and
+//! rotation, rays per vertex, exposure, deformation, screenshot), plus
+//! markers over the point lights.
 //!
 //! The panel only reads a [`PanelModel`] and returns [`UiAction`]s; the
 //! viewer applies them through the same code as the keys and the script's
@@ -48,6 +49,11 @@ pub struct PanelModel<'a> {
     /// Window pixels of each point light (markers), `None` when off screen.
     pub light_pixels: &'a [Option<Vec2>],
     pub pixels_per_point: f32,
+    /// Mesh names and their emission (W/m^2).
+    pub meshes: &'a [(String, glam::Vec3)],
+    pub selected_mesh: usize,
+    /// The sky's intensity and rotation (degrees), if the scene has one.
+    pub sky: Option<(f32, f32)>,
 }
 
 /// A control the user changed.
@@ -68,6 +74,12 @@ pub enum UiAction {
     AddLight,
     /// Removes the selected light.
     RemoveLight,
+    /// The mesh the emission slider edits.
+    SelectMesh(usize),
+    /// New strongest channel of the selected mesh's emission, W/m^2.
+    Emission(f32),
+    /// New sky intensity (multiplier) and rotation (degrees).
+    Sky { intensity: f32, rotate_deg: f32 },
 }
 
 fn light_name(i: usize, l: &Light) -> String {
@@ -168,6 +180,29 @@ pub fn panel(ctx: &egui::Context, m: &PanelModel) -> Vec<UiAction> {
                     if matches!(m.lights[sel], Light::Point { .. }) { "intensity W/sr" } else { "irradiance W/m²" };
                 if ui.add(egui::Slider::new(&mut value, lo..=hi).logarithmic(true).text(unit)).changed() {
                     out.push(UiAction::Intensity(value));
+                }
+            }
+            if !m.meshes.is_empty() {
+                let sel = m.selected_mesh.min(m.meshes.len() - 1);
+                egui::ComboBox::from_label("emitter").selected_text(&m.meshes[sel].0).show_ui(ui, |ui| {
+                    for (i, (name, _)) in m.meshes.iter().enumerate() {
+                        if ui.selectable_label(i == sel, name).clicked() && i != sel {
+                            out.push(UiAction::SelectMesh(i));
+                        }
+                    }
+                });
+                let mut value = m.meshes[sel].1.max_element();
+                let slider = egui::Slider::new(&mut value, 0.0..=1000.0).logarithmic(true).smallest_positive(0.01);
+                if ui.add(slider.text("emission W/m²")).changed() {
+                    out.push(UiAction::Emission(value));
+                }
+            }
+            if let Some((intensity, rotate)) = m.sky {
+                let (mut i, mut r) = (intensity, rotate);
+                let a = ui.add(egui::Slider::new(&mut i, 0.0..=20.0).logarithmic(true).smallest_positive(0.01).text("sky ×"));
+                let b = ui.add(egui::Slider::new(&mut r, -180.0..=180.0).text("sky turn °"));
+                if a.changed() || b.changed() {
+                    out.push(UiAction::Sky { intensity: i, rotate_deg: r });
                 }
             }
             // Rays per vertex: k x k; a new solve only when the drag ends.

@@ -9,6 +9,10 @@
 //! - `set_intensity <i> <value>`: the light's strongest channel becomes
 //!   `value` (W/sr or W/m^2), colour kept (what the panel's slider does);
 //! - `set_rays <n>`: rays per vertex, a square number (the panel's slider);
+//! - `set_emission <mesh> <value>`: mesh `mesh`'s emission becomes `value`
+//!   W/m^2 in its strongest channel, colour kept (the panel's slider);
+//! - `set_sky <intensity> <rotate_deg>`: the sky's multiplier and its
+//!   rotation about +y (the panel's sliders);
 //! - `add_light`: a point light halfway from the camera to the surface at
 //!   the centre of the view (the panel's button);
 //! - `remove_light <i>`;
@@ -46,6 +50,8 @@ pub enum Action {
     MoveLight { index: usize, delta: Vec3 },
     SetIntensity { index: usize, value: f32 },
     SetRays(u32),
+    SetEmission { mesh: usize, value: f32 },
+    SetSky { intensity: f32, rotate_deg: f32 },
     AddLight,
     RemoveLight(usize),
     Deform(bool),
@@ -65,8 +71,8 @@ pub struct ScriptLine {
     pub line: usize,
 }
 
-const ACTIONS: &str = "move_light, set_intensity, set_rays, add_light, remove_light, deform, view, wait_gi, \
-                       screenshot, window_shot, wait_file, quit";
+const ACTIONS: &str = "move_light, set_intensity, set_rays, set_emission, set_sky, add_light, remove_light, \
+                       deform, view, wait_gi, screenshot, window_shot, wait_file, quit";
 
 /// Parses a script; errors name `file` and the line.
 pub fn parse_script(text: &str, file: &Path) -> Result<Vec<ScriptLine>> {
@@ -130,6 +136,25 @@ pub fn parse_script(text: &str, file: &Path) -> Result<Vec<ScriptLine>> {
             "add_light" => {
                 want(0)?;
                 Action::AddLight
+            }
+            "set_emission" => {
+                want(2)?;
+                let mesh = args[0]
+                    .parse()
+                    .with_context(|| format!("{}: set_emission: '{}' is not a mesh index", here(), args[0]))?;
+                let value = number(args[1])?;
+                if value < 0.0 {
+                    bail!("{}: set_emission: {value} is negative", here());
+                }
+                Action::SetEmission { mesh, value }
+            }
+            "set_sky" => {
+                want(2)?;
+                let intensity = number(args[0])?;
+                if intensity < 0.0 {
+                    bail!("{}: set_sky: intensity {intensity} is negative", here());
+                }
+                Action::SetSky { intensity, rotate_deg: number(args[1])? }
             }
             "remove_light" => {
                 want(1)?;
@@ -205,6 +230,10 @@ impl Viewer {
                 }
                 Action::SetRays(n) => self.set_rays(n),
                 Action::AddLight => self.add_light().with_context(|| here.clone())?,
+                Action::SetEmission { mesh, value } => self.set_emission(mesh, value).with_context(|| here.clone())?,
+                Action::SetSky { intensity, rotate_deg } => {
+                    self.set_sky(intensity, rotate_deg).with_context(|| here.clone())?
+                }
                 Action::RemoveLight(i) => self.remove_light(i).with_context(|| here.clone())?,
                 Action::Deform(on) => {
                     if on && !self.deforms {
