@@ -6,9 +6,14 @@ use std::path::Path;
 use std::process::Command;
 
 fn animate(scene: &str, frames: u32, dir: &Path) -> Vec<Vec<String>> {
+    animate_with(scene, frames, dir, &[])
+}
+
+fn animate_with(scene: &str, frames: u32, dir: &Path, extra: &[&str]) -> Vec<Vec<String>> {
     let _ = std::fs::remove_dir_all(dir);
     let out = Command::new(env!("CARGO_BIN_EXE_linkgi"))
         .args(["animate", scene, "--frames", &frames.to_string(), "--sync", "--rays", "4", "--size", "48x36"])
+        .args(extra)
         .args(["--backend", "cpu", "--out"])
         .arg(dir)
         .output()
@@ -56,6 +61,18 @@ fn torso_deforms_every_frame() {
     assert!(reshot[1] > 0 && patched[1] > 0 && light[1] > 0 && state[1] > 0, "{:?}", rows[1]);
     let fraction: f64 = rows[1][15].parse().unwrap();
     assert!((0.0..1.0).contains(&fraction), "static rays re-shot fraction {fraction}");
+}
+
+/// `--sky-turn` turns `window`'s sky every frame: one gather per frame, no
+/// structure, link or light-link work, and the picture changes.
+#[test]
+fn window_sky_turns_every_frame_as_a_gather() {
+    let dir = std::env::temp_dir().join(format!("linkgi-animate-window-{}", std::process::id()));
+    let rows = animate_with("window", 3, &dir, &["--sky-turn", "120", "--fps", "1"]);
+    assert_eq!(col(&rows, 4), vec![2, 3, 4], "GI versions");
+    assert_eq!(col(&rows, 7), vec![1, 1, 1], "structure builds");
+    assert_eq!(col(&rows, 8), vec![1, 1, 1], "light-link updates");
+    assert_eq!(col(&rows, 9), vec![2, 3, 4], "gathers");
 }
 
 #[test]

@@ -1,4 +1,5 @@
-//! `linkgi animate`: moves the first light along a circle and runs the
+//! `linkgi animate`: moves the first light along a circle, turns the sky
+//! (`--sky-turn`, degrees per second, for scenes with a sky) and runs the
 //! scene's deformers while the asynchronous engine updates GI in the
 //! background; each frame is rendered with whatever GI is published at that
 //! moment (`--sync` waits for every update instead). Writes
@@ -45,12 +46,19 @@ pub struct AnimateArgs {
     /// Radiance scale before tone mapping.
     #[arg(long, default_value_t = 0.6)]
     pub exposure: f32,
+    /// Turn the scene's sky about +y at this many degrees per second of
+    /// animation time (a gather-only update per frame; ignored without a sky).
+    #[arg(long, default_value_t = 0.0)]
+    pub sky_turn: f32,
 }
 
 pub fn run(args: AnimateArgs) -> Result<()> {
     let (width, height) = super::render::parse_size(&args.size)?;
     if args.frames == 0 || !(args.fps.is_finite() && args.fps > 0.0) {
         anyhow::bail!("--frames must be at least 1 and --fps positive");
+    }
+    if !args.sky_turn.is_finite() {
+        anyhow::bail!("--sky-turn must be finite");
     }
     let Setup { desc, prepared, settings } = setup(&args.scene, &args.overrides)?;
     let compute = compute(settings.backend, 1)?;
@@ -103,6 +111,11 @@ pub fn run(args: AnimateArgs) -> Result<()> {
             let q = glam::Quat::from_rotation_y(std::f32::consts::TAU * k as f32 / args.frames as f32);
             lights[0] = Light::Directional { direction: q * direction, irradiance };
             changes.push(Change::MoveLight { index: 0, light: lights[0] });
+        }
+        if let Some(sky) = prepared.sky.as_ref().filter(|_| args.sky_turn != 0.0) {
+            let mut turned = sky.clone();
+            turned.rotate_deg = sky.rotate_deg + args.sky_turn * time;
+            changes.push(Change::SetSky(Some(turned)));
         }
         let (positions, normals) = if deforms {
             let (p, n) = deform_scene(&prepared, &rest, &rest_normals, time);

@@ -79,7 +79,10 @@ pub enum UiAction {
     /// New strongest channel of the selected mesh's emission, W/m^2.
     Emission(f32),
     /// New sky intensity (multiplier) and rotation (degrees).
-    Sky { intensity: f32, rotate_deg: f32 },
+    Sky {
+        intensity: f32,
+        rotate_deg: f32,
+    },
 }
 
 fn light_name(i: usize, l: &Light) -> String {

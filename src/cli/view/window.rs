@@ -142,13 +142,8 @@ impl Viewer {
                 exposure: self.exposure,
                 ..Default::default()
             };
-            let meshes: Vec<(String, glam::Vec3)> = self
-                .prepared
-                .meshes
-                .iter()
-                .zip(&self.mesh_emission)
-                .map(|(m, e)| (m.name.clone(), *e))
-                .collect();
+            let meshes: Vec<(String, glam::Vec3)> =
+                self.prepared.meshes.iter().zip(&self.mesh_emission).map(|(m, e)| (m.name.clone(), *e)).collect();
             let model = PanelModel {
                 scene: &self.prepared.name,
                 renderer: &self.display_name,
