@@ -164,6 +164,15 @@ pub fn vertex_frame(n: Vec3, angle: f32) -> (Vec3, Vec3, Vec3) {
     (t * c + b * s, b * c - t * s, n)
 }
 
+/// Local direction `d` of a [`DirectionSet`] in the world frame `(t, b, n)`
+/// of [`vertex_frame`], normalized: the one formula every shooter (CPU, GPU
+/// host side, sky visibility) uses, so all agree bit for bit.
+#[inline]
+pub fn world_direction(frame: (Vec3, Vec3, Vec3), d: Vec3) -> Vec3 {
+    let (t, b, n) = frame;
+    (t * d.x + b * d.y + n * d.z).normalize()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -254,13 +263,4 @@ mod tests {
         }
         assert_eq!(rot, vertex_rotations(&rings, 1));
     }
-}
-
-/// Local direction `d` of a [`DirectionSet`] in the world frame `(t, b, n)`
-/// of [`vertex_frame`], normalized: the one formula every shooter (CPU, GPU
-/// host side, sky visibility) uses, so all agree bit for bit.
-#[inline]
-pub fn world_direction(frame: (Vec3, Vec3, Vec3), d: Vec3) -> Vec3 {
-    let (t, b, n) = frame;
-    (t * d.x + b * d.y + n * d.z).normalize()
 }

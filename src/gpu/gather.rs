@@ -143,7 +143,7 @@ impl GpuLinks {
     fn make_kernel(&self, b0: &[Vec3], albedo: &[Vec3]) -> GpuBounces<'_> {
         let d = &self.dev.device;
         let zeros = vec![[0f32; 4]; self.n as usize];
-        let radiosity = storage_init(d, "radiosity", &vec4s(&b0));
+        let radiosity = storage_init(d, "radiosity", &vec4s(b0));
         let bounce = storage_init(d, "bounce irradiance", &zeros);
         let total = storage_init(d, "indirect irradiance", &zeros);
         let group_count = (self.groups.0 * self.groups.1) as usize;
