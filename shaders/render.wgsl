@@ -3,7 +3,7 @@
 // Outgoing radiance per pixel, W/(m^2 sr):
 //   L = rho / pi * (E_d(pixel) + E_sky + E_i) + M_e / pi
 // with E_sky, E_i and the emitted radiance M_e / pi interpolated from the
-// vertices; pixels that see nothing keep the clear colour (the sky's mean).
+// vertices; pixels that see nothing show the sky (sky_vs / sky_fs).
 // E_d: sum over lights of I cos / r^2 (point) or E cos (directional), times
 // the shadow-map visibility (3x3 percentage-closer filtering, each tap a
 // hardware 2x2 comparison). Point lights use six 2D layers (one per cube
@@ -27,6 +27,8 @@ struct FrameUniforms {
     shadow_texel: f32,
     // Depth-space bias subtracted before comparing.
     depth_bias: f32,
+    // Clip-to-world matrix: the sky pass's view directions.
+    inv_view_proj: mat4x4<f32>,
 }
 
 struct LightGpu {
@@ -53,6 +55,10 @@ struct LightArray {
 @group(0) @binding(2) var<uniform> shadow: ShadowMatrices;
 @group(0) @binding(3) var shadow_maps: texture_depth_2d_array;
 @group(0) @binding(4) var shadow_sampler: sampler_comparison;
+// The sky as an equirectangular radiance image (src/sky/envmap.rs layout:
+// u = azimuth from +x toward -z over 2 pi, v = polar angle from +y over pi).
+@group(0) @binding(5) var sky_map: texture_2d<f32>;
+@group(0) @binding(6) var sky_sampler: sampler;
 
 struct VsOut {
     @builtin(position) clip: vec4<f32>,
@@ -157,4 +163,37 @@ fn fs_main(in: VsOut, @builtin(front_facing) front: bool) -> @location(0) vec4<f
         l = in.albedo / PI * in.e_indirect;
     }
     return vec4<f32>(l, 1.0);
+}
+
+// Sky pass: one triangle over the screen at the far plane, drawn before the
+// mesh without depth; each pixel shows the sky radiance along its view ray
+// (black in the indirect view).
+struct SkyOut {
+    @builtin(position) clip: vec4<f32>,
+    @location(0) ndc: vec2<f32>,
+}
+
+@vertex
+fn sky_vs(@builtin(vertex_index) i: u32) -> SkyOut {
+    let xy = vec2<f32>(f32((i << 1u) & 2u), f32(i & 2u)) * 2.0 - 1.0;
+    var out: SkyOut;
+    out.clip = vec4<f32>(xy, 1.0, 1.0);
+    out.ndc = xy;
+    return out;
+}
+
+@fragment
+fn sky_fs(in: SkyOut) -> @location(0) vec4<f32> {
+    if frame.view_mode == 2u {
+        return vec4<f32>(0.0, 0.0, 0.0, 1.0);
+    }
+    let far = frame.inv_view_proj * vec4<f32>(in.ndc, 1.0, 1.0);
+    let d = normalize(far.xyz / far.w - frame.camera_pos);
+    let theta = acos(clamp(d.y, -1.0, 1.0));
+    var phi = atan2(-d.z, d.x);
+    if phi < 0.0 {
+        phi += 2.0 * PI;
+    }
+    let uv = vec2<f32>(phi / (2.0 * PI), theta / PI);
+    return vec4<f32>(textureSampleLevel(sky_map, sky_sampler, uv, 0.0).rgb, 1.0);
 }

@@ -146,7 +146,7 @@ pub fn run(args: AnimateArgs) -> Result<()> {
             e_indirect: &gi.e_indirect,
             e_sky: &gi.e_sky,
             emission: &gi.emission,
-            background: gi.sky.as_ref().map_or(glam::Vec3::ZERO, |s| s.mean_radiance()),
+            sky: gi.sky.as_ref(),
             lights: &lights,
             camera: desc.camera,
         };

@@ -69,7 +69,7 @@ pub struct GatherUniforms {
     pub _pad0: u32,
 }
 
-/// Per-frame uniforms of the renderer (`shaders/render.wgsl`, 96 bytes).
+/// Per-frame uniforms of the renderer (`shaders/render.wgsl`, 160 bytes).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct FrameUniforms {
@@ -85,6 +85,8 @@ pub struct FrameUniforms {
     pub shadow_texel: f32,
     /// Bias subtracted from the depth before comparing.
     pub depth_bias: f32,
+    /// Column-major clip-to-world matrix (the sky pass's view directions).
+    pub inv_view_proj: [f32; 16],
 }
 
 /// One light of the renderer (48 bytes).
@@ -146,7 +148,7 @@ pub fn shared_structs() -> Vec<SharedStruct> {
         shared!(
             FrameUniforms,
             "FrameUniforms",
-            [view_proj, camera_pos, light_count, view_mode, normal_offset, shadow_texel, depth_bias]
+            [view_proj, camera_pos, light_count, view_mode, normal_offset, shadow_texel, depth_bias, inv_view_proj]
         ),
         shared!(LightGpu, "LightGpu", [position, kind, color, layer, direction, _pad0]),
         shared!(ToneMapUniforms, "ToneMapUniforms", [exposure, encode_srgb, _pad0, _pad1]),

@@ -2,8 +2,8 @@
 //! through a CPU tracer (a wide BVH of the frame's triangles unless one is given); at a front-face hit the
 //! normal, albedo and `E_i` are interpolated with the hit's barycentrics and
 //! each light's visibility is one shadow ray from the hit offset along the
-//! normal (hard shadows). Back faces are black, misses the frame's
-//! background. Radiance as in [`super`]:
+//! normal (hard shadows). Back faces are black, misses show the sky's
+//! radiance along the ray (black in the indirect view or without a sky). Radiance as in [`super`]:
 //! `L = rho / pi * (E_d + E_sky + E_i) + M_e / pi`; rows run in parallel (rayon).
 
 use super::{pixel_ray, Frame, HdrImage, RenderParams, RenderStats, View};
@@ -50,7 +50,12 @@ pub fn render_cpu(
 }
 
 fn shade(frame: &Frame, kd: &dyn CpuTracer, view: View, offset: f32, ray: Ray) -> Vec3 {
-    let Some(hit) = kd.intersect(&ray) else { return frame.background };
+    let Some(hit) = kd.intersect(&ray) else {
+        return match (frame.sky, view) {
+            (Some(sky), View::Combined | View::Direct) => sky.radiance(ray.dir),
+            _ => Vec3::ZERO,
+        };
+    };
     if !hit.front {
         return Vec3::ZERO;
     }

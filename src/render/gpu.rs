@@ -51,6 +51,52 @@ pub struct GpuRenderer {
     /// (shadow matrices and size, positions, triangles): a frame where only
     /// the camera, the view or the indirect light changed reuses them.
     shadow_cache: Mutex<Option<(u64, wgpu::Texture)>>,
+    /// The background pass: the sky along every pixel's view ray.
+    sky: wgpu::RenderPipeline,
+    sky_sampler: wgpu::Sampler,
+    /// The last frame's sky image and its key (the sky's description).
+    sky_cache: Mutex<Option<(String, wgpu::Texture)>>,
+}
+
+/// Size of the equirectangular image the sky pass samples (the sky baked
+/// with rotation and intensity; bilinear, `Rgba16Float`).
+const SKY_MAP_SIZE: (u32, u32) = (512, 256);
+
+/// The sky (or black) as an equirectangular radiance texture.
+fn sky_texture(d: &wgpu::Device, q: &wgpu::Queue, sky: Option<&crate::sky::Sky>) -> wgpu::Texture {
+    let (w, h) = if sky.is_some() { SKY_MAP_SIZE } else { (1, 1) };
+    let mut texels = Vec::with_capacity((w * h) as usize);
+    let radiance = sky.map(|s| s.radiance_fn());
+    for j in 0..h as usize {
+        for i in 0..w as usize {
+            let l = radiance
+                .as_ref()
+                .map_or(Vec3::ZERO, |f| f(crate::sky::envmap::pixel_direction(i, j, w as usize, h as usize)));
+            texels.push([l.x, l.y, l.z, 1.0].map(half::f16::from_f32));
+        }
+    }
+    let tex = d.create_texture(&wgpu::TextureDescriptor {
+        label: Some("sky map"),
+        size: wgpu::Extent3d { width: w, height: h, depth_or_array_layers: 1 },
+        mip_level_count: 1,
+        sample_count: 1,
+        dimension: wgpu::TextureDimension::D2,
+        format: wgpu::TextureFormat::Rgba16Float,
+        usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
+        view_formats: &[],
+    });
+    q.write_texture(
+        wgpu::TexelCopyTextureInfo {
+            texture: &tex,
+            mip_level: 0,
+            origin: wgpu::Origin3d::ZERO,
+            aspect: wgpu::TextureAspect::All,
+        },
+        bytemuck::cast_slice(&texels),
+        wgpu::TexelCopyBufferLayout { offset: 0, bytes_per_row: Some(w * 8), rows_per_image: None },
+        wgpu::Extent3d { width: w, height: h, depth_or_array_layers: 1 },
+    );
+    tex
 }
 
 /// Hash of everything the shadow maps depend on.
@@ -132,6 +178,41 @@ impl GpuRenderer {
             multiview_mask: None,
             cache: None,
         });
+        let sky = d.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+            label: Some("render sky pipeline"),
+            layout: None,
+            vertex: wgpu::VertexState {
+                module: &module,
+                entry_point: Some("sky_vs"),
+                compilation_options: Default::default(),
+                buffers: &[],
+            },
+            primitive: wgpu::PrimitiveState { cull_mode: None, ..Default::default() },
+            depth_stencil: Some(wgpu::DepthStencilState {
+                format: DEPTH_FORMAT,
+                depth_write_enabled: Some(false),
+                depth_compare: Some(wgpu::CompareFunction::Always),
+                stencil: Default::default(),
+                bias: Default::default(),
+            }),
+            multisample: Default::default(),
+            fragment: Some(wgpu::FragmentState {
+                module: &module,
+                entry_point: Some("sky_fs"),
+                compilation_options: Default::default(),
+                targets: &[Some(HDR_FORMAT.into())],
+            }),
+            multiview_mask: None,
+            cache: None,
+        });
+        let sky_sampler = d.create_sampler(&wgpu::SamplerDescriptor {
+            label: Some("sky sampler"),
+            address_mode_u: wgpu::AddressMode::Repeat,
+            address_mode_v: wgpu::AddressMode::ClampToEdge,
+            mag_filter: wgpu::FilterMode::Linear,
+            min_filter: wgpu::FilterMode::Linear,
+            ..Default::default()
+        });
         let sampler = d.create_sampler(&wgpu::SamplerDescriptor {
             label: Some("shadow comparison sampler"),
             address_mode_u: wgpu::AddressMode::ClampToEdge,
@@ -144,7 +225,16 @@ impl GpuRenderer {
         if let Some(e) = pollster::block_on(scope.pop()) {
             return Err(Error::Gpu(format!("render pipelines: {e}")));
         }
-        Ok(GpuRenderer { dev, main, shadow, sampler, shadow_cache: Mutex::new(None) })
+        Ok(GpuRenderer {
+            dev,
+            main,
+            shadow,
+            sampler,
+            shadow_cache: Mutex::new(None),
+            sky,
+            sky_sampler,
+            sky_cache: Mutex::new(None),
+        })
     }
 
     /// Records the shadow passes and the main pass of `frame` into a new
@@ -217,6 +307,7 @@ impl GpuRenderer {
         let shadow_size = params.shadow_size.clamp(16, max_dim);
         let uniforms = FrameUniforms {
             view_proj: (proj * view).to_cols_array(),
+            inv_view_proj: (proj * view).inverse().to_cols_array(),
             camera_pos: frame.camera.position.into(),
             light_count: frame.lights.len() as u32,
             view_mode: params.view.mode(),
@@ -294,6 +385,26 @@ impl GpuRenderer {
             ],
         });
 
+        let sky_key = frame.sky.map_or(String::new(), |s| s.describe());
+        let mut cache = self.sky_cache.lock().unwrap_or_else(|p| p.into_inner());
+        let sky_tex = match &*cache {
+            Some((k, tex)) if *k == sky_key => tex.clone(),
+            _ => sky_texture(d, &self.dev.queue, frame.sky),
+        };
+        *cache = Some((sky_key, sky_tex.clone()));
+        drop(cache);
+        let sky_view =
+            sky_tex.create_view(&wgpu::TextureViewDescriptor { label: Some("sky map view"), ..Default::default() });
+        let sky_group = d.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("sky pass bind group"),
+            layout: &self.sky.get_bind_group_layout(0),
+            entries: &[
+                wgpu::BindGroupEntry { binding: 0, resource: frame_buf.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 5, resource: wgpu::BindingResource::TextureView(&sky_view) },
+                wgpu::BindGroupEntry { binding: 6, resource: wgpu::BindingResource::Sampler(&self.sky_sampler) },
+            ],
+        });
+
         let hdr = d.create_texture(&wgpu::TextureDescriptor {
             label: Some("hdr target"),
             size: wgpu::Extent3d { width: w, height: h, depth_or_array_layers: 1 },
@@ -353,12 +464,7 @@ impl GpuRenderer {
                     depth_slice: None,
                     resolve_target: None,
                     ops: wgpu::Operations {
-                        load: wgpu::LoadOp::Clear(wgpu::Color {
-                            r: frame.background.x as f64,
-                            g: frame.background.y as f64,
-                            b: frame.background.z as f64,
-                            a: 1.0,
-                        }),
+                        load: wgpu::LoadOp::Clear(wgpu::Color::BLACK),
                         store: wgpu::StoreOp::Store,
                     },
                 })],
@@ -371,6 +477,11 @@ impl GpuRenderer {
                 occlusion_query_set: None,
                 multiview_mask: None,
             });
+            if frame.sky.is_some() {
+                pass.set_pipeline(&self.sky);
+                pass.set_bind_group(0, &sky_group, &[]);
+                pass.draw(0..3, 0..1);
+            }
             draw_mesh(&mut pass, &self.main, &main_group, &vbuf, &ibuf, index_count, 0..1);
         }
         Ok((enc, hdr, stats))

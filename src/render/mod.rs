@@ -84,16 +84,16 @@ pub struct Frame<'a> {
     pub e_sky: &'a [Vec3],
     /// Emitted exitance per vertex, W/m^2 (empty: none); drawn as radiance `M_e / pi`.
     pub emission: &'a [Vec3],
-    /// Radiance of pixels that see no surface, W/(m^2 sr) (the sky's mean; black without one).
-    pub background: Vec3,
+    /// What pixels that see no surface show (black without a sky).
+    pub sky: Option<&'a crate::sky::Sky>,
     pub lights: &'a [Light],
     pub camera: Camera,
 }
 
 impl<'a> Frame<'a> {
     /// A frame of `scene` as prepared, with `e_indirect` per vertex, the
-    /// scene's emitters and its sky as background (no sky irradiance: see
-    /// [`Frame::with_sky`]).
+    /// scene's emitters and its sky behind everything (no sky irradiance:
+    /// see [`Frame::with_sky`]).
     pub fn of(scene: &'a PreparedScene, e_indirect: &'a [Vec3], camera: Camera) -> Frame<'a> {
         Frame {
             positions: &scene.positions,
@@ -103,7 +103,7 @@ impl<'a> Frame<'a> {
             e_indirect,
             e_sky: &[],
             emission: &scene.emission,
-            background: scene.sky.as_ref().map_or(Vec3::ZERO, |s| s.mean_radiance()),
+            sky: scene.sky.as_ref(),
             lights: &scene.lights,
             camera,
         }

@@ -62,10 +62,7 @@ impl EnvMap {
 
     /// Direction of the centre of pixel `(i, j)`.
     pub fn direction(&self, i: usize, j: usize) -> Vec3 {
-        let phi = std::f64::consts::TAU * (i as f64 + 0.5) / self.width as f64;
-        let theta = std::f64::consts::PI * (j as f64 + 0.5) / self.height as f64;
-        let (st, ct) = theta.sin_cos();
-        Vec3::new((st * phi.cos()) as f32, ct as f32, (-st * phi.sin()) as f32)
+        pixel_direction(i, j, self.width, self.height)
     }
 
     /// Solid angle of a pixel of row `j`, sr.
@@ -92,6 +89,15 @@ impl EnvMap {
         let p = |c: usize, r: usize| self.pixels[r * self.width + c];
         (p(c0, r0) * (1.0 - fx) + p(c1, r0) * fx) * (1.0 - fy) + (p(c0, r1) * (1.0 - fx) + p(c1, r1) * fx) * fy
     }
+}
+
+/// Direction of the centre of pixel `(i, j)` of a `width` x `height`
+/// equirectangular image (the mapping of the module doc).
+pub fn pixel_direction(i: usize, j: usize, width: usize, height: usize) -> Vec3 {
+    let phi = std::f64::consts::TAU * (i as f64 + 0.5) / width as f64;
+    let theta = std::f64::consts::PI * (j as f64 + 0.5) / height as f64;
+    let (st, ct) = theta.sin_cos();
+    Vec3::new((st * phi.cos()) as f32, ct as f32, (-st * phi.sin()) as f32)
 }
 
 fn read_exr(path: &Path) -> Result<(usize, usize, Vec<Vec3>)> {

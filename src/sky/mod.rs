@@ -138,23 +138,6 @@ impl Sky {
         }
     }
 
-    /// The radiance averaged over all directions, W/(m^2 sr) (a 32 x 64
-    /// grid of equal solid angles): the renderers' background.
-    pub fn mean_radiance(&self) -> Vec3 {
-        let f = self.radiance_fn();
-        let (rows, cols) = (32, 64);
-        let mut sum = Vec3::ZERO;
-        for i in 0..rows {
-            let y = 1.0 - 2.0 * (i as f32 + 0.5) / rows as f32;
-            let r = (1.0 - y * y).max(0.0).sqrt();
-            for j in 0..cols {
-                let phi = std::f32::consts::TAU * (j as f32 + 0.5) / cols as f32;
-                sum += f(Vec3::new(r * phi.cos(), y, -r * phi.sin()));
-            }
-        }
-        sum / (rows * cols) as f32
-    }
-
     /// A short description for messages and panels.
     pub fn describe(&self) -> String {
         let m = match &self.model {

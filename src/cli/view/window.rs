@@ -128,10 +128,7 @@ impl Viewer {
                 e_indirect: current.map_or(&self.zeros, |g| &g.e_indirect),
                 e_sky: current.map_or(&[][..], |g| &g.e_sky),
                 emission: current.map_or(&self.prepared.emission, |g| &g.emission),
-                background: current
-                    .and_then(|g| g.sky.as_ref())
-                    .or(self.prepared.sky.as_ref())
-                    .map_or(glam::Vec3::ZERO, |s| s.mean_radiance()),
+                sky: current.map_or(self.prepared.sky.as_ref(), |g| g.sky.as_ref()),
                 lights: &self.lights,
                 camera: self.orbit.camera(),
             };
