@@ -19,7 +19,11 @@ fn best(label: &str, links: &Links, mut f: impl FnMut()) -> f64 {
         b = b.min(t.elapsed().as_secs_f64() * 1e3);
     }
     let bytes = links.targets.len() as f64 * 6.0;
-    println!("{label:40} {b:7.2} ms  {:6.2} G links/s  {:5.1} GB/s of links", links.targets.len() as f64 / b / 1e6, bytes / b / 1e6);
+    println!(
+        "{label:40} {b:7.2} ms  {:6.2} G links/s  {:5.1} GB/s of links",
+        links.targets.len() as f64 / b / 1e6,
+        bytes / b / 1e6
+    );
     b
 }
 
@@ -38,7 +42,10 @@ fn gather_f32(links: &Links, b: &[Vec4], out: &mut [Vec3], prefetch: usize) {
                     if let Some(&t) = links.targets.get(next + k) {
                         #[cfg(target_arch = "x86_64")]
                         unsafe {
-                            std::arch::x86_64::_mm_prefetch(b.as_ptr().add(t as usize) as *const i8, std::arch::x86_64::_MM_HINT_T0)
+                            std::arch::x86_64::_mm_prefetch(
+                                b.as_ptr().add(t as usize) as *const i8,
+                                std::arch::x86_64::_MM_HINT_T0,
+                            )
                         };
                     }
                 }
@@ -100,7 +107,11 @@ fn main() {
     let solver = Solver::new(scene, SolveParams::from_settings(&desc.settings), &|_, _| {});
     let links = &solver.links;
     let n = links.vertex_count();
-    println!("{name}: {n} vertices, {} links, {:.1} MB of links", links.targets.len(), links.targets.len() as f64 * 6e-6);
+    println!(
+        "{name}: {n} vertices, {} links, {:.1} MB of links",
+        links.targets.len(),
+        links.targets.len() as f64 * 6e-6
+    );
     let b: Vec<Vec4> = (0..n).map(|i| Vec4::new(1.0 + (i % 7) as f32, 0.5, 0.25, 0.0)).collect();
     let bh: Vec<[f16; 4]> = b.iter().map(|v| v.to_array().map(f16::from_f32)).collect();
     let mut out = vec![Vec3::ZERO; n];
@@ -108,7 +119,11 @@ fn main() {
     let r0 = out.clone();
     best("f32 radiosity, prefetch 8 of next group", links, || gather_f32(links, &b, &mut out, 8));
     best("f16 radiosity (8 B a vertex)", links, || gather_h(links, &bh, &mut out));
-    let err = out.iter().zip(&r0).map(|(a, b)| ((*a - *b).abs() / b.abs().max(Vec3::splat(1e-6))).max_element()).fold(0f32, f32::max);
+    let err = out
+        .iter()
+        .zip(&r0)
+        .map(|(a, b)| ((*a - *b).abs() / b.abs().max(Vec3::splat(1e-6))).max_element())
+        .fold(0f32, f32::max);
     println!("f16 radiosity: worst relative difference {err:.2e}");
     best("library gather_bounce_padded", links, || linkgi::exchange::gather::gather_bounce_padded(links, &b, &mut out));
 }

@@ -51,5 +51,14 @@ fn main() {
         sky: Some(sky),
         warnings: vec![],
     };
-    time(&plane, "open plane (every ray misses)");
+    time(&plane, "open plane (every ray misses), gradient sky");
+    // The same plane under a 1024 x 512 image sky.
+    let (w, h) = (1024, 512);
+    let pixels = (0..h)
+        .flat_map(|j| (0..w).map(move |i| linkgi::sky::envmap::pixel_direction(i, j, w, h)))
+        .map(|d| Vec3::new(1.0 + d.x.max(0.0), 1.0 + d.y.abs(), 2.0 - d.z))
+        .collect();
+    let mut img = plane;
+    img.sky = Some(Sky::image("synthetic.exr".into(), linkgi::sky::EnvMap::new(w, h, pixels).unwrap()));
+    time(&img, "open plane (every ray misses), 1024 x 512 image sky");
 }

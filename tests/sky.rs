@@ -278,3 +278,22 @@ fn window_scene_agrees_with_the_reference_path_tracer() {
     }
     assert!(errors[1] < 0.5 * errors[0] && errors[1] < 0.04, "relative RMSE at 256 and 1024 rays: {errors:?}");
 }
+
+/// `linkgi bench` rows carry the sky-turn figure for scenes with a sky
+/// (and null without one).
+#[test]
+fn bench_rows_report_the_sky_turn() {
+    use linkgi::bench::{run_once, BenchRow};
+    use linkgi::solver::{Compute, SolveParams};
+    for (name, has_sky) in [("window", true), ("cornell", false)] {
+        let mut desc = builtin::builtin(name).unwrap();
+        desc.settings.rays_per_vertex = 16;
+        let scene = linkgi::scene::prep::prepare(&desc).unwrap();
+        let params = SolveParams::from_settings(&scene.settings);
+        let (times, sizes, _) = run_once(&scene, &params, &Compute::Cpu).unwrap();
+        let row = BenchRow::from_runs(name, &sizes, 16, &[times]);
+        let median = &serde_json::to_value(&row).unwrap()["sky_turn_ms"]["median"];
+        assert_eq!(median.as_f64().is_some_and(|m| m > 0.0), has_sky, "{name}: {median}");
+        assert_eq!(median.is_null(), !has_sky, "{name}: {median}");
+    }
+}

@@ -129,6 +129,9 @@ pub struct RunTimes {
     /// The same move, full: that light's light links plus bounces and
     /// smoothing ([`Solver::update_lights`]); NaN without lights.
     pub light_move_ms: f64,
+    /// The sky turned by 30 degrees (a gather-only update: `E_sky` from the
+    /// kept miss masks, bounces, smoothing), ms; NaN without a sky.
+    pub sky_turn_ms: f64,
     /// Scenes with deformers, CPU ([`time_deformation`]): the selective
     /// update from the rest pose to [`DEFORM_TIME_S`] with bounces and
     /// smoothing, ms; NaN otherwise.
@@ -168,6 +171,8 @@ pub struct BenchRow {
     pub first_solution_ms: Stat,
     pub light_preview_ms: Stat,
     pub light_move_ms: Stat,
+    /// Scenes with a sky: turning it by 30 degrees (gather only), ms.
+    pub sky_turn_ms: Stat,
     /// Scenes with deformers (CPU): selective update after a deformation
     /// with bounces and smoothing, ms ([`time_deformation`]); NaN otherwise.
     pub deform_update_ms: Stat,
@@ -228,6 +233,7 @@ impl BenchRow {
             first_solution_ms: st(|r| r.first_solution_ms),
             light_preview_ms: st(|r| r.light_preview_ms),
             light_move_ms: st(|r| r.light_move_ms),
+            sky_turn_ms: st(|r| r.sky_turn_ms),
             deform_update_ms: st(|r| r.deform_update_ms),
             deform_full_ms: st(|r| r.deform_full_ms),
             deform_preview_ms: st(|r| r.deform_preview_ms),
@@ -282,6 +288,16 @@ fn time_light_move(solver: &mut Solver) -> (f64, f64) {
     solver.update_lights();
     let _ = solver.solve();
     (preview, t.elapsed().as_secs_f64() * 1e3)
+}
+
+/// Turns the sky by 30 degrees and times the gather-only update (sky
+/// light from the miss masks, bounces, smoothing), ms; NaN without a sky.
+fn time_sky_turn(solver: &mut Solver) -> f64 {
+    let Some(sky) = solver.scene.sky.as_mut() else { return f64::NAN };
+    sky.rotate_deg += 30.0;
+    let t = Instant::now();
+    let _ = solver.solve();
+    t.elapsed().as_secs_f64() * 1e3
 }
 
 /// Deformer time of the deformed pose the deformation benchmark moves to,
@@ -347,6 +363,7 @@ pub fn run_once(
     // Read before the light move below replaces them.
     let (light_links_ms, shadow_rays) = (solver.light_links.ms, solver.light_links.shadow_rays);
     let (light_preview_ms, light_move_ms) = time_light_move(&mut solver);
+    let sky_turn_ms = time_sky_turn(&mut solver);
     let l = solver.links.stats;
     let sizes = Sizes {
         vertices: solver.scene.vertex_count(),
@@ -373,6 +390,7 @@ pub fn run_once(
         first_solution_ms,
         light_preview_ms,
         light_move_ms,
+        sky_turn_ms,
         deform_update_ms: d.update_ms,
         deform_full_ms: d.full_ms,
         deform_preview_ms: d.preview_ms,

@@ -117,6 +117,18 @@ pub fn markdown(rows: &[BenchRow]) -> String {
             stat(&r.light_move_ms, 1)
         );
     }
+    let skies: Vec<&BenchRow> = rows.iter().filter(|r| r.sky_turn_ms.median.is_finite()).collect();
+    if !skies.is_empty() {
+        let _ = writeln!(
+            out,
+            "\n### Turning the sky by 30 degrees (median [min, max] of {runs} runs): sky light from the miss masks, bounces, smoothing\n"
+        );
+        let _ = writeln!(out, "| scene | source | ms |");
+        let _ = writeln!(out, "|---|---|---|");
+        for r in skies {
+            let _ = writeln!(out, "| {} | linkgi {} | {} |", r.scene, r.backend, stat(&r.sky_turn_ms, 1));
+        }
+    }
     let deforming: Vec<&BenchRow> = rows.iter().filter(|r| r.deform_update_ms.median.is_finite()).collect();
     if !deforming.is_empty() {
         let _ = writeln!(
@@ -239,6 +251,7 @@ mod tests {
                 first_solution_ms: 100.0 * k,
                 light_preview_ms: k / 20.0,
                 light_move_ms: k / 4.0,
+                sky_turn_ms: f64::NAN,
                 deform_update_ms: f64::NAN,
                 deform_full_ms: f64::NAN,
                 deform_preview_ms: f64::NAN,
