@@ -56,6 +56,7 @@ fn assert_equals_fresh(updated: &Solver, what: &str) {
     assert_eq!(a.stats.misses, b.stats.misses, "{what}: misses");
     assert_eq!(a.stats.merged_links, b.stats.merged_links, "{what}: merged links");
     assert_eq!(updated.ray_hits, fresh.ray_hits, "{what}: per-ray state");
+    assert_eq!(a.sky, b.sky, "{what}: sky visibility (miss masks)");
     let (fa, fb) = (&updated.light_links.factors, &fresh.light_links.factors);
     let (pa, pb) = (&updated.light_links.point, &fresh.light_links.point);
     assert_eq!(fa.len(), fb.len());
@@ -67,6 +68,7 @@ fn assert_equals_fresh(updated: &Solver, what: &str) {
     }
     let (sa, sb) = (updated.solve(), fresh.solve());
     assert_eq!(sa.e_direct, sb.e_direct, "{what}: exact direct light");
+    assert_eq!(sa.e_sky, sb.e_sky, "{what}: sky light");
     for (v, (x, y)) in sa.e_indirect.iter().zip(&sb.e_indirect).enumerate() {
         assert!((*x - *y).abs().max_element() <= 1e-5 * y.max_element().max(1e-12), "{what}: E_i at {v}: {x} vs {y}");
     }
@@ -237,4 +239,29 @@ fn kd_tracer_and_a_light_moved_with_the_deformation() {
     let n = next.scene.vertex_count() as u64;
     assert!(stats.light_links_recomputed >= n && stats.light_links_recomputed < 2 * n, "{stats:?}");
     assert_equals_fresh(&next, "kd tracer, light 0 moved");
+}
+
+/// An open scene: `torso`'s figure standing in `window` (sky through the
+/// window, a glowing shade). Deforming it changes which rays leave through
+/// the window; the selectively updated miss masks, sky light and links
+/// equal a full solve's.
+#[test]
+fn deforming_in_an_open_scene_updates_the_sky_visibility() {
+    let mut desc = builtin::builtin("window").unwrap();
+    let torso = builtin::builtin("torso").unwrap();
+    let figure = torso.meshes.into_iter().find(|m| m.dynamic).expect("torso's figure");
+    desc.meshes.push(figure);
+    desc.settings.rays_per_vertex = 64;
+    desc.settings.bounces = Bounces::Fixed(3);
+    let rest = prep::prepare(&desc).unwrap();
+    let mut solver = Solver::new(rest.clone(), SolveParams::from_settings(&rest.settings), &|_, _| {});
+    assert!(!solver.links.sky.is_empty());
+    let before = solver.links.sky.clone();
+    for t in [0.6, 1.7] {
+        let (s, stats) = deform(solver, at_time(&rest, t));
+        assert!(stats.links.groups_patched > 0);
+        assert_equals_fresh(&s, &format!("window with a figure at t = {t}"));
+        solver = s;
+    }
+    assert_ne!(solver.links.sky, before, "the figure's motion changed no miss mask");
 }
