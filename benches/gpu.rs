@@ -29,7 +29,7 @@ fn stages(c: &mut Criterion) {
         let setup = RaySetup::new(&scene, &params);
         let verts = schedule::ray_vertices(&setup);
         let mut tracer = GpuTracer::new(dev.clone(), &kd).unwrap();
-        tracer.set_directions(&setup.directions.dirs);
+        tracer.set_directions(&setup.directions);
         let batch = (tracer.max_batch_rays() / setup.directions.len()).min(verts.len());
         g.throughput(Throughput::Elements((batch * setup.directions.len()) as u64));
         g.bench_function("shoot_256_rays_per_vertex_batch", |b| b.iter(|| tracer.shoot(&verts[..batch]).unwrap()));

@@ -54,7 +54,8 @@ struct RayVertex {
     origin: vec3<f32>,
     skip: u32,
     tangent: vec3<f32>,
-    _pad0: u32,
+    // Which direction set the vertex shoots (sets follow one another in `directions`).
+    direction_set: u32,
     bitangent: vec3<f32>,
     _pad1: u32,
     normal: vec3<f32>,
@@ -90,7 +91,8 @@ struct TraceParams {
 @group(0) @binding(2) var<storage, read> leaves: array<KdLeaf>;
 @group(0) @binding(3) var<storage, read> leaf_triangles: array<u32>;
 @group(0) @binding(4) var<storage, read> triangles: array<KdTriangle>;
-// shoot_rays: local directions (xyz, w unused). light_visibility: unused.
+// shoot_rays: local directions (xyz, w unused), one set of rays_per_vertex
+// after the other. light_visibility: unused.
 @group(0) @binding(5) var<storage, read> directions: array<vec4<f32>>;
 // shoot_rays: RayVertex per batch vertex.
 @group(0) @binding(6) var<storage, read> ray_vertices: array<RayVertex>;
@@ -319,7 +321,7 @@ fn shoot_rays(@builtin(global_invocation_id) gid: vec3<u32>) {
         return;
     }
     let rv = ray_vertices[id / params.rays_per_vertex];
-    let l = directions[id % params.rays_per_vertex].xyz;
+    let l = directions[rv.direction_set * params.rays_per_vertex + id % params.rays_per_vertex].xyz;
     let w = rv.tangent * l.x + rv.bitangent * l.y + rv.normal * l.z;
     let dir = w * (1.0 / sqrt(dot(w, w)));
     let best = trace(rv.origin, dir, 0.0, 3.0e38, rv.skip, false);

@@ -52,7 +52,7 @@ fn compare_rays(
     let params = LinkParams::default();
     let setup = RaySetup::new(scene, &params);
     let mut tracer = GpuTracer::new(dev.clone(), kd).expect("tracer");
-    tracer.set_directions(&setup.directions.dirs);
+    tracer.set_directions(&setup.directions);
     let verts = schedule::ray_vertices(&setup);
     let mut gpu_hits = tracer.shoot(&verts).expect("shoot");
     let rays = setup.directions.len();

@@ -19,7 +19,8 @@ pub struct RayVertex {
     pub origin: [f32; 3],
     pub skip: u32,
     pub tangent: [f32; 3],
-    pub _pad0: u32,
+    /// Which direction set the vertex shoots ([`crate::sampling::vertex_sets`]).
+    pub direction_set: u32,
     pub bitangent: [f32; 3],
     pub _pad1: u32,
     pub normal: [f32; 3],
@@ -137,7 +138,7 @@ pub fn shared_structs() -> Vec<SharedStruct> {
         shared!(KdLeaf, "KdLeaf", [min, first, max, count, ropes, _pad]),
         shared!(KdTriangle, "KdTriangle", [v0, ia, v1, ib, v2, ic]),
         shared!(HitRecord, "HitRecord", [tri, u, v, t]),
-        shared!(RayVertex, "RayVertex", [origin, skip, tangent, _pad0, bitangent, _pad1, normal, _pad2]),
+        shared!(RayVertex, "RayVertex", [origin, skip, tangent, direction_set, bitangent, _pad1, normal, _pad2]),
         shared!(ShadowRay, "ShadowRay", [origin, skip, dir, tmin, tmax, _pad0, _pad1, _pad2]),
         shared!(
             TraceParams,

@@ -67,6 +67,7 @@ pub fn ray_vertices(setup: &RaySetup) -> Vec<RayVertex> {
                 origin: setup.origins[v].into(),
                 skip: v as u32,
                 tangent: t.into(),
+                direction_set: setup.sets[v],
                 bitangent: b.into(),
                 normal: n.into(),
                 ..Default::default()
@@ -125,7 +126,7 @@ pub fn shoot_links_gpu(
     let start = Instant::now();
     let setup = RaySetup::new(scene, params);
     for d in devices.iter_mut() {
-        d.tracer.set_directions(&setup.directions.dirs);
+        d.tracer.set_directions(&setup.directions);
     }
     let verts = ray_vertices(&setup);
     let n = verts.len();

@@ -64,9 +64,11 @@ impl GpuTracer {
         })
     }
 
-    /// Uploads the shared direction set (local frame, +z = normal, block order).
-    pub fn set_directions(&mut self, dirs: &[Vec3]) {
-        let v: Vec<[f32; 4]> = dirs.iter().map(|d| [d.x, d.y, d.z, 0.0]).collect();
+    /// Uploads the shared direction sets (local frame, +z = normal, block
+    /// order, one set after the other; a vertex picks its set with
+    /// [`RayVertex::direction_set`]).
+    pub fn set_directions(&mut self, dirs: &crate::sampling::DirectionSet) {
+        let v: Vec<[f32; 4]> = dirs.dirs.iter().map(|d| [d.x, d.y, d.z, 0.0]).collect();
         self.directions = Some((storage_init(&self.dev.device, "ray directions", &v), dirs.len() as u32));
     }
 

@@ -22,7 +22,7 @@ use super::merge::{HitRecord, HIT_BACK, HIT_MISS};
 use super::selective::RayHits;
 use super::Links;
 use crate::kdtree::Hit;
-use crate::sampling::{vertex_frame, vertex_rotations, world_direction, DirectionSet};
+use crate::sampling::{vertex_frame, vertex_rotations, vertex_sets, world_direction, DirectionSet};
 use crate::scene::prep::PreparedScene;
 use crate::trace::CpuTracer;
 use glam::Vec3;
@@ -90,6 +90,8 @@ pub struct RaySetup {
     pub origins: Vec<Vec3>,
     /// Rotation about the normal, radians.
     pub rotations: Vec<f32>,
+    /// Which of the direction sets each vertex shoots ([`crate::sampling::vertex_sets`]).
+    pub sets: Vec<u32>,
     pub normals: Vec<Vec3>,
     /// Wedges of vertex `v`: `wedges[wedge_offsets[v]..wedge_offsets[v+1]]`.
     pub wedge_offsets: Vec<u32>,
@@ -115,6 +117,7 @@ impl RaySetup {
         RaySetup {
             origins,
             rotations: vertex_rotations(&scene.rings, params.seed),
+            sets: vertex_sets(&scene.rings),
             normals: scene.normals.clone(),
             wedge_offsets: scene.vertex_triangles.offsets.clone(),
             wedges,
@@ -133,7 +136,7 @@ impl RaySetup {
     #[inline]
     pub fn world_directions(&self, v: usize) -> impl Iterator<Item = Vec3> + '_ {
         let frame = vertex_frame(self.normals[v], self.rotations[v]);
-        self.directions.dirs.iter().map(move |d| world_direction(frame, *d))
+        self.directions.set(self.sets[v]).iter().map(move |d| world_direction(frame, *d))
     }
 
     /// Traces all rays of vertex `v` with `tracer` into `out` (one record per ray).

@@ -47,8 +47,10 @@ pub struct RayFrames<'a> {
     pub normals: &'a [Vec3],
     /// Rotation of each vertex's frame about its normal, radians.
     pub rotations: &'a [f32],
-    /// The local direction set, in ray order.
-    pub directions: &'a [Vec3],
+    /// Each vertex's direction set.
+    pub sets: &'a [u32],
+    /// The local direction sets, in ray order.
+    pub directions: &'a crate::sampling::DirectionSet,
 }
 
 impl SkyVisibility {
@@ -119,6 +121,7 @@ impl SkyVisibility {
         let Some(sky) = sky.filter(|_| !self.is_empty()) else { return vec![Vec3::ZERO; n] };
         let radiance = sky.radiance_fn();
         let scale = std::f32::consts::PI / frames.directions.len() as f32;
+        let dirs = frames.directions;
         (0..n)
             .into_par_iter()
             .map(|v| {
@@ -127,13 +130,14 @@ impl SkyVisibility {
                     return Vec3::ZERO;
                 }
                 let frame = vertex_frame(frames.normals[v], frames.rotations[v]);
+                let set = dirs.set(frames.sets[v]);
                 let mut sum = Vec3::ZERO;
                 for (w, &bits) in mask.iter().enumerate() {
                     let mut b = bits;
                     while b != 0 {
                         let k = w * 64 + b.trailing_zeros() as usize;
                         b &= b - 1;
-                        sum += radiance(world_direction(frame, frames.directions[k]));
+                        sum += radiance(world_direction(frame, set[k]));
                     }
                 }
                 sum * scale

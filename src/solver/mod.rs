@@ -446,11 +446,13 @@ impl Solver {
         let p = &self.params.links;
         let k = (p.rays_per_vertex as f64).sqrt().round() as u32;
         let rotations = crate::sampling::vertex_rotations(&s.rings, p.seed);
+        let sets = crate::sampling::vertex_sets(&s.rings);
         let directions = crate::sampling::DirectionSet::new(k, p.seed);
         let frames = crate::sky::visibility::RayFrames {
             normals: &s.normals,
             rotations: &rotations,
-            directions: &directions.dirs,
+            sets: &sets,
+            directions: &directions,
         };
         self.links.sky.irradiance(s.sky.as_ref(), &frames, n)
     }
