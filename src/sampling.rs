@@ -93,7 +93,7 @@ pub fn block_order(k: u32) -> Vec<(u32, u32)> {
 
 /// How many jittered direction sets a scene's vertices share
 /// ([`DirectionSet`]): neighbours use different ones.
-pub const DIRECTION_SETS: u32 = 4;
+pub const DIRECTION_SETS: u32 = 2;
 
 /// The shared direction sets (local frame, +z = normal), each in block
 /// order: [`DIRECTION_SETS`] stratified sets with independent jitter, one
@@ -104,7 +104,9 @@ pub const DIRECTION_SETS: u32 = 4;
 /// points, and that quadrature's error would be one shared bias for the
 /// whole scene (cornell at 64 rays: total bias -3.1% to -0.3% over four
 /// seeds with one set). Neighbours on different sets make those errors
-/// independent, and smoothing averages them (docs/DESIGN.md §2).
+/// independent, and smoothing averages them. Two, not more: more sets
+/// lower the bias further but raise the worst vertex's error in the
+/// furnace (docs/DESIGN.md §2 has the figures).
 #[derive(Clone, Debug, PartialEq)]
 pub struct DirectionSet {
     pub k: u32,

@@ -108,10 +108,18 @@ fn error_keeps_falling(name: &str, ref_samples: u32, low: u32) {
         "{name}: adaptive smoothing worse than the fixed average at {low} rays"
     );
     // At 1024 rays: the smoothing's bias has (nearly) vanished: within 5% of
-    // the unsmoothed error (or better).
+    // the unsmoothed error (or better). Stated on the difference of the
+    // MSEs (free of the reference's noise): the corrected MSE itself can
+    // come out below zero with a cheap reference, where a ratio would
+    // flip the claim.
     let sd = cross_term_sd(a1024, raw1024, &r);
+    let (ma, mr) = (mse(a1024), mse(raw1024));
+    eprintln!(
+        "{name} 1024 rays: MSE smoothed - unsmoothed = {:.3e} (noise spread {sd:.1e}, unsmoothed {mr:.3e})",
+        ma - mr
+    );
     assert!(
-        mse(a1024) <= 1.05f64.powi(2) * mse(raw1024) + 2.0 * sd,
+        ma - mr <= (1.05f64.powi(2) - 1.0) * mr.max(0.0) + 2.0 * sd,
         "{name}: smoothing at 1024 rays adds error: {} against {}",
         corrected(a1024),
         corrected(raw1024)
