@@ -372,3 +372,27 @@ fn malformed_gltf_files_name_the_file_and_the_problem() {
     let msg = load_err(&dir.join("short.glb"));
     assert!(msg.contains("short.glb") && msg.contains("GLB header"), "{msg}");
 }
+
+/// Emitters survive the glTF writer and reader: exitance above and below
+/// pi W/m^2 (factor alone, and factor times KHR_materials_emissive_strength).
+#[test]
+fn emission_round_trips_through_gltf() {
+    let dir = tmpdir("emission");
+    let mut original = repo_scene("window.toml");
+    original.sky = None;
+    let lamp = original.meshes.iter().position(|m| m.name.contains("window_1")).expect("the lamp mesh");
+    original.meshes[lamp].materials[0].emission = Vec3::new(1.0, 0.5, 0.0);
+    for ext in ["gltf", "glb"] {
+        let path = dir.join(format!("w.{ext}"));
+        gltf_write::write_gltf(&original, &path).unwrap();
+        let back = load(&path);
+        let emits: Vec<Vec3> = back.meshes.iter().flat_map(|m| m.materials.iter().map(|x| x.emission)).collect();
+        let want: Vec<Vec3> = original.meshes.iter().flat_map(|m| m.materials.iter().map(|x| x.emission)).collect();
+        assert_eq!(emits.len(), want.len());
+        for (a, b) in emits.iter().zip(&want) {
+            assert!(close(*a, *b, 1e-6, 1e-6), "{ext}: emission {a} vs {b}");
+        }
+        assert!(want.iter().any(|e| e.max_element() > std::f32::consts::PI), "strength > 1 is exercised");
+        assert!(want.iter().any(|e| e.max_element() > 0.0 && e.max_element() < std::f32::consts::PI));
+    }
+}
