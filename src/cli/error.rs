@@ -119,11 +119,16 @@ pub fn run(args: ErrorArgs) -> Result<()> {
         }
     }
     if let Some(p) = &preview {
+        // Without one-ring oversampling the preview traces the full column
+        // and the refinement traces nothing.
+        let rays = if p.full_shadow_rays == 0 {
+            format!("{} shadow rays, already the full column", p.preview_shadow_rays)
+        } else {
+            format!("{} shadow rays, then {} for the full column", p.preview_shadow_rays, p.full_shadow_rays)
+        };
         println!(
-            "light-move preview ({} rays, {} of {} shadow rays, {:.1} ms against {:.1} ms): against the full result E_d rmse {:.4}, E_i rmse {:.4}, total rmse {:.4}",
+            "light-move preview ({} rays, {rays}, {:.1} ms against {:.1} ms): against the full result E_d rmse {:.4}, E_i rmse {:.4}, total rmse {:.4}",
             p.rays,
-            p.preview_shadow_rays,
-            p.full_shadow_rays,
             p.preview_ms,
             p.full_ms,
             p.e_direct.rel_rmse,
