@@ -1,6 +1,7 @@
 //! Loaders survive any input: random mutations of valid scene files (TOML,
-//! OBJ, MTL from `scenes/`, and glTF/GLB with their buffers and a PNG
-//! texture written here) are loaded through `scene::load` and, when they
+//! OBJ, MTL from `scenes/`, glTF/GLB with their buffers and a PNG
+//! texture written here, and scenes with a `[sky]` image in OpenEXR and
+//! Radiance HDR) are loaded through `scene::load` and, when they
 //! load, prepared with `prep::prepare`. No input may panic, and every error
 //! must name a file (the scene's name for an empty scene).
 //!
@@ -52,6 +53,9 @@ fn corpus(dir: &Path) -> Vec<Target> {
     gltf_write::write_gltf(&room, &dir.join("small.gltf")).unwrap();
     gltf_write::write_gltf(&room, &dir.join("small.glb")).unwrap();
     write_textured(dir);
+    write_skies(dir);
+    std::fs::write(dir.join("colorlamp_2.obj"), repo("colorlamp_2.obj")).unwrap();
+    std::fs::write(dir.join("colorlamp_2.mtl"), repo("colorlamp_2.mtl")).unwrap();
     let file = |name: &str| std::fs::read(dir.join(name)).unwrap();
     let mut t = vec![
         Target { name: "scene.toml", bytes: toml.into_bytes(), binary: false, entries: &["scene.toml"] },
@@ -74,6 +78,9 @@ fn corpus(dir: &Path) -> Vec<Target> {
         Target { name: "tex.gltf", bytes: file("tex.gltf"), binary: false, entries: &["tex.gltf"] },
         Target { name: "tex.bin", bytes: file("tex.bin"), binary: true, entries: &["tex.gltf"] },
         Target { name: "tex.png", bytes: file("tex.png"), binary: true, entries: &["tex.gltf"] },
+        Target { name: "sky_exr.toml", bytes: file("sky_exr.toml"), binary: false, entries: &["sky_exr.toml"] },
+        Target { name: "sky.exr", bytes: file("sky.exr"), binary: true, entries: &["sky_exr.toml"] },
+        Target { name: "sky.hdr", bytes: file("sky.hdr"), binary: true, entries: &["sky_hdr.toml"] },
     ];
     // Read by scene.toml, not mutated (it is large).
     std::fs::write(dir.join("cornell_1.obj"), repo("cornell_1.obj")).unwrap();
@@ -81,6 +88,25 @@ fn corpus(dir: &Path) -> Vec<Target> {
         std::fs::write(dir.join(target.name), &target.bytes).unwrap();
     }
     t
+}
+
+/// A small sky image as `sky.exr` and `sky.hdr`, and a scene for each
+/// (`[sky] image = ...`, turned and scaled) over the lamp shade's mesh.
+fn write_skies(dir: &Path) {
+    let (w, h) = (16, 8);
+    let pixels: Vec<Vec3> =
+        (0..w * h).map(|i| Vec3::new(1.0 + (i % w) as f32 * 0.1, 2.0 - (i / w) as f32 * 0.2, 0.5)).collect();
+    let map = linkgi::sky::EnvMap::new(w, h, pixels.clone()).unwrap();
+    linkgi::sky::envmap::write_exr(&map, &dir.join("sky.exr")).unwrap();
+    let rgb: Vec<image::Rgb<f32>> = pixels.iter().map(|p| image::Rgb(p.to_array())).collect();
+    let out = std::fs::File::create(dir.join("sky.hdr")).unwrap();
+    image::codecs::hdr::HdrEncoder::new(out).encode(&rgb, w, h).unwrap();
+    for (toml, img) in [("sky_exr.toml", "sky.exr"), ("sky_hdr.toml", "sky.hdr")] {
+        let text = format!(
+            "[settings]\nrays_per_vertex = 16\n\n[[mesh]]\nobj = \"colorlamp_2.obj\"\nemission = [1, 2, 3]\n\n[sky]\nimage = \"{img}\"\nrotate_deg = 30\nintensity = 2\n"
+        );
+        std::fs::write(dir.join(toml), text).unwrap();
+    }
 }
 
 /// `tex.gltf`: a textured, vertex-coloured quad strip under a node
