@@ -227,6 +227,12 @@ fn bad_sky_tables_are_errors_naming_the_file() {
     let dir = tmp("sky-bad");
     linkgi::scene::obj::write_obj(&plane(), &dir.join("plane.obj")).unwrap();
     std::fs::write(dir.join("broken.exr"), b"not an exr").unwrap();
+    // A Radiance header that declares 10^10 pixels in a file of a few bytes.
+    std::fs::write(
+        dir.join("huge.hdr"),
+        b"#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y 100000 +X 100000\n\x02\x02\x00\x01",
+    )
+    .unwrap();
     let cases = [
         ("radiance = [1, 1, 1]\nimage = \"sky.exr\"", "scene.toml", "exactly one"),
         ("radiance = [1, -1, 1]", "scene.toml", "negative"),
@@ -236,6 +242,7 @@ fn bad_sky_tables_are_errors_naming_the_file() {
         ("image = \"missing.exr\"", "missing.exr", "no such file"),
         ("image = \"broken.exr\"", "broken.exr", "OpenEXR"),
         ("image = \"plane.obj\"", "plane.obj", ".exr or .hdr"),
+        ("image = \"huge.hdr\"", "huge.hdr", "declares 100000 x 100000 pixels"),
     ];
     for (table, file, what) in cases {
         let toml = dir.join("scene.toml");

@@ -23,6 +23,12 @@ pub struct EnvMap {
     pub pixels: Vec<Vec3>,
 }
 
+/// Largest sky image accepted, pixels (16384 x 4096; 800 MB as f32 RGB).
+/// Headers are checked before decoding, so a file that declares more (or,
+/// for Radiance HDR, more than its size can hold) is an error, not an
+/// allocation that aborts the process.
+pub const MAX_PIXELS: usize = 1 << 26;
+
 fn image_err(path: &Path, message: impl Into<String>) -> Error {
     Error::Image { path: path.to_path_buf(), message: message.into() }
 }
@@ -100,8 +106,25 @@ pub fn pixel_direction(i: usize, j: usize, width: usize, height: usize) -> Vec3 
     Vec3::new((st * phi.cos()) as f32, ct as f32, (-st * phi.sin()) as f32)
 }
 
+/// Checks a declared image size against [`MAX_PIXELS`] and `max_by_file`.
+fn check_size(path: &Path, w: usize, h: usize, max_by_file: usize) -> Result<()> {
+    let pixels = w.checked_mul(h).unwrap_or(usize::MAX);
+    if pixels > MAX_PIXELS.min(max_by_file) {
+        return Err(image_err(
+            path,
+            format!("declares {w} x {h} pixels: more than the file can hold or the {MAX_PIXELS}-pixel limit"),
+        ));
+    }
+    Ok(())
+}
+
 fn read_exr(path: &Path) -> Result<(usize, usize, Vec<Vec3>)> {
     use exr::prelude::*;
+    let meta = exr::meta::MetaData::read_from_file(path, false)
+        .map_err(|e| image_err(path, format!("not a readable OpenEXR image: {e}")))?;
+    for h in &meta.headers {
+        check_size(path, h.layer_size.width(), h.layer_size.height(), usize::MAX)?;
+    }
     let image = read_first_rgba_layer_from_file(
         path,
         |size, _| (size.width(), vec![Vec3::ZERO; size.width() * size.height()]),
@@ -120,6 +143,9 @@ fn read_hdr(path: &Path) -> Result<(usize, usize, Vec<Vec3>)> {
     let dec = image::codecs::hdr::HdrDecoder::new(std::io::BufReader::new(file))
         .map_err(|e| image_err(path, format!("not a readable Radiance HDR image: {e}")))?;
     let meta = dec.metadata();
+    // Run-length coding needs at least about 8 bytes per 127 pixels.
+    let file_len = std::fs::metadata(path).map(|m| m.len() as usize).unwrap_or(usize::MAX);
+    check_size(path, meta.width as usize, meta.height as usize, file_len.saturating_mul(32).saturating_add(1 << 16))?;
     let px = dec.read_image_hdr().map_err(|e| image_err(path, format!("Radiance HDR pixels: {e}")))?;
     Ok((meta.width as usize, meta.height as usize, px.into_iter().map(|p| Vec3::from(p.0)).collect()))
 }
