@@ -119,6 +119,7 @@ impl Solver {
             reshoot(&self.scene, &old_positions, &motion, &self.accel, &params.links, &self.links, &mut hits);
         progress(self.scene.vertex_count(), self.scene.vertex_count());
         self.links = links;
+        self.links_changed();
         self.ray_hits = Some(hits);
         stats.links = link_stats;
         let t = Instant::now();
@@ -143,9 +144,11 @@ impl Solver {
             .preview_deformed(&self.scene, &self.accel, &self.params.light, &remade)
             .expect("a CPU tracer cannot fail");
         let saved = splice_groups(&mut self.links, &groups);
+        self.links_changed();
         std::mem::swap(&mut self.light_links, &mut light);
         show(self);
         saved.restore(&mut self.links);
+        self.links_changed();
         std::mem::swap(&mut self.light_links, &mut light);
     }
 }

@@ -226,7 +226,14 @@ pub struct Solver {
     /// Every link ray's hit id, kept on the CPU path for scenes with
     /// dynamic meshes only (selective updates, [`Solver::deform`]).
     pub ray_hits: Option<links::RayHits>,
+    /// The hidden vertices' stand-ins for the current links, computed on
+    /// the first solve that needs them (a pass over every link weight:
+    /// 137 ms on conference) and kept; [`Solver::links_changed`] drops them.
+    stand_ins_cache: StandInsCache,
 }
+
+/// Hidden vertices and their visible neighbours, with the parameters they were found with.
+type StandInsCache = std::sync::Mutex<Option<(HiddenParams, Arc<Vec<(usize, Vec<usize>)>>)>>;
 
 impl Solver {
     /// Builds the acceleration structure (`params.tracer`), the vertex
@@ -236,7 +243,17 @@ impl Solver {
         let record = scene.meshes.iter().any(|m| m.dynamic);
         let (links, ray_hits) = links::shoot_links_recording(&scene, &accel, &params.links, record, progress);
         let light_links = LightLinks::compute(&scene, &accel, &params.light);
-        Solver { scene, params, accel, links, light_links, gpu: None, compute: Compute::Cpu, ray_hits }
+        Solver {
+            scene,
+            params,
+            accel,
+            links,
+            light_links,
+            gpu: None,
+            compute: Compute::Cpu,
+            ray_hits,
+            stand_ins_cache: Default::default(),
+        }
     }
 
     /// The solver of `scene`, a deformation of this solver's scene (same
@@ -269,7 +286,20 @@ impl Solver {
         let record = scene.meshes.iter().any(|m| m.dynamic);
         let (links, ray_hits) = links::shoot_links_recording(&scene, &accel, &params.links, record, progress);
         let light_links = LightLinks::compute(&scene, &accel, &params.light);
-        (Solver { scene, params, accel, links, light_links, gpu: None, compute: Compute::Cpu, ray_hits }, refitted)
+        (
+            Solver {
+                scene,
+                params,
+                accel,
+                links,
+                light_links,
+                gpu: None,
+                compute: Compute::Cpu,
+                ray_hits,
+                stand_ins_cache: Default::default(),
+            },
+            refitted,
+        )
     }
 
     /// Builds everything on `compute`: the kd-tree on the CPU (with
@@ -313,6 +343,7 @@ impl Solver {
             gpu: Some(gpu),
             compute: compute.clone(),
             ray_hits: None,
+            stand_ins_cache: Default::default(),
         })
     }
 
@@ -396,11 +427,11 @@ impl Solver {
         }
         let b0 = exchange::gather::source_radiosity(&e_source, &s.albedo, &s.emission);
         // The hidden-vertex substitution runs inside the bounces, on either kernel.
-        let stand_ins = if quick { Vec::new() } else { self.stand_ins() };
+        let stand_ins = if quick { Arc::default() } else { self.stand_ins() };
         let on_gpu = self.gpu.as_ref().map(|g| {
             g.links
                 .kernel_from_radiosity(&b0, &s.albedo)
-                .and_then(|k| exchange::gather::drive(&mut k.with_stand_ins(stand_ins.clone()), &self.params.gather))
+                .and_then(|k| exchange::gather::drive(&mut k.with_stand_ins(stand_ins.to_vec()), &self.params.gather))
         });
         let gather = match on_gpu {
             Some(Ok(r)) => r,
@@ -457,10 +488,25 @@ impl Solver {
         self.links.sky.irradiance(s.sky.as_ref(), &frames, n)
     }
 
-    /// Hidden vertices and their visible neighbours ([`exchange::hidden::stand_ins`]).
-    fn stand_ins(&self) -> Vec<(usize, Vec<usize>)> {
+    /// Hidden vertices and their visible neighbours ([`exchange::hidden::stand_ins`]),
+    /// from the cache when the links and hidden-vertex parameters are unchanged.
+    fn stand_ins(&self) -> Arc<Vec<(usize, Vec<usize>)>> {
+        let mut cache = self.stand_ins_cache.lock().unwrap_or_else(|p| p.into_inner());
+        if let Some((p, v)) = &*cache {
+            if *p == self.params.hidden {
+                return v.clone();
+            }
+        }
         let s = &self.scene;
-        exchange::hidden::stand_ins(&self.links, &s.rings, &s.normals, &self.params.hidden)
+        let v = Arc::new(exchange::hidden::stand_ins(&self.links, &s.rings, &s.normals, &self.params.hidden));
+        *cache = Some((self.params.hidden, v.clone()));
+        v
+    }
+
+    /// Drops what was derived from the links (the hidden vertices'
+    /// stand-ins); call it after changing `links` in place.
+    pub fn links_changed(&mut self) {
+        *self.stand_ins_cache.get_mut().unwrap_or_else(|p| p.into_inner()) = None;
     }
 
     /// The CPU bounces from radiosity `b0`, W/(m^2 sr).
