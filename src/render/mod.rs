@@ -264,7 +264,7 @@ pub fn write_png(img: &HdrImage, exposure: f32, path: &Path) -> crate::Result<()
 
 /// Which renderer runs.
 pub enum Renderer {
-    Gpu(gpu::GpuRenderer),
+    Gpu(Box<gpu::GpuRenderer>),
     /// No adapter: [`cpu::render_cpu`].
     Cpu,
 }
@@ -279,7 +279,7 @@ impl Renderer {
         }
         match crate::gpu::open_all().into_iter().next() {
             Some(dev) => match gpu::GpuRenderer::new(dev) {
-                Ok(r) => Renderer::Gpu(r),
+                Ok(r) => Renderer::Gpu(Box::new(r)),
                 Err(e) => {
                     eprintln!("note: {e}; rendering on the CPU (ray-traced fallback)");
                     Renderer::Cpu

@@ -108,7 +108,7 @@ pub fn pixel_direction(i: usize, j: usize, width: usize, height: usize) -> Vec3 
 
 /// Checks a declared image size against [`MAX_PIXELS`] and `max_by_file`.
 fn check_size(path: &Path, w: usize, h: usize, max_by_file: usize) -> Result<()> {
-    let pixels = w.checked_mul(h).unwrap_or(usize::MAX);
+    let pixels = w.saturating_mul(h);
     if pixels > MAX_PIXELS.min(max_by_file) {
         return Err(image_err(
             path,
