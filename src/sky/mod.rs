@@ -138,11 +138,14 @@ impl Sky {
         }
     }
 
-    /// A short description for messages and panels.
+    /// A description for messages and panels; every parameter but an
+    /// image's pixels is in it (the rasterizer keys its baked sky map on it).
     pub fn describe(&self) -> String {
         let m = match &self.model {
             SkyModel::Uniform { radiance } => format!("uniform {radiance}"),
-            SkyModel::Gradient { zenith, horizon, .. } => format!("gradient zenith {zenith} horizon {horizon}"),
+            SkyModel::Gradient { zenith, horizon, ground } => {
+                format!("gradient zenith {zenith} horizon {horizon} ground {ground}")
+            }
             SkyModel::Image { path, map } => format!("image {} ({} x {})", path.display(), map.width, map.height),
         };
         format!("{m}, x{} turned {} deg", self.intensity, self.rotate_deg)
