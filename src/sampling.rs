@@ -97,7 +97,7 @@ pub const DIRECTION_SETS: u32 = 2;
 
 /// The shared direction sets (local frame, +z = normal), each in block
 /// order: [`DIRECTION_SETS`] stratified sets with independent jitter, one
-/// after the other in `dirs`. A vertex uses set [`vertex_sets`]`[v]`.
+/// after the other in `dirs`. A vertex uses the set [`vertex_rotations_and_sets`] gives it.
 ///
 /// Why several: rotations about the normal randomize azimuth only, so with
 /// one set every vertex would integrate elevation with the same jittered
@@ -158,17 +158,19 @@ fn radical_inverse(i: u32) -> f32 {
 /// grid repeats under quarter turns, so colours 0, 1, 2, 3 sit at 0, 1/2,
 /// 1/4, 3/4 of the quarter turn: neighbours interleave.
 pub fn vertex_rotations(rings: &Csr, seed: u64) -> Vec<f32> {
+    vertex_rotations_and_sets(rings, seed).0
+}
+
+/// Every vertex's rotation ([`vertex_rotations`]) and direction set
+/// ([`DirectionSet`]: its colour modulo [`DIRECTION_SETS`], so neighbours
+/// use different sets and, with the rotations, interleave), from one
+/// colouring of the one-ring graph.
+pub fn vertex_rotations_and_sets(rings: &Csr, seed: u64) -> (Vec<f32>, Vec<u32>) {
     let color = colours(rings);
     let mut rng = rand_pcg::Pcg32::seed_from_u64(seed ^ 0x9e37_79b9_7f4a_7c15);
     let offset: f32 = rng.random::<f32>() * FRAC_PI_2;
-    color.iter().map(|&c| offset + FRAC_PI_2 * radical_inverse(c)).collect()
-}
-
-/// The direction set of every vertex ([`DirectionSet`]): its colour in the
-/// greedy colouring of the one-ring graph, modulo [`DIRECTION_SETS`], so
-/// neighbours use different sets (and, with the rotations, interleave).
-pub fn vertex_sets(rings: &Csr) -> Vec<u32> {
-    colours(rings).into_iter().map(|c| c % DIRECTION_SETS).collect()
+    let rotations = color.iter().map(|&c| offset + FRAC_PI_2 * radical_inverse(c)).collect();
+    (rotations, color.into_iter().map(|c| c % DIRECTION_SETS).collect())
 }
 
 /// Greedy colouring of the one-ring graph (vertex order, smallest free colour).

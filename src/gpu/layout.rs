@@ -19,7 +19,7 @@ pub struct RayVertex {
     pub origin: [f32; 3],
     pub skip: u32,
     pub tangent: [f32; 3],
-    /// Which direction set the vertex shoots ([`crate::sampling::vertex_sets`]).
+    /// Which direction set the vertex shoots ([`crate::sampling::vertex_rotations_and_sets`]).
     pub direction_set: u32,
     pub bitangent: [f32; 3],
     pub _pad1: u32,

@@ -22,7 +22,7 @@ use super::merge::{HitRecord, HIT_BACK, HIT_MISS};
 use super::selective::RayHits;
 use super::Links;
 use crate::kdtree::Hit;
-use crate::sampling::{vertex_frame, vertex_rotations, vertex_sets, world_direction, DirectionSet};
+use crate::sampling::{vertex_frame, vertex_rotations_and_sets, world_direction, DirectionSet};
 use crate::scene::prep::PreparedScene;
 use crate::trace::CpuTracer;
 use glam::Vec3;
@@ -90,7 +90,7 @@ pub struct RaySetup {
     pub origins: Vec<Vec3>,
     /// Rotation about the normal, radians.
     pub rotations: Vec<f32>,
-    /// Which of the direction sets each vertex shoots ([`crate::sampling::vertex_sets`]).
+    /// Which of the direction sets each vertex shoots ([`crate::sampling::vertex_rotations_and_sets`]).
     pub sets: Vec<u32>,
     pub normals: Vec<Vec3>,
     /// Wedges of vertex `v`: `wedges[wedge_offsets[v]..wedge_offsets[v+1]]`.
@@ -114,10 +114,11 @@ impl RaySetup {
                 wedges.push(Wedge { normal, edge_a, edge_b, tri: t, corner });
             }
         }
+        let (rotations, sets) = vertex_rotations_and_sets(&scene.rings, params.seed);
         RaySetup {
             origins,
-            rotations: vertex_rotations(&scene.rings, params.seed),
-            sets: vertex_sets(&scene.rings),
+            rotations,
+            sets,
             normals: scene.normals.clone(),
             wedge_offsets: scene.vertex_triangles.offsets.clone(),
             wedges,

@@ -240,6 +240,17 @@ impl Solver {
     /// links (reporting `progress(done, total)` vertices) and the light links.
     pub fn new(scene: PreparedScene, params: SolveParams, progress: &(dyn Fn(usize, usize) + Sync)) -> Solver {
         let accel = Accel::build(params.tracer, &scene.positions, &scene.triangles, &params.bvh, &params.kd);
+        Solver::on_cpu(scene, params, accel, progress)
+    }
+
+    /// The CPU solver with `accel` built over `scene`: links (with per-ray
+    /// state for scenes with dynamic meshes) and light links traced.
+    fn on_cpu(
+        scene: PreparedScene,
+        params: SolveParams,
+        accel: Accel,
+        progress: &(dyn Fn(usize, usize) + Sync),
+    ) -> Solver {
         let record = scene.meshes.iter().any(|m| m.dynamic);
         let (links, ray_hits) = links::shoot_links_recording(&scene, &accel, &params.links, record, progress);
         let light_links = LightLinks::compute(&scene, &accel, &params.light);
@@ -282,24 +293,7 @@ impl Solver {
             return (Solver::new(scene, params, progress), false);
         }
         let refitted = bvh.update(&scene.positions, &scene.triangles) == crate::bvh::refit::Update::Refit;
-        let accel = Accel::Bvh(bvh);
-        let record = scene.meshes.iter().any(|m| m.dynamic);
-        let (links, ray_hits) = links::shoot_links_recording(&scene, &accel, &params.links, record, progress);
-        let light_links = LightLinks::compute(&scene, &accel, &params.light);
-        (
-            Solver {
-                scene,
-                params,
-                accel,
-                links,
-                light_links,
-                gpu: None,
-                compute: Compute::Cpu,
-                ray_hits,
-                stand_ins_cache: Default::default(),
-            },
-            refitted,
-        )
+        (Solver::on_cpu(scene, params, Accel::Bvh(bvh), progress), refitted)
     }
 
     /// Builds everything on `compute`: the kd-tree on the CPU (with
@@ -476,8 +470,7 @@ impl Solver {
         }
         let p = &self.params.links;
         let k = (p.rays_per_vertex as f64).sqrt().round() as u32;
-        let rotations = crate::sampling::vertex_rotations(&s.rings, p.seed);
-        let sets = crate::sampling::vertex_sets(&s.rings);
+        let (rotations, sets) = crate::sampling::vertex_rotations_and_sets(&s.rings, p.seed);
         let directions = crate::sampling::DirectionSet::new(k, p.seed);
         let frames = crate::sky::visibility::RayFrames {
             normals: &s.normals,

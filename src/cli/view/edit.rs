@@ -78,7 +78,7 @@ impl Viewer {
     /// Sets mesh `mesh`'s emission to `value` W/m^2 in its strongest
     /// channel, colour kept (a mesh that did not glow glows white).
     pub(super) fn set_emission(&mut self, mesh: usize, value: f32) -> Result<()> {
-        let Some(current) = self.mesh_emission.get(mesh).copied() else {
+        let Some(current) = self.mesh_emission.get(mesh).map(|m| m.1) else {
             bail!("mesh {mesh} does not exist (the scene has {})", self.mesh_emission.len())
         };
         if !(value.is_finite() && value >= 0.0) {
@@ -86,7 +86,7 @@ impl Viewer {
         }
         let m = current.max_element();
         let emission = if m > 0.0 { current * (value / m) } else { Vec3::splat(value) };
-        self.mesh_emission[mesh] = emission;
+        self.mesh_emission[mesh].1 = emission;
         self.engine.send(Change::SetEmission { mesh, emission });
         Ok(())
     }

@@ -108,8 +108,8 @@ struct Viewer {
     lights: Vec<Light>,
     intensity_range: Vec<(f32, f32)>,
     selected: usize,
-    /// Emitted exitance per mesh as edited (the strongest vertex's), W/m^2.
-    mesh_emission: Vec<Vec3>,
+    /// Each mesh's name and emitted exitance as edited (the strongest vertex's), W/m^2.
+    mesh_emission: Vec<(String, Vec3)>,
     /// The mesh the panel's emission slider edits.
     selected_mesh: usize,
     /// The sky as edited.
@@ -208,7 +208,11 @@ pub fn run(args: ViewArgs) -> Result<()> {
         .iter()
         .map(|m| {
             let r = m.vertices.start as usize..m.vertices.end as usize;
-            prepared.emission[r].iter().fold(Vec3::ZERO, |a, e| if e.max_element() > a.max_element() { *e } else { a })
+            let e =
+                prepared.emission[r]
+                    .iter()
+                    .fold(Vec3::ZERO, |a, e| if e.max_element() > a.max_element() { *e } else { a });
+            (m.name.clone(), e)
         })
         .collect();
     let mut viewer = Viewer {

@@ -139,8 +139,6 @@ impl Viewer {
                 exposure: self.exposure,
                 ..Default::default()
             };
-            let meshes: Vec<(String, glam::Vec3)> =
-                self.prepared.meshes.iter().zip(&self.mesh_emission).map(|(m, e)| (m.name.clone(), *e)).collect();
             let model = PanelModel {
                 scene: &self.prepared.name,
                 renderer: &self.display_name,
@@ -167,7 +165,7 @@ impl Viewer {
                 exposure: self.exposure,
                 light_pixels: &light_pixels,
                 pixels_per_point: display.pixels_per_point(),
-                meshes: &meshes,
+                meshes: &self.mesh_emission,
                 selected_mesh: self.selected_mesh,
                 sky: self.sky.as_ref().map(|s| (s.intensity, s.rotate_deg)),
             };
