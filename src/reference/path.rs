@@ -135,10 +135,9 @@ impl<'a> Tracer<'a> {
         let _: u64 = rng.random();
         let k = (samples as f64).sqrt() as u32;
         let stratified = k * k == samples;
-        let (mut sum, mut sum2, mut pairs2, mut first) = (DVec3::ZERO, DVec3::ZERO, DVec3::ZERO, DVec3::ZERO);
-        // The same for the sky part and for sky + indirect.
-        let mut sky = [DVec3::ZERO; 4];
-        let mut both = [DVec3::ZERO; 4];
+        // Per estimate (indirect, sky, both): sum, sum of squares, sum of
+        // squared differences within stratum pairs (2j, 2j+1), pair's first.
+        let (mut ind, mut sky, mut both) = ([DVec3::ZERO; 4], [DVec3::ZERO; 4], [DVec3::ZERO; 4]);
         let moments = |m: &mut [DVec3; 4], i: u32, x: DVec3| {
             m[0] += x;
             m[1] += x * x;
@@ -158,35 +157,29 @@ impl<'a> Tracer<'a> {
             let dir = cosine_direction(n, u1.min(1.0 - f32::EPSILON), u2);
             let (sky_part, est) = self.path(v, origin, n, e_d, dir, &mut rng);
             let (sky_part, est) = (sky_part.as_dvec3(), est.as_dvec3());
+            moments(&mut ind, i, est);
             moments(&mut sky, i, sky_part);
             moments(&mut both, i, sky_part + est);
-            sum += est;
-            sum2 += est * est;
-            if i % 2 == 0 {
-                first = est;
-            } else {
-                pairs2 += (est - first) * (est - first);
-            }
         }
         let m = samples as f64;
         // Variance of one sample: across neighbouring strata (pairs 2j, 2j+1)
         // when stratified, else the sample variance (see the module doc).
         let pairs = (samples / 2) as f64;
-        let stderr = |sum: DVec3, sum2: DVec3, pairs2: DVec3| {
-            let mean = sum / m;
+        let stderr = |x: &[DVec3; 4]| {
+            let mean = x[0] / m;
             let var = if stratified && pairs > 0.0 {
-                pairs2 / (2.0 * pairs)
+                x[2] / (2.0 * pairs)
             } else {
-                ((sum2 / m - mean * mean) * (m / (m - 1.0).max(1.0))).max(DVec3::ZERO)
+                ((x[1] / m - mean * mean) * (m / (m - 1.0).max(1.0))).max(DVec3::ZERO)
             };
             (var / m).map(f64::sqrt).as_vec3()
         };
         VertexEstimate {
             e_direct: e_d,
             e_sky: (sky[0] / m).as_vec3(),
-            e_indirect: (sum / m).as_vec3(),
-            e_indirect_stderr: stderr(sum, sum2, pairs2),
-            e_total_stderr: stderr(both[0], both[1], both[2]),
+            e_indirect: (ind[0] / m).as_vec3(),
+            e_indirect_stderr: stderr(&ind),
+            e_total_stderr: stderr(&both),
         }
     }
 
