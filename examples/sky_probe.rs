@@ -16,7 +16,12 @@ fn main() {
     desc.settings.bounces = Bounces::Auto;
     desc.settings.seed = args.get(4).and_then(|s| s.parse().ok()).unwrap_or(1);
     let s = prep::prepare(&desc).unwrap();
-    let solver = Solver::new(s, SolveParams::from_settings(&desc.settings), &|_, _| {});
+    let mut sp = SolveParams::from_settings(&desc.settings);
+    if let Ok(n) = std::env::var("EMITTER_SAMPLES") {
+        sp.emitter.samples = n.parse().unwrap();
+    }
+    let solver = Solver::new(s, sp, &|_, _| {});
+    eprintln!("emitter links: {} rays, {:.1} ms", solver.emitter_links.shadow_rays, solver.emitter_links.ms);
     let sol = solver.solve();
     let r = reference::compute_cached(
         &solver.scene,
@@ -38,9 +43,28 @@ fn main() {
             i.rel_rmse_corrected, i.bias, mean(&sol.e_indirect), mean(&r.e_indirect)
         );
     }
+    if let Ok(path) = std::env::var("DUMP") {
+        let mut out = String::from("v,mesh,x,y,z,nx,ny,nz,sol,ref,stderr,e_em,sky,refsky\n");
+        for (mi, m) in solver.scene.meshes.iter().enumerate() {
+            for v in m.vertices.clone() {
+                let v = v as usize;
+                let (p, n) = (solver.scene.positions[v], solver.scene.normals[v]);
+                out += &format!(
+                    "{v},{mi},{},{},{},{},{},{},{},{},{},{},{},{}\n",
+                    p.x, p.y, p.z, n.x, n.y, n.z,
+                    total[v].element_sum() / 3.0, rt[v].element_sum() / 3.0, r.e_total_stderr[v].element_sum() / 3.0,
+                    sol.e_emitter[v].element_sum() / 3.0, sol.e_sky[v].element_sum() / 3.0, r.e_sky[v].element_sum() / 3.0
+                );
+            }
+        }
+        std::fs::write(path, out).unwrap();
+    }
     let t = error_stats(&total, &rt, &r.e_total_stderr);
     println!("all: total {t:?}");
     println!("all: sky {:?}", error_stats(&sol.e_sky, &r.e_sky, &[]));
     let raw: Vec<Vec3> = (0..total.len()).map(|v| sol.e_direct[v] + sol.e_sky[v] + sol.e_indirect_raw[v]).collect();
+    let exact_sky: Vec<Vec3> = (0..total.len()).map(|v| sol.e_direct[v] + r.e_sky[v] + sol.e_indirect[v]).collect();
+    println!("all, reference sky: {:?}", error_stats(&exact_sky, &rt, &r.e_total_stderr));
+    println!("all, E_i only: {:?}", error_stats(&sol.e_indirect, &r.e_indirect, &r.e_indirect_stderr));
     println!("all, unsmoothed: {:?}", error_stats(&raw, &rt, &r.e_total_stderr));
 }

@@ -66,6 +66,9 @@ fn assert_equals_fresh(updated: &Solver, what: &str) {
             assert!((x - y).abs() <= 1e-6 * y.abs(), "{what}: light {l} vertex {v}: {x} vs {y}");
         }
     }
+    let (ea, eb) = (&updated.emitter_links, &fresh.emitter_links);
+    ea.validate(updated.scene.vertex_count()).expect("emitter links valid");
+    assert_eq!((&ea.offsets, &ea.groups, &ea.factors), (&eb.offsets, &eb.groups, &eb.factors), "{what}: emitter links");
     let (sa, sb) = (updated.solve(), fresh.solve());
     assert_eq!(sa.e_direct, sb.e_direct, "{what}: exact direct light");
     assert_eq!(sa.e_sky, sb.e_sky, "{what}: sky light");

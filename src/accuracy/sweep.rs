@@ -89,22 +89,21 @@ pub fn sweep(
         settings.rays_per_vertex = rays;
         let solve_params = SolveParams::from_settings(&settings);
         let solver = Solver::new(scene.clone(), solve_params, &|_, _| {});
-        let (kd_ms, links_ms, light_ms) = (solver.accel_build_ms(), solver.links.stats.shoot_ms, solver.light_links.ms);
+        let (kd_ms, links_ms) = (solver.accel_build_ms(), solver.links.stats.shoot_ms);
+        let light_ms = solver.light_links.ms + solver.emitter_links.ms;
         let n = solver.scene.vertex_count();
-        let e_direct = solver.light_links.direct(&solver.scene.lights, n);
-        let e_sky = solver.e_sky();
-        let mut e_source = solver.light_links.bounce_source(&solver.scene.lights, n);
-        e_source.iter_mut().zip(&e_sky).for_each(|(e, k)| *e += *k);
-        let ed_err = error_stats(&e_direct, &reference.e_direct, &[]);
+        let src = solver.sources();
+        let (e_direct, e_sky, e_source) = (&src.e_direct, &src.e_sky, &src.e_source);
+        let ed_err = error_stats(e_direct, &reference.e_direct, &[]);
         for &b in &params.bounces {
             let gp = exchange::GatherParams { bounces: b, ..solve_params.gather };
             let t = Instant::now();
-            let mut g = solver.gather_corrected(&e_source, &gp);
+            let mut g = solver.gather_corrected(e_source, &gp);
             g.ms = t.elapsed().as_secs_f64() * 1e3;
-            let e_raw = g.e_indirect.clone();
+            let e_raw: Vec<Vec3> = g.e_indirect.iter().zip(&src.e_emitter).map(|(g, m)| *g + *m).collect();
             for smoothing in [angle, 0.0] {
                 let t = Instant::now();
-                let e_i = solver.smooth(&e_source, &e_raw, smoothing);
+                let e_i = solver.smooth(e_source, &e_raw, smoothing);
                 let smooth_ms = t.elapsed().as_secs_f64() * 1e3;
                 let total: Vec<Vec3> = (0..n).map(|v| e_direct[v] + e_sky[v] + e_i[v]).collect();
                 rows.push(SweepRow {

@@ -126,7 +126,19 @@ pub fn run(args: SolveArgs) -> Result<()> {
     }
     let emitters = solver.scene.emission.iter().filter(|e| **e != glam::Vec3::ZERO).count();
     if emitters > 0 {
-        println!("emitters         {emitters} vertices emit");
+        let e = &solver.emitter_links;
+        let mean = solution.e_emitter.iter().map(|e| e.element_sum() / 3.0).sum::<f32>()
+            / solution.e_emitter.len().max(1) as f32;
+        match &e.fallback {
+            None if e.is_active() => println!(
+                "emitters         {emitters} vertices emit, {} groups: mean direct E {mean:.3} W/m^2, {} shadow rays in {:.1} ms",
+                e.group_vertex.len(),
+                e.shadow_rays,
+                e.ms
+            ),
+            None => println!("emitters         {emitters} vertices emit (their light through the vertex links)"),
+            Some(why) => println!("emitters         {emitters} vertices emit; no emitter links: {why}"),
+        }
     }
     println!("prep ms          {prep_ms:.1}");
     println!("{} build ms     {:.1}", if s.bvh.is_some() { "bvh" } else { "kd " }, s.accel_build_ms);

@@ -1,6 +1,7 @@
 //! Light exchange (docs/DESIGN.md §4): direct light through light links, exact
 //! at the vertices and one-ring oversampled as the bounce source
-//! ([`light_links`]), bounces gathered over the vertex links ([`gather`]),
+//! ([`light_links`]), emissive surfaces' direct light by next-event
+//! estimation ([`emitter_links`]), bounces gathered over the vertex links ([`gather`]),
 //! hidden vertices' radiosity replaced as link targets by their visible
 //! neighbours' ([`hidden`]), a noise estimate of every vertex's `E_i` from
 //! its links ([`noise`]) and feature-aware, noise-aware one-ring smoothing
@@ -10,12 +11,14 @@
 //! (exitant radiance of a Lambertian vertex) `B = rho / pi * E` in
 //! W/(m^2 sr).
 
+pub mod emitter_links;
 pub mod gather;
 pub mod hidden;
 pub mod light_links;
 pub mod noise;
 pub mod smooth;
 
+pub use emitter_links::{EmitterLinkParams, EmitterLinks};
 pub use gather::{gather, GatherParams, GatherResult};
 pub use hidden::HiddenParams;
 pub use light_links::{BounceSource, LightLinkParams, LightLinks};

@@ -1,7 +1,8 @@
 //! A solver after a deformation (docs/DESIGN.md §6, §7): [`Solver::deform`]
 //! refits the acceleration structure, then redoes only what the motion can
 //! have changed ([`crate::links::selective`] for the vertex links,
-//! [`crate::exchange::LightLinks::update_deformed`] for the light links), optionally after
+//! [`crate::exchange::LightLinks::update_deformed`] for the light links;
+//! the emitter links, [`crate::exchange::emitter_links`], are traced anew), optionally after
 //! a preview in which the remade vertices' links are shot at
 //! [`PREVIEW_RAYS`] rays and their light links from the vertices alone.
 //!
@@ -40,6 +41,8 @@ pub struct DeformStats {
     /// (vertex, light) entries of the light links recomputed.
     pub light_links_recomputed: u64,
     pub light_links_ms: f64,
+    /// Emitter links traced anew (all of them), ms.
+    pub emitter_links_ms: f64,
     /// Time from the start to the preview's callback returning, ms (0: no preview).
     pub preview_ms: f64,
     /// Bytes of the per-ray state kept after the update.
@@ -91,6 +94,7 @@ impl Solver {
                 },
                 light_links_recomputed: (s.scene.vertex_count() * s.scene.lights.len()) as u64,
                 light_links_ms: s.light_links.ms,
+                emitter_links_ms: s.emitter_links.ms,
                 ray_state_bytes: s.ray_state_bytes(),
                 ms: start.elapsed().as_secs_f64() * 1e3,
                 ..Default::default()
@@ -128,6 +132,10 @@ impl Solver {
             .update_deformed(&self.scene, &self.accel, &params.light, &motion)
             .expect("a CPU tracer cannot fail");
         stats.light_links_ms = t.elapsed().as_secs_f64() * 1e3;
+        // Emitter links: any motion can move an emitter or what shades it; all are traced anew.
+        self.emitter_links = crate::exchange::EmitterLinks::compute(&self.scene, &self.accel, &params.emitter)
+            .expect("a CPU tracer cannot fail");
+        stats.emitter_links_ms = self.emitter_links.ms;
         stats.ray_state_bytes = self.ray_state_bytes();
         stats.ms = start.elapsed().as_secs_f64() * 1e3;
         (self, stats)

@@ -7,7 +7,8 @@
 
 use crate::bvh::{BvhBuildParams, BvhStats};
 use crate::exchange::{
-    self, GatherParams, GatherResult, HiddenParams, LightLinkParams, LightLinks, SmoothMode, SmoothParams,
+    self, EmitterLinkParams, EmitterLinks, GatherParams, GatherResult, HiddenParams, LightLinkParams, LightLinks,
+    SmoothMode, SmoothParams,
 };
 use crate::gpu::{self, Backend, DeviceShare, GpuDevice, GpuLinks, GpuTracer, LogicalDevice, ScheduleParams};
 use crate::kdtree::{KdBuildParams, KdStats, KdTree};
@@ -106,6 +107,8 @@ pub struct SolveParams {
     pub kd_gpu: KdBuildParams,
     pub links: LinkParams,
     pub light: LightLinkParams,
+    /// Next-event estimation toward emissive surfaces ([`crate::exchange::emitter_links`]).
+    pub emitter: EmitterLinkParams,
     pub gather: GatherParams,
     /// Correction of hidden vertices as link targets ([`crate::exchange::hidden`]).
     pub hidden: HiddenParams,
@@ -124,6 +127,7 @@ impl Default for SolveParams {
             kd_gpu: KdBuildParams::for_gpu(),
             links: LinkParams::default(),
             light: LightLinkParams::default(),
+            emitter: EmitterLinkParams::default(),
             gather: GatherParams::default(),
             hidden: HiddenParams::default(),
             smoothing_angle_deg: 0.0,
@@ -138,6 +142,9 @@ impl SolveParams {
         let mut p = SolveParams::default();
         p.links.rays_per_vertex = s.rays_per_vertex;
         p.links.seed = s.seed;
+        p.emitter.seed = s.seed;
+        // Emitters' direct light as many rays as the links (at least 64): its noise falls with theirs.
+        p.emitter.samples = s.rays_per_vertex.max(64);
         p.tracer = s.tracer;
         p.gather.bounces = s.bounces;
         p.smoothing_angle_deg = s.smoothing_angle_deg;
@@ -162,6 +169,9 @@ pub struct SolveStats {
     pub links: LinkStats,
     pub shadow_rays: u64,
     pub light_links_ms: f64,
+    /// Shadow rays toward emissive surfaces and their time, ms.
+    pub emitter_rays: u64,
+    pub emitter_links_ms: f64,
     pub bounces: u32,
     pub tail_relative: f32,
     pub gather_ms: f64,
@@ -188,14 +198,20 @@ pub struct Solution {
     /// Irradiance from the sky ([`crate::sky`]), W/m^2: direct light,
     /// reported on its own (zero without a sky or where no ray missed).
     pub e_sky: Vec<Vec3>,
+    /// Direct irradiance from emissive surfaces ([`crate::exchange::emitter_links`]),
+    /// W/m^2: part of `e_indirect` (light that left a surface), reported apart.
+    pub e_emitter: Vec<Vec3>,
     /// The direct irradiance the bounces started from (the light links'
-    /// [`crate::exchange::BounceSource`] plus `e_sky`), W/m^2. Emitters add
-    /// `M_e / pi` to the first radiosity ([`crate::exchange::gather::source_radiosity`]).
+    /// [`crate::exchange::BounceSource`] plus `e_sky` and `e_emitter`),
+    /// W/m^2. Emitters without emitter links add `M_e / pi` to the first
+    /// radiosity ([`crate::exchange::gather::source_radiosity`]).
     pub e_source: Vec<Vec3>,
-    /// Indirect irradiance after smoothing, W/m^2.
+    /// Indirect irradiance after smoothing (the gathered bounces smoothed,
+    /// plus `e_emitter`), W/m^2.
     pub e_indirect: Vec<Vec3>,
-    /// Indirect irradiance before smoothing (after the hidden-vertex
-    /// correction; `gather.e_indirect` is before it), W/m^2.
+    /// Indirect irradiance before smoothing (the gathered bounces after the
+    /// hidden-vertex correction, plus `e_emitter`; `gather.e_indirect` is
+    /// the bounces before the correction), W/m^2.
     pub e_indirect_raw: Vec<Vec3>,
     pub gather: GatherResult,
     /// False when smoothing was skipped (feature angle 0): `e_indirect` is then `e_indirect_raw`.
@@ -203,12 +219,27 @@ pub struct Solution {
 }
 
 impl Solution {
-    /// Total irradiance `E_d + E_sky + E_i` per vertex, W/m^2.
+    /// Total irradiance `E_d + E_sky + E_i` per vertex (`E_i` includes the emitters' direct light), W/m^2.
     pub fn total(&self) -> Vec<Vec3> {
         (0..self.e_direct.len())
             .map(|v| self.e_direct[v] + self.e_sky.get(v).copied().unwrap_or_default() + self.e_indirect[v])
             .collect()
     }
+}
+
+/// The direct irradiances of one solve ([`Solver::sources`]), W/m^2.
+#[derive(Clone, Debug, Default)]
+pub struct Sources {
+    /// Point and directional lights, exact at the vertex.
+    pub e_direct: Vec<Vec3>,
+    /// The sky.
+    pub e_sky: Vec<Vec3>,
+    /// Emissive surfaces with emitter links.
+    pub e_emitter: Vec<Vec3>,
+    /// What the bounces start from: the lights' bounce source plus `e_sky` and `e_emitter`.
+    pub e_source: Vec<Vec3>,
+    /// The emitted exitance the vertex links carry (emitters without emitter links), W/m^2.
+    pub emission: Vec<Vec3>,
 }
 
 /// A scene with its acceleration structure, vertex links and light links built.
@@ -220,6 +251,8 @@ pub struct Solver {
     pub accel: Accel,
     pub links: Links,
     pub light_links: LightLinks,
+    /// Direct light of emissive surfaces by next-event estimation.
+    pub emitter_links: EmitterLinks,
     /// Present when links, light links and bounces run on a GPU.
     pub gpu: Option<GpuState>,
     pub compute: Compute,
@@ -254,12 +287,14 @@ impl Solver {
         let record = scene.meshes.iter().any(|m| m.dynamic);
         let (links, ray_hits) = links::shoot_links_recording(&scene, &accel, &params.links, record, progress);
         let light_links = LightLinks::compute(&scene, &accel, &params.light);
+        let emitter_links = EmitterLinks::compute(&scene, &accel, &params.emitter).expect("a CPU tracer cannot fail");
         Solver {
             scene,
             params,
             accel,
             links,
             light_links,
+            emitter_links,
             gpu: None,
             compute: Compute::Cpu,
             ray_hits,
@@ -326,6 +361,7 @@ impl Solver {
         let (links, shares) = gpu::shoot_links_gpu(&scene, &params.links, &g.schedule, &mut logical, progress)?;
         let tracer = logical.swap_remove(0).tracer;
         let light_links = LightLinks::compute_with(&scene, &tracer, &params.light)?;
+        let emitter_links = EmitterLinks::compute(&scene, &tracer, &params.emitter)?;
         let gpu_links = GpuLinks::new(tracer.dev.clone(), &links, &scene.albedo)?;
         let gpu = GpuState { tracer, links: gpu_links, shares };
         Ok(Solver {
@@ -334,6 +370,7 @@ impl Solver {
             accel: Accel::Kd(kd),
             links,
             light_links,
+            emitter_links,
             gpu: Some(gpu),
             compute: compute.clone(),
             ray_hits: None,
@@ -412,14 +449,8 @@ impl Solver {
 
     fn solve_as(&self, quick: bool) -> Solution {
         let s = &self.scene;
-        let n = s.vertex_count();
-        let e_direct = self.light_links.direct(&s.lights, n);
-        let e_sky = self.e_sky();
-        let mut e_source = self.light_links.bounce_source(&s.lights, n);
-        if s.sky.is_some() {
-            e_source.iter_mut().zip(&e_sky).for_each(|(e, k)| *e += *k);
-        }
-        let b0 = exchange::gather::source_radiosity(&e_source, &s.albedo, &s.emission);
+        let src = self.sources();
+        let b0 = exchange::gather::source_radiosity(&src.e_source, &s.albedo, &src.emission);
         // The hidden-vertex substitution runs inside the bounces, on either kernel.
         let stand_ins = if quick { Arc::default() } else { self.stand_ins() };
         let on_gpu = self.gpu.as_ref().map(|g| {
@@ -436,28 +467,58 @@ impl Solver {
             None => self.gather_cpu(&b0, &stand_ins, &self.params.gather),
         };
         let angle = self.params.smoothing_angle_deg;
-        let e_indirect = if quick {
+        let mut e_indirect = if quick {
             exchange::smooth(&gather.e_indirect, &s.rings, &s.normals, angle)
         } else {
-            self.smooth(&e_source, &gather.e_indirect, angle)
+            self.smooth_gathered(&src.e_source, &gather.e_indirect, angle)
         };
+        let mut e_indirect_raw = gather.e_indirect.clone();
+        if self.emitter_links.is_active() {
+            for e in [&mut e_indirect, &mut e_indirect_raw] {
+                e.iter_mut().zip(&src.e_emitter).for_each(|(i, m)| *i += *m);
+            }
+        }
         Solution {
-            e_direct,
-            e_sky,
-            e_source,
-            e_indirect_raw: gather.e_indirect.clone(),
+            e_direct: src.e_direct,
+            e_sky: src.e_sky,
+            e_emitter: src.e_emitter,
+            e_source: src.e_source,
+            e_indirect_raw,
             e_indirect,
             gather,
             smoothed: angle > 0.0,
         }
     }
 
-    /// The CPU bounces from `e_source` (W/m^2, plus the scene's emission)
-    /// with hidden vertices replaced as link targets in every bounce
-    /// ([`crate::exchange::hidden`]).
+    /// The direct irradiances of the current lights, sky and emission, and
+    /// what the bounces start from.
+    pub fn sources(&self) -> Sources {
+        let s = &self.scene;
+        let n = s.vertex_count();
+        let e_sky = self.e_sky();
+        let e_emitter = self.emitter_links.irradiance(&s.emission, n);
+        let mut e_source = self.light_links.bounce_source(&s.lights, n);
+        for (e, (k, m)) in e_source.iter_mut().zip(e_sky.iter().zip(&e_emitter)) {
+            *e += *k + *m;
+        }
+        Sources {
+            e_direct: self.light_links.direct(&s.lights, n),
+            e_sky,
+            e_emitter,
+            e_source,
+            emission: self.emitter_links.carried_emission(&s.emission),
+        }
+    }
+
+    /// The CPU bounces from `e_source` (W/m^2, [`Sources::e_source`], plus
+    /// the emission the links carry, [`Sources::emission`]) with hidden
+    /// vertices replaced as link targets in every bounce
+    /// ([`crate::exchange::hidden`]). The result is the gathered part of
+    /// `E_i`, without [`Sources::e_emitter`].
     pub fn gather_corrected(&self, e_source: &[Vec3], params: &exchange::GatherParams) -> GatherResult {
         let s = &self.scene;
-        let b0 = exchange::gather::source_radiosity(e_source, &s.albedo, &s.emission);
+        let emission = self.emitter_links.carried_emission(&s.emission);
+        let b0 = exchange::gather::source_radiosity(e_source, &s.albedo, &emission);
         self.gather_cpu(&b0, &self.stand_ins(), params)
     }
 
@@ -524,26 +585,51 @@ impl Solver {
     }
 
     /// `E_i` smoothed at feature angle `angle_deg` (0: unchanged) with the
-    /// solver's filter: `e_raw` gathered from `e_source`, both W/m^2.
+    /// solver's filter: `e_raw` is [`Solution::e_indirect_raw`] (emitters'
+    /// direct light included, which is left as it is: only the gathered
+    /// bounces are smoothed), `e_source` [`Solution::e_source`], W/m^2.
     pub fn smooth(&self, e_source: &[Vec3], e_raw: &[Vec3], angle_deg: f32) -> Vec<Vec3> {
+        if !self.emitter_links.is_active() {
+            return self.smooth_gathered(e_source, e_raw, angle_deg);
+        }
+        let e_em = self.emitter_links.irradiance(&self.scene.emission, e_raw.len());
+        let gathered: Vec<Vec3> = e_raw.iter().zip(&e_em).map(|(e, m)| *e - *m).collect();
+        let mut out = self.smooth_gathered(e_source, &gathered, angle_deg);
+        out.iter_mut().zip(&e_em).for_each(|(o, m)| *o += *m);
+        out
+    }
+
+    /// The gathered bounces `e_gathered` (no emitter light) smoothed.
+    fn smooth_gathered(&self, e_source: &[Vec3], e_raw: &[Vec3], angle_deg: f32) -> Vec<Vec3> {
         let s = &self.scene;
         let p = &self.params.smoothing;
         match p.mode {
             _ if angle_deg <= 0.0 => e_raw.to_vec(),
             SmoothMode::Uniform => exchange::smooth(e_raw, &s.rings, &s.normals, angle_deg),
             SmoothMode::Adaptive => {
-                let var = self.noise_variance(e_source, e_raw);
+                let var = self.gathered_noise_variance(e_source, e_raw);
                 exchange::smooth_adaptive(e_raw, &var, &s.rings, &s.normals, angle_deg, p.passes)
             }
         }
     }
 
-    /// The noise variance of every vertex's gathered `E_i` ([`crate::exchange::noise`]), (W/m^2)^2.
+    /// The noise variance of every vertex's gathered `E_i` ([`crate::exchange::noise`]),
+    /// (W/m^2)^2, for `e_raw` = [`Solution::e_indirect_raw`] (the emitters'
+    /// direct light in it has no noise estimate: it is taken out).
     pub fn noise_variance(&self, e_source: &[Vec3], e_raw: &[Vec3]) -> Vec<Vec3> {
+        if !self.emitter_links.is_active() {
+            return self.gathered_noise_variance(e_source, e_raw);
+        }
+        let e_em = self.emitter_links.irradiance(&self.scene.emission, e_raw.len());
+        let gathered: Vec<Vec3> = e_raw.iter().zip(&e_em).map(|(e, m)| *e - *m).collect();
+        self.gathered_noise_variance(e_source, &gathered)
+    }
+
+    fn gathered_noise_variance(&self, e_source: &[Vec3], e_raw: &[Vec3]) -> Vec<Vec3> {
         exchange::noise::variance(
             &self.links,
             &self.scene.albedo,
-            &self.scene.emission,
+            &self.emitter_links.carried_emission(&self.scene.emission),
             e_source,
             e_raw,
             self.params.links.rays_per_vertex,
@@ -564,6 +650,8 @@ impl Solver {
             links: self.links.stats,
             shadow_rays: self.light_links.shadow_rays,
             light_links_ms: self.light_links.ms,
+            emitter_rays: self.emitter_links.shadow_rays,
+            emitter_links_ms: self.emitter_links.ms,
             bounces: solution.gather.bounces,
             tail_relative: solution.gather.tail_relative,
             gather_ms: solution.gather.ms,
