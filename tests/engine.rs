@@ -285,7 +285,9 @@ fn deformation_preview_then_selective_full_result() {
 
 /// Emission edits and sky changes (set, turned, brighter, removed) are
 /// gather-only updates: no structure, link or light-link work, and each
-/// result equals a fresh solve of the edited scene.
+/// result equals a fresh solve of the edited scene. A mesh that starts
+/// emitting (the lamp's metal with its shade) needs its emitter links
+/// traced, once; brightening it again is gather-only.
 #[test]
 fn emission_and_sky_edits_are_gather_only() {
     use linkgi::solver::Solver;
@@ -306,6 +308,14 @@ fn emission_and_sky_edits_are_gather_only() {
     let want = fresh(&edited);
     assert_eq!(got.e_indirect, want.e_indirect);
     assert_eq!(got.emission, edited.emission);
+    assert_eq!(e.counters().emitter_link_updates, c0.emitter_link_updates + 1, "the metal started emitting");
+    e.send(Change::SetEmission { mesh: lamp, emission: Vec3::new(0.0, 10.0, 80.0) });
+    let r = edited.meshes[lamp].vertices.start as usize..edited.meshes[lamp].vertices.end as usize;
+    edited.emission[r].fill(Vec3::new(0.0, 10.0, 80.0));
+    assert!(e.wait_idle(WAIT));
+    let got = e.latest().unwrap();
+    let want = fresh(&edited);
+    assert_eq!(got.e_indirect, want.e_indirect, "twice as bright, same emitter links");
     // The sky turned and brighter, then gone.
     let mut sky = edited.sky.clone().unwrap();
     sky.rotate_deg = 45.0;
@@ -322,8 +332,8 @@ fn emission_and_sky_edits_are_gather_only() {
     assert!(dark.e_sky.iter().all(|k| *k == Vec3::ZERO));
     let c = e.counters();
     assert_eq!(
-        (c.kd_builds, c.link_builds, c.light_link_updates, c.gathers),
-        (c0.kd_builds, c0.link_builds, c0.light_link_updates, c0.gathers + 3)
+        (c.kd_builds, c.link_builds, c.light_link_updates, c.emitter_link_updates, c.gathers),
+        (c0.kd_builds, c0.link_builds, c0.light_link_updates, c0.emitter_link_updates + 1, c0.gathers + 4)
     );
     // Bad edits fail and keep the last result.
     e.send(Change::SetEmission { mesh: 99, emission: Vec3::ONE });

@@ -117,6 +117,9 @@ pub struct Counters {
     pub refits: u64,
     pub link_builds: u64,
     pub light_link_updates: u64,
+    /// Emitter links traced again because a surface started emitting
+    /// ([`Solver::update_emitters`]); other emission edits are gather-only.
+    pub emitter_link_updates: u64,
     pub gathers: u64,
     /// Results published (the version of the newest result).
     pub published: u64,
@@ -217,6 +220,7 @@ fn publish(shared: &Shared, s: &Solver, c: &mut Counters, t0: Instant, preview: 
     total.refits += c.refits;
     total.link_builds += c.link_builds;
     total.light_link_updates += c.light_link_updates;
+    total.emitter_link_updates += c.emitter_link_updates;
     total.gathers += 1;
     total.published = version;
     total.previews += preview as u64;
@@ -543,6 +547,9 @@ impl Worker {
             s.params = params;
             s.scene.settings = scene.settings;
             s.scene.emission = scene.emission.clone();
+            if s.update_emitters() {
+                c.emitter_link_updates += 1;
+            }
             s.scene.sky = scene.sky.clone();
             if dirty.lights && c.light_link_updates == 0 {
                 s.scene.lights = scene.lights.clone();

@@ -411,6 +411,27 @@ impl Solver {
         update(&mut self.light_links, &self.scene, &self.accel).expect("the CPU tracer cannot fail");
     }
 
+    /// Traces the emitter links again if some vertex emits that they do
+    /// not cover (a surface started emitting after they were built, so a
+    /// solve equals a fresh one); other emission edits need no rays.
+    /// Returns whether it traced.
+    pub fn update_emitters(&mut self) -> bool {
+        let e = &self.emitter_links;
+        let uncovered = self.scene.emission.iter().zip(&e.covered).any(|(m, &c)| *m != Vec3::ZERO && !c);
+        if !uncovered || e.fallback.is_some() || self.params.emitter.samples == 0 {
+            return false;
+        }
+        let traced = match &self.gpu {
+            Some(g) => EmitterLinks::compute(&self.scene, &g.tracer, &self.params.emitter).or_else(|err| {
+                eprintln!("warning: {err}; tracing emitter links on the CPU");
+                EmitterLinks::compute(&self.scene, &self.accel, &self.params.emitter)
+            }),
+            None => EmitterLinks::compute(&self.scene, &self.accel, &self.params.emitter),
+        };
+        self.emitter_links = traced.expect("a CPU tracer cannot fail");
+        true
+    }
+
     /// Bytes of the per-ray state kept for selective updates ([`Solver::ray_hits`]).
     pub fn ray_state_bytes(&self) -> u64 {
         self.ray_hits.as_ref().map_or(0, |h| h.bytes())
