@@ -51,9 +51,18 @@ fn main() {
                 let (p, n) = (solver.scene.positions[v], solver.scene.normals[v]);
                 out += &format!(
                     "{v},{mi},{},{},{},{},{},{},{},{},{},{},{},{}\n",
-                    p.x, p.y, p.z, n.x, n.y, n.z,
-                    total[v].element_sum() / 3.0, rt[v].element_sum() / 3.0, r.e_total_stderr[v].element_sum() / 3.0,
-                    sol.e_emitter[v].element_sum() / 3.0, sol.e_sky[v].element_sum() / 3.0, r.e_sky[v].element_sum() / 3.0
+                    p.x,
+                    p.y,
+                    p.z,
+                    n.x,
+                    n.y,
+                    n.z,
+                    total[v].element_sum() / 3.0,
+                    rt[v].element_sum() / 3.0,
+                    r.e_total_stderr[v].element_sum() / 3.0,
+                    sol.e_emitter[v].element_sum() / 3.0,
+                    sol.e_sky[v].element_sum() / 3.0,
+                    r.e_sky[v].element_sum() / 3.0
                 );
             }
         }

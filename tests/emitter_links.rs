@@ -45,7 +45,12 @@ fn scene(blocker: bool, rays: u32) -> SceneDesc {
     }
     SceneDesc {
         name: "panel".into(),
-        settings: Settings { rays_per_vertex: rays, bounces: Bounces::Fixed(3), smoothing_angle_deg: 0.0, ..Default::default() },
+        settings: Settings {
+            rays_per_vertex: rays,
+            bounces: Bounces::Fixed(3),
+            smoothing_angle_deg: 0.0,
+            ..Default::default()
+        },
         camera: Camera::default(),
         meshes,
         lights: vec![],
@@ -187,7 +192,10 @@ fn shaded_panel_matches_brute_force_visibility() {
         assert!(f <= all * 1.001 + 1e-6, "vertex {v}: {f} above the unshaded {all}");
     }
     let count = floor_vertices(&s).len() as f64;
-    eprintln!("{shaded} partly shaded vertices; mean |error| {:.2e}, worst {worst:.4} of the unshaded factor", sum_err / count);
+    eprintln!(
+        "{shaded} partly shaded vertices; mean |error| {:.2e}, worst {worst:.4} of the unshaded factor",
+        sum_err / count
+    );
     assert!(shaded >= 10, "the blocker must shade part of the panel for some vertices ({shaded})");
     assert!(worst < 0.05, "worst error {worst} of the unshaded factor");
     assert!(sum_err / count < 2e-3, "mean error {}", sum_err / count);

@@ -254,14 +254,16 @@ fn bad_sky_tables_are_errors_naming_the_file() {
 
 /// `window` (a glowing lamp shade and a gradient sky through a window, no
 /// point light) against the reference path tracer (4096 paths a vertex),
-/// which handles emitters and the sky on its own. The shade is small, so
-/// most rays miss it: the per-vertex error is mostly the noise of sampling
-/// it (7.1% total relative RMSE at 256 rays, 2.5% at 1024, noise-corrected),
-/// which must fall with the rays at least as fast as `1/sqrt(n)` does
-/// between 256 and 1024 (0.5x). What must agree is the mean: total bias
-/// within 2% (measured -1.2% and -0.7%, the error issue's contact
-/// interpolation: the cabinet on the floor is 6% low), sky bias within 5%
-/// at 256 rays and 3% at 1024 (noise: -0.8% to +0.4% over two seeds).
+/// which handles emitters and the sky on its own. Total relative RMSE,
+/// noise-corrected: 3.9% at 256 rays and 2.0% at 1024 with the emitter
+/// links (the shade's direct light by next-event estimation), where the
+/// vertex links alone gave 7.1% and 2.5%; held to 5% and 2.5%, falling
+/// with the rays. What remains is the sky's sampling noise (a small window
+/// seen by a few rays: 25% relative RMSE of `E_sky` at 256 rays, 8% at
+/// 1024) and the error issue's contact interpolation (the cabinet's back,
+/// 5 cm from the wall, and its foot are 13-14% low). The mean must agree:
+/// total bias within 2% (measured -1.1% and -0.8%), sky bias within 5% at
+/// 256 rays and 3% at 1024 (noise: -0.8% to +0.4% over two seeds).
 #[test]
 fn window_scene_agrees_with_the_reference_path_tracer() {
     use linkgi::accuracy::metrics::error_stats;
@@ -282,7 +284,10 @@ fn window_scene_agrees_with_the_reference_path_tracer() {
         assert!(sky.bias.abs() < sky_tolerance, "{rays} rays: sky {sky:?}");
         errors.push(total.rel_rmse_corrected);
     }
-    assert!(errors[1] < 0.5 * errors[0] && errors[1] < 0.04, "relative RMSE at 256 and 1024 rays: {errors:?}");
+    assert!(
+        errors[0] < 0.05 && errors[1] < 0.025 && errors[1] < 0.6 * errors[0],
+        "relative RMSE at 256 and 1024 rays: {errors:?}"
+    );
 }
 
 /// `linkgi bench` rows carry the sky-turn figure for scenes with a sky

@@ -68,7 +68,9 @@ use std::time::Instant;
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct EmitterLinkParams {
     /// Shadow rays per vertex toward the emitters (0: no emitter links,
-    /// emitters' light through the vertex links alone).
+    /// emitters' light through the vertex links alone). Default 64;
+    /// `SolveParams::from_settings` gives the vertex links' rays per vertex
+    /// (at least 64), so this noise falls with theirs.
     pub samples: u32,
     /// Largest number of (vertex, emitter triangle) pairs evaluated; above
     /// it the emitters' light travels through the vertex links.
@@ -225,7 +227,11 @@ impl EmitterLinks {
     /// group ids, finite non-negative factors.
     pub fn validate(&self, n: usize) -> Result<(), String> {
         if self.offsets.len() != n + 1 || self.covered.len() != n {
-            return Err(format!("{} offsets and {} covered flags for {n} vertices", self.offsets.len(), self.covered.len()));
+            return Err(format!(
+                "{} offsets and {} covered flags for {n} vertices",
+                self.offsets.len(),
+                self.covered.len()
+            ));
         }
         if self.offsets[0] != 0 || self.offsets.windows(2).any(|w| w[0] > w[1]) {
             return Err("offsets do not rise from 0".into());
