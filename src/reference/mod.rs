@@ -42,8 +42,12 @@
 //!   ends the path (it brings no light).
 //! - At the vertex `x` the hemisphere is around the vertex normal. Rays
 //!   start `offset * l` (l: mean incident edge length) off the surface along
-//!   the normal and toward the one-ring, so rays along a crease land on the
-//!   face group across it. A direction that dives under one of the vertex's
+//!   the normal and, on border and crease vertices, toward the one-ring, so
+//!   rays along a crease land on the face group across it. (Until cache
+//!   version 4 every vertex moved toward its one-ring; inside a flat
+//!   surface that direction is rounding noise, and vertices on the line
+//!   where an object stands on the surface started inside the object: the
+//!   reference gave them zero.) A direction that dives under one of the vertex's
 //!   own triangles (possible on concave vertices, whose normal is an average)
 //!   meets that triangle's back right at `x`; it is counted as a hit at `x`
 //!   itself (the path continues from `x` with `rho(x)`), not as a back face.

@@ -72,8 +72,17 @@ impl<'a> Tracer<'a> {
         let s = self.scene;
         let p = s.positions[v];
         let n = s.normals[v];
-        let toward: Vec3 = s.rings.row(v).iter().map(|&u| (s.positions[u as usize] - p).normalize_or_zero()).sum();
-        let inward = (toward - n * toward.dot(n)).normalize_or_zero();
+        // Toward the one-ring on border and crease vertices only (as the
+        // links' origins): inside a surface the ring's directions cancel,
+        // and the rounding left of their sum points anywhere, for example
+        // into an object standing on the surface right at the vertex.
+        let inward = if s.boundary[v] {
+            let toward: Vec3 =
+                s.rings.row(v).iter().map(|&u| (s.positions[u as usize] - p).normalize_or_zero()).sum();
+            (toward - n * toward.dot(n)).normalize_or_zero()
+        } else {
+            Vec3::ZERO
+        };
         let d = (self.params.offset * s.mean_edge_length(v)).max(ulp_floor(p));
         (p + (n + inward) * d, d)
     }
