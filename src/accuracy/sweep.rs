@@ -90,7 +90,7 @@ pub fn sweep(
         let solve_params = SolveParams::from_settings(&settings);
         let solver = Solver::new(scene.clone(), solve_params, &|_, _| {});
         let (kd_ms, links_ms) = (solver.accel_build_ms(), solver.links.stats.shoot_ms);
-        let light_ms = solver.light_links.ms + solver.emitter_links.ms;
+        let light_ms = solver.light_links.ms + solver.emitter_links.ms + solver.near_light.ms;
         let n = solver.scene.vertex_count();
         let src = solver.sources();
         let (e_direct, e_sky, e_source) = (&src.e_direct, &src.e_sky, &src.e_source);
@@ -100,7 +100,7 @@ pub fn sweep(
             let t = Instant::now();
             let mut g = solver.gather_corrected(e_source, &gp);
             g.ms = t.elapsed().as_secs_f64() * 1e3;
-            let e_raw: Vec<Vec3> = g.e_indirect.iter().zip(&src.e_emitter).map(|(g, m)| *g + *m).collect();
+            let e_raw: Vec<Vec3> = (0..n).map(|v| (g.e_indirect[v] + src.e_emitter[v] + src.e_near[v]).max(Vec3::ZERO)).collect();
             for smoothing in [angle, 0.0] {
                 let t = Instant::now();
                 let e_i = solver.smooth(e_source, &e_raw, smoothing);

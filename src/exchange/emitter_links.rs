@@ -61,6 +61,7 @@ use crate::trace::Tracer;
 use glam::{DVec3, Vec2, Vec3};
 use rand::{Rng, SeedableRng};
 use rayon::prelude::*;
+use std::borrow::Cow;
 use std::f64::consts::PI;
 use std::time::Instant;
 
@@ -216,11 +217,11 @@ impl EmitterLinks {
 
     /// The emission the vertex links must carry: `emission` with the
     /// vertices of emitter groups set to zero (their direct light is [`Self::irradiance`]).
-    pub fn carried_emission(&self, emission: &[Vec3]) -> Vec<Vec3> {
+    pub fn carried_emission<'a>(&self, emission: &'a [Vec3]) -> Cow<'a, [Vec3]> {
         if !self.is_active() {
-            return emission.to_vec();
+            return Cow::Borrowed(emission);
         }
-        emission.iter().zip(&self.covered).map(|(e, &c)| if c { Vec3::ZERO } else { *e }).collect()
+        Cow::Owned(emission.iter().zip(&self.covered).map(|(e, &c)| if c { Vec3::ZERO } else { *e }).collect())
     }
 
     /// Checks the structure against a scene of `n` vertices: CSR offsets,

@@ -1,7 +1,8 @@
 //! Light exchange (docs/DESIGN.md §4): direct light through light links, exact
 //! at the vertices and one-ring oversampled as the bounce source
 //! ([`light_links`]), emissive surfaces' direct light by next-event
-//! estimation ([`emitter_links`]), bounces gathered over the vertex links ([`gather`]),
+//! estimation ([`emitter_links`]), exact direct light at the hit points of
+//! short link rays ([`near_field`]), bounces gathered over the vertex links ([`gather`]),
 //! hidden vertices' radiosity replaced as link targets by their visible
 //! neighbours' ([`hidden`]), a noise estimate of every vertex's `E_i` from
 //! its links ([`noise`]) and feature-aware, noise-aware one-ring smoothing
@@ -15,12 +16,14 @@ pub mod emitter_links;
 pub mod gather;
 pub mod hidden;
 pub mod light_links;
+pub mod near_field;
 pub mod noise;
 pub mod smooth;
 
 pub use emitter_links::{EmitterLinkParams, EmitterLinks};
 pub use gather::{gather, GatherParams, GatherResult};
 pub use hidden::HiddenParams;
+pub use near_field::NearLight;
 pub use light_links::{BounceSource, LightLinkParams, LightLinks};
 pub use noise::NoiseParams;
 pub use smooth::{smooth, smooth_adaptive, SmoothMode, SmoothParams};

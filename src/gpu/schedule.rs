@@ -88,7 +88,13 @@ pub fn fix_wedges(setup: &RaySetup, v: usize, hits: &mut [HitRecord]) {
     }
 }
 
-fn merge_batch(setup: &RaySetup, triangles: &[[u32; 3]], first: usize, hits: &mut [HitRecord]) -> GroupRun {
+fn merge_batch(
+    setup: &RaySetup,
+    triangles: &[[u32; 3]],
+    near: &Option<std::sync::Arc<[f32]>>,
+    first: usize,
+    hits: &mut [HitRecord],
+) -> GroupRun {
     let rays = setup.directions.len();
     let weight_per_ray = std::f64::consts::PI / rays as f64;
     const CHUNK: usize = 64;
@@ -96,7 +102,7 @@ fn merge_batch(setup: &RaySetup, triangles: &[[u32; 3]], first: usize, hits: &mu
         .par_chunks_mut(rays * CHUNK)
         .enumerate()
         .map(|(ci, chunk)| {
-            let mut run = GroupRun::new(first + ci * CHUNK);
+            let mut run = GroupRun::new(first + ci * CHUNK).with_near(near.clone());
             for (i, vh) in chunk.chunks_mut(rays).enumerate() {
                 fix_wedges(setup, run.first + i, vh);
                 run.push_vertex(vh, triangles, weight_per_ray);
@@ -129,6 +135,7 @@ pub fn shoot_links_gpu(
         d.tracer.set_directions(&setup.directions);
     }
     let verts = ray_vertices(&setup);
+    let near = crate::links::near::near_limits(scene, setup.directions.len() as u32, &params.near);
     let n = verts.len();
     let rays = setup.directions.len();
     let cursor = Mutex::new(0usize);
@@ -204,7 +211,7 @@ pub fn shoot_links_gpu(
                         )));
                         continue;
                     }
-                    batches.push(merge_batch(&setup, &scene.triangles, a, &mut hits));
+                    batches.push(merge_batch(&setup, &scene.triangles, &near, a, &mut hits));
                     merged_vertices += b - a;
                     progress(merged_vertices, n);
                 }

@@ -9,11 +9,13 @@
 //! merged links as stored, [`MERGED_LINK_BYTES`] each plus a u32 offset
 //! per vertex ([`merged_bytes`]).
 
-use super::merge::{merge_vertex_sums, HitRecord, MergeScratch, HIT_MISS};
+use super::merge::{merge_vertex_sums, HitRecord, MergeScratch, HIT_BACK, HIT_MISS};
+use super::near::{NearHit, NearHits};
 use super::{LinkStats, Links};
 use crate::sky::visibility::miss_mask;
 use crate::sky::SkyVisibility;
 use half::f16;
+use std::sync::Arc;
 
 /// Bytes of one merged link as stored (u32 target + f16 weight).
 pub const MERGED_LINK_BYTES: u64 = 6;
@@ -39,8 +41,13 @@ pub struct GroupRun {
     /// Sky visibility of the vertices of the run whose rays missed:
     /// `(vertex, miss mask)` ([`crate::sky::visibility`]).
     pub sky: Vec<(usize, Vec<u64>)>,
+    /// Near hits of each vertex ([`super::near`]), when the run records them ([`GroupRun::with_near`]).
+    pub near_counts: Vec<u32>,
+    pub near: Vec<NearHit>,
     pub stats: LinkStats,
     record_sums: bool,
+    /// Per triangle, the distance under which a hit on it is near.
+    near_limits: Option<Arc<[f32]>>,
     scratch: MergeScratch,
 }
 
@@ -54,11 +61,30 @@ impl GroupRun {
         GroupRun { first, record_sums: true, ..Default::default() }
     }
 
+    /// The run recording near hits under `limits` (per triangle, metres;
+    /// [`super::near::near_limits`]); `None` records none.
+    pub fn with_near(mut self, limits: Option<Arc<[f32]>>) -> GroupRun {
+        self.near_limits = limits;
+        self
+    }
+
     /// Appends the next vertex's group, merged from its hit records (one
     /// per ray; triangles give the hit triangles' corner vertices), and
-    /// notes which of its rays missed (its sky visibility).
+    /// notes which of its rays missed (its sky visibility) and which hit
+    /// near (when recording them).
     pub fn push_vertex(&mut self, hits: &[HitRecord], triangles: &[[u32; 3]], weight_per_ray: f64) {
         let v = self.first + self.counts.len();
+        if let Some(limits) = &self.near_limits {
+            let before = self.near.len();
+            for h in hits {
+                // Front hits only; a hit on one of the vertex's own triangles is at the vertex.
+                let front = h.tri != HIT_MISS && h.tri & HIT_BACK == 0;
+                if front && h.t < limits[h.tri as usize] && !triangles[h.tri as usize].contains(&(v as u32)) {
+                    self.near.push(NearHit { tri: h.tri, u: h.u, v: h.v });
+                }
+            }
+            self.near_counts.push((self.near.len() - before) as u32);
+        }
         let before = self.targets.len();
         let sums = self.record_sums.then_some(&mut self.sums);
         let c = merge_vertex_sums(
@@ -92,6 +118,8 @@ impl GroupRun {
         self.weights.extend(next.weights);
         self.sums.extend(next.sums);
         self.sky.extend(next.sky);
+        self.near_counts.extend(next.near_counts);
+        self.near.extend(next.near);
         self.stats.add(&next.stats);
     }
 }
@@ -104,13 +132,14 @@ pub struct CsrBuilder {
     links: Links,
     sums: Vec<u32>,
     sky: Vec<(usize, Vec<u64>)>,
+    near: NearHits,
 }
 
 impl CsrBuilder {
     pub fn new(n: usize) -> CsrBuilder {
         let mut links = Links { offsets: Vec::with_capacity(n + 1), ..Default::default() };
         links.offsets.push(0);
-        CsrBuilder { links, sums: Vec::new(), sky: Vec::new() }
+        CsrBuilder { links, sums: Vec::new(), sky: Vec::new(), near: NearHits::default() }
     }
 
     /// Appends `run`, which must start at the next vertex.
@@ -128,6 +157,16 @@ impl CsrBuilder {
         links.weights.extend(r.weights);
         self.sums.extend(r.sums);
         self.sky.extend(r.sky);
+        if !r.near_counts.is_empty() {
+            if self.near.offsets.is_empty() {
+                self.near.offsets.push(0);
+            }
+            for c in r.near_counts {
+                let last = *self.near.offsets.last().expect("non-empty");
+                self.near.offsets.push(last + c);
+            }
+            self.near.hits.extend(r.near);
+        }
         links.stats.add(&r.stats);
         Ok(())
     }
@@ -147,6 +186,10 @@ impl CsrBuilder {
         links.targets.shrink_to_fit();
         links.weights.shrink_to_fit();
         links.sky = SkyVisibility::from_sparse(n, self.sky);
+        if !self.near.offsets.is_empty() && self.near.offsets.len() != n + 1 {
+            return Err(format!("near hits recorded for {} of {n} vertices", self.near.offsets.len() - 1));
+        }
+        links.near = self.near;
         let stats = &mut links.stats;
         stats.merged_links = links.targets.len() as u64;
         stats.raw_bytes = stats.raw_links * RAW_LINK_BYTES;

@@ -23,6 +23,7 @@
 
 pub mod assemble;
 pub mod merge;
+pub mod near;
 pub mod selective;
 pub mod shoot;
 
@@ -32,6 +33,7 @@ use half::f16;
 pub use assemble::{assemble, merged_bytes, CsrBuilder, GroupRun};
 pub use merge::{merge_vertex, HitRecord, MergeScratch, HIT_BACK, HIT_MISS};
 pub use selective::{RayHits, ReshootStats};
+pub use near::{NearHit, NearHits, NearParams};
 pub use shoot::{shoot_links, shoot_links_recording, LinkParams, RaySetup, TraceScratch, Wedge};
 
 /// Counters of one link generation.
@@ -80,6 +82,8 @@ pub struct Links {
     /// Links to the sky: the projection of every vertex's missed ray
     /// directions ([`crate::sky::visibility`]); empty when no ray missed.
     pub sky: SkyVisibility,
+    /// Rays that hit close to their triangle ([`near`]); empty when not recorded.
+    pub near: near::NearHits,
     pub stats: LinkStats,
 }
 

@@ -40,11 +40,13 @@ pub struct LinkParams {
     pub nudge: f32,
     /// Vertices per streamed batch (bounds the memory of raw hits).
     pub batch_vertices: usize,
+    /// Which rays are recorded as near hits ([`super::near`]).
+    pub near: super::near::NearParams,
 }
 
 impl Default for LinkParams {
     fn default() -> Self {
-        Self { rays_per_vertex: 256, seed: 1, nudge: 1e-3, batch_vertices: 8192 }
+        Self { rays_per_vertex: 256, seed: 1, nudge: 1e-3, batch_vertices: 8192, near: Default::default() }
     }
 }
 
@@ -234,6 +236,7 @@ pub fn shoot_links_recording(
     let weight_per_ray = std::f64::consts::PI / rays as f64;
     let mut csr = CsrBuilder::new(n);
     let mut ids = Vec::with_capacity(if record { n * rays } else { 0 });
+    let near = super::near::near_limits(scene, rays as u32, &params.near);
     const CHUNK: usize = 32;
     for batch_start in (0..n).step_by(params.batch_vertices.max(1)) {
         let batch_end = (batch_start + params.batch_vertices.max(1)).min(n);
@@ -244,7 +247,8 @@ pub fn shoot_links_recording(
             .map(|c0| {
                 let mut hits = Vec::with_capacity(rays);
                 let mut scratch = TraceScratch::default();
-                let mut run = if record { GroupRun::recording(c0) } else { GroupRun::new(c0) };
+                let run = if record { GroupRun::recording(c0) } else { GroupRun::new(c0) };
+                let mut run = run.with_near(near.clone());
                 let mut chunk_ids = Vec::new();
                 for v in c0..(c0 + CHUNK).min(batch_end) {
                     setup.trace_vertex_with(tracer, v, &mut scratch, &mut hits);

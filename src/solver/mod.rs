@@ -7,7 +7,7 @@
 
 use crate::bvh::{BvhBuildParams, BvhStats};
 use crate::exchange::{
-    self, EmitterLinkParams, EmitterLinks, GatherParams, GatherResult, HiddenParams, LightLinkParams, LightLinks,
+    self, EmitterLinkParams, EmitterLinks, GatherParams, NearLight, GatherResult, HiddenParams, LightLinkParams, LightLinks,
     SmoothMode, SmoothParams,
 };
 use crate::gpu::{self, Backend, DeviceShare, GpuDevice, GpuLinks, GpuTracer, LogicalDevice, ScheduleParams};
@@ -172,6 +172,10 @@ pub struct SolveStats {
     /// Shadow rays toward emissive surfaces and their time, ms.
     pub emitter_rays: u64,
     pub emitter_links_ms: f64,
+    /// Near hits ([`crate::links::near`]) and the shadow rays and time of their light columns, ms.
+    pub near_hits: u64,
+    pub near_rays: u64,
+    pub near_ms: f64,
     pub bounces: u32,
     pub tail_relative: f32,
     pub gather_ms: f64,
@@ -201,17 +205,21 @@ pub struct Solution {
     /// Direct irradiance from emissive surfaces ([`crate::exchange::emitter_links`]),
     /// W/m^2: part of `e_indirect` (light that left a surface), reported apart.
     pub e_emitter: Vec<Vec3>,
+    /// The first bounce's correction at near hits ([`crate::exchange::near_field`]),
+    /// W/m^2 (negative where the links brought light that is not there):
+    /// part of `e_indirect`, reported apart.
+    pub e_near: Vec<Vec3>,
     /// The direct irradiance the bounces started from (the light links'
-    /// [`crate::exchange::BounceSource`] plus `e_sky` and `e_emitter`),
+    /// [`crate::exchange::BounceSource`] plus `e_sky`, `e_emitter` and `e_near`),
     /// W/m^2. Emitters without emitter links add `M_e / pi` to the first
     /// radiosity ([`crate::exchange::gather::source_radiosity`]).
     pub e_source: Vec<Vec3>,
     /// Indirect irradiance after smoothing (the gathered bounces smoothed,
-    /// plus `e_emitter`), W/m^2.
+    /// plus `e_emitter` and `e_near`, at least 0), W/m^2.
     pub e_indirect: Vec<Vec3>,
     /// Indirect irradiance before smoothing (the gathered bounces after the
-    /// hidden-vertex correction, plus `e_emitter`; `gather.e_indirect` is
-    /// the bounces before the correction), W/m^2.
+    /// hidden-vertex correction, plus `e_emitter` and `e_near`, at least 0;
+    /// `gather.e_indirect` is the bounces before the correction), W/m^2.
     pub e_indirect_raw: Vec<Vec3>,
     pub gather: GatherResult,
     /// False when smoothing was skipped (feature angle 0): `e_indirect` is then `e_indirect_raw`.
@@ -236,7 +244,9 @@ pub struct Sources {
     pub e_sky: Vec<Vec3>,
     /// Emissive surfaces with emitter links.
     pub e_emitter: Vec<Vec3>,
-    /// What the bounces start from: the lights' bounce source plus `e_sky` and `e_emitter`.
+    /// The near-hit correction of the first bounce ([`crate::exchange::near_field`]).
+    pub e_near: Vec<Vec3>,
+    /// What the bounces start from: the lights' bounce source plus `e_sky`, `e_emitter` and `e_near`.
     pub e_source: Vec<Vec3>,
     /// The emitted exitance the vertex links carry (emitters without emitter links), W/m^2.
     pub emission: Vec<Vec3>,
@@ -253,6 +263,8 @@ pub struct Solver {
     pub light_links: LightLinks,
     /// Direct light of emissive surfaces by next-event estimation.
     pub emitter_links: EmitterLinks,
+    /// The lights' direct light at the links' near hits.
+    pub near_light: NearLight,
     /// Present when links, light links and bounces run on a GPU.
     pub gpu: Option<GpuState>,
     pub compute: Compute,
@@ -288,6 +300,8 @@ impl Solver {
         let (links, ray_hits) = links::shoot_links_recording(&scene, &accel, &params.links, record, progress);
         let light_links = LightLinks::compute(&scene, &accel, &params.light);
         let emitter_links = EmitterLinks::compute(&scene, &accel, &params.emitter).expect("a CPU tracer cannot fail");
+        let near_light =
+            NearLight::compute(&scene, &links.near, &accel, &params.light).expect("a CPU tracer cannot fail");
         Solver {
             scene,
             params,
@@ -295,6 +309,7 @@ impl Solver {
             links,
             light_links,
             emitter_links,
+            near_light,
             gpu: None,
             compute: Compute::Cpu,
             ray_hits,
@@ -362,6 +377,7 @@ impl Solver {
         let tracer = logical.swap_remove(0).tracer;
         let light_links = LightLinks::compute_with(&scene, &tracer, &params.light)?;
         let emitter_links = EmitterLinks::compute(&scene, &tracer, &params.emitter)?;
+        let near_light = NearLight::compute(&scene, &links.near, &tracer, &params.light)?;
         let gpu_links = GpuLinks::new(tracer.dev.clone(), &links, &scene.albedo)?;
         let gpu = GpuState { tracer, links: gpu_links, shares };
         Ok(Solver {
@@ -371,6 +387,7 @@ impl Solver {
             links,
             light_links,
             emitter_links,
+            near_light,
             gpu: Some(gpu),
             compute: compute.clone(),
             ray_hits: None,
@@ -402,13 +419,19 @@ impl Solver {
                 l.update_with(scene, tracer, &self.params.light)
             }
         };
+        let near = |n: &mut NearLight, scene: &PreparedScene, tracer: &dyn crate::trace::Tracer| {
+            n.update(scene, &self.links.near, tracer, &self.params.light)
+        };
         if let Some(g) = &self.gpu {
-            match update(&mut self.light_links, &self.scene, &g.tracer) {
+            let traced = update(&mut self.light_links, &self.scene, &g.tracer)
+                .and_then(|_| near(&mut self.near_light, &self.scene, &g.tracer));
+            match traced {
                 Ok(_) => return,
                 Err(e) => eprintln!("warning: {e}; computing light links on the CPU"),
             }
         }
         update(&mut self.light_links, &self.scene, &self.accel).expect("the CPU tracer cannot fail");
+        near(&mut self.near_light, &self.scene, &self.accel).expect("the CPU tracer cannot fail");
     }
 
     /// Traces the emitter links again if some vertex emits that they do
@@ -494,15 +517,18 @@ impl Solver {
             self.smooth_gathered(&src.e_source, &gather.e_indirect, angle)
         };
         let mut e_indirect_raw = gather.e_indirect.clone();
-        if self.emitter_links.is_active() {
+        if self.emitter_links.is_active() || !self.links.near.is_empty() {
             for e in [&mut e_indirect, &mut e_indirect_raw] {
-                e.iter_mut().zip(&src.e_emitter).for_each(|(i, m)| *i += *m);
+                for ((i, m), d) in e.iter_mut().zip(&src.e_emitter).zip(&src.e_near) {
+                    *i = (*i + *m + *d).max(Vec3::ZERO);
+                }
             }
         }
         Solution {
             e_direct: src.e_direct,
             e_sky: src.e_sky,
             e_emitter: src.e_emitter,
+            e_near: src.e_near,
             e_source: src.e_source,
             e_indirect_raw,
             e_indirect,
@@ -519,15 +545,17 @@ impl Solver {
         let e_sky = self.e_sky();
         let e_emitter = self.emitter_links.irradiance(&s.emission, n);
         let mut e_source = self.light_links.bounce_source(&s.lights, n);
-        for (e, (k, m)) in e_source.iter_mut().zip(e_sky.iter().zip(&e_emitter)) {
-            *e += *k + *m;
+        let e_near = self.near_light.correction(s, &self.links.near, &s.lights, &e_source, self.params.links.rays_per_vertex);
+        for (e, ((k, m), d)) in e_source.iter_mut().zip(e_sky.iter().zip(&e_emitter).zip(&e_near)) {
+            *e += *k + *m + *d;
         }
         Sources {
             e_direct: self.light_links.direct(&s.lights, n),
             e_sky,
             e_emitter,
+            e_near,
             e_source,
-            emission: self.emitter_links.carried_emission(&s.emission),
+            emission: self.emitter_links.carried_emission(&s.emission).into_owned(),
         }
     }
 
@@ -607,17 +635,27 @@ impl Solver {
 
     /// `E_i` smoothed at feature angle `angle_deg` (0: unchanged) with the
     /// solver's filter: `e_raw` is [`Solution::e_indirect_raw`] (emitters'
-    /// direct light included, which is left as it is: only the gathered
-    /// bounces are smoothed), `e_source` [`Solution::e_source`], W/m^2.
+    /// direct light and the near-hit correction included, which are left
+    /// as they are: only the gathered bounces are smoothed), `e_source`
+    /// [`Solution::e_source`], W/m^2.
     pub fn smooth(&self, e_source: &[Vec3], e_raw: &[Vec3], angle_deg: f32) -> Vec<Vec3> {
-        if !self.emitter_links.is_active() {
+        let Some(outside) = self.outside_links() else {
             return self.smooth_gathered(e_source, e_raw, angle_deg);
-        }
-        let e_em = self.emitter_links.irradiance(&self.scene.emission, e_raw.len());
-        let gathered: Vec<Vec3> = e_raw.iter().zip(&e_em).map(|(e, m)| *e - *m).collect();
+        };
+        let gathered: Vec<Vec3> = e_raw.iter().zip(&outside).map(|(e, m)| *e - *m).collect();
         let mut out = self.smooth_gathered(e_source, &gathered, angle_deg);
-        out.iter_mut().zip(&e_em).for_each(|(o, m)| *o += *m);
+        out.iter_mut().zip(&outside).for_each(|(o, m)| *o = (*o + *m).max(Vec3::ZERO));
         out
+    }
+
+    /// The part of `E_i` not gathered over the links, W/m^2: the emitters'
+    /// direct light and the near-hit correction; `None` when both are zero.
+    fn outside_links(&self) -> Option<Vec<Vec3>> {
+        if !self.emitter_links.is_active() && self.links.near.is_empty() {
+            return None;
+        }
+        let src = self.sources();
+        Some(src.e_emitter.iter().zip(&src.e_near).map(|(m, d)| *m + *d).collect())
     }
 
     /// The gathered bounces `e_gathered` (no emitter light) smoothed.
@@ -636,13 +674,12 @@ impl Solver {
 
     /// The noise variance of every vertex's gathered `E_i` ([`crate::exchange::noise`]),
     /// (W/m^2)^2, for `e_raw` = [`Solution::e_indirect_raw`] (the emitters'
-    /// direct light in it has no noise estimate: it is taken out).
+    /// direct light and the near-hit correction in it are taken out).
     pub fn noise_variance(&self, e_source: &[Vec3], e_raw: &[Vec3]) -> Vec<Vec3> {
-        if !self.emitter_links.is_active() {
+        let Some(outside) = self.outside_links() else {
             return self.gathered_noise_variance(e_source, e_raw);
-        }
-        let e_em = self.emitter_links.irradiance(&self.scene.emission, e_raw.len());
-        let gathered: Vec<Vec3> = e_raw.iter().zip(&e_em).map(|(e, m)| *e - *m).collect();
+        };
+        let gathered: Vec<Vec3> = e_raw.iter().zip(&outside).map(|(e, m)| *e - *m).collect();
         self.gathered_noise_variance(e_source, &gathered)
     }
 
@@ -673,6 +710,9 @@ impl Solver {
             light_links_ms: self.light_links.ms,
             emitter_rays: self.emitter_links.shadow_rays,
             emitter_links_ms: self.emitter_links.ms,
+            near_hits: self.links.near.hits.len() as u64,
+            near_rays: self.near_light.shadow_rays,
+            near_ms: self.near_light.ms,
             bounces: solution.gather.bounces,
             tail_relative: solution.gather.tail_relative,
             gather_ms: solution.gather.ms,
