@@ -1,0 +1,124 @@
+//! Near hits and the exact direct light at them ([`linkgi::exchange::near_field`]):
+//! a plate just above a floor of two big triangles against the reference
+//! path tracer, light moves against fresh solves, and the documented
+//! budget.
+
+mod common;
+
+use glam::Vec3;
+use linkgi::reference::{self, ReferenceParams};
+use linkgi::scene::shapes::MeshBuilder;
+use linkgi::scene::{prep, Bounces, Camera, Light, SceneDesc, Settings};
+use linkgi::solver::{SolveParams, Solver};
+
+/// A 2 x 2 m floor of two triangles, a 0.4 x 0.4 x 0.01 m plate 5 mm above
+/// its middle and a point light 2 m above. The plate's underside sees the
+/// floor in its own shadow, while the floor's corners are all in the light.
+fn plate_scene(rays: u32) -> SceneDesc {
+    let mut f = MeshBuilder::new();
+    let grey = f.add_material("grey", Vec3::splat(0.6));
+    f.quad_grid(Vec3::new(-1.0, 0.0, 1.0), Vec3::new(2.0, 0.0, 0.0), Vec3::new(0.0, 0.0, -2.0), 1, 1, grey);
+    let mut p = MeshBuilder::new();
+    let white = p.add_material("white", Vec3::splat(0.8));
+    p.cuboid(Vec3::new(-0.2, 0.005, -0.2), Vec3::new(0.2, 0.015, 0.2), 4, white, false);
+    SceneDesc {
+        name: "plate".into(),
+        settings: Settings { rays_per_vertex: rays, bounces: Bounces::Auto, smoothing_angle_deg: 0.0, ..Default::default() },
+        camera: Camera::default(),
+        meshes: vec![f.finish("floor", 30.0), p.finish("plate", 30.0)],
+        lights: vec![Light::Point { position: Vec3::new(0.3, 2.0, 0.1), intensity: Vec3::splat(10.0) }],
+        sky: None,
+        warnings: vec![],
+    }
+}
+
+fn solver(desc: &SceneDesc, near_factor: f32) -> Solver {
+    let scene = prep::prepare(desc).expect("scene prepares");
+    let mut params = SolveParams::from_settings(&scene.settings);
+    params.links.near.factor = near_factor;
+    let s = Solver::new(scene, params, &|_, _| {});
+    s.accel.validate().expect("acceleration structure valid");
+    s.links.validate().expect("links valid");
+    s.links.near.validate(s.scene.vertex_count(), s.scene.triangles.len()).expect("near hits valid");
+    s
+}
+
+/// The plate's underside (vertices facing down): the vertex links alone
+/// interpolate the floor's lit corners into the shadow under the plate and
+/// bring 1.8x the light the reference finds (0.80 against 0.44 W/m^2);
+/// with the exact direct light at near hits the first bounce is right and
+/// the mean is 15% low (0.37, the same at 1024 rays and against a
+/// 16384-path reference): what stays is the light going back and forth in
+/// the 5 mm gap, which the floor's corners cannot represent (its second
+/// and later bounces are still interpolated). Held: within 20%, and at
+/// least 3x closer than the links alone.
+#[test]
+fn plate_underside_agrees_with_the_reference() {
+    let desc = plate_scene(256);
+    let with = solver(&desc, 1.0);
+    let without = solver(&desc, 0.0);
+    assert!(!with.links.near.is_empty() && without.links.near.is_empty());
+    let r = reference::compute_cached(
+        &with.scene,
+        &ReferenceParams { samples_per_vertex: 1024, ..Default::default() },
+        &reference::cache::default_dir(),
+    );
+    let (a, b) = (with.solve(), without.solve());
+    let under: Vec<usize> = (0..with.scene.vertex_count())
+        .filter(|&v| with.scene.normals[v].y < -0.99 && with.scene.positions[v].y < 0.006)
+        .collect();
+    assert!(under.len() >= 9, "{} underside vertices", under.len());
+    let mean = |e: &[Vec3]| under.iter().map(|&v| e[v].x as f64).sum::<f64>() / under.len() as f64;
+    let (m_ref, m_with, m_without) = (mean(&r.e_indirect), mean(&a.e_indirect), mean(&b.e_indirect));
+    eprintln!(
+        "underside mean E_i: reference {m_ref:.4}, near hits {m_with:.4}, links alone {m_without:.4}; {} near hits",
+        with.links.near.hits.len()
+    );
+    assert!((m_with - m_ref).abs() < 0.2 * m_ref, "with near hits: {m_with} vs {m_ref}");
+    assert!((m_without - m_ref).abs() > 3.0 * (m_with - m_ref).abs(), "links alone {m_without} vs {m_ref}");
+    // The correction takes light away here on the whole, and never leaves a vertex negative.
+    assert!(mean(&a.e_near) < -0.3 * m_ref, "{}", mean(&a.e_near));
+    assert!(a.e_indirect.iter().chain(&a.e_indirect_raw).all(|e| e.min_element() >= 0.0 && e.is_finite()));
+}
+
+/// Moving the light retraces the near hits' column: the result equals a
+/// fresh solve with the light there; a brighter light traces nothing.
+#[test]
+fn light_moves_update_the_near_columns() {
+    let desc = plate_scene(64);
+    let mut s = solver(&desc, 1.0);
+    let _ = s.solve();
+    let moved = Light::Point { position: Vec3::new(-0.6, 1.5, 0.4), intensity: Vec3::splat(10.0) };
+    s.scene.lights[0] = moved;
+    s.update_lights();
+    assert!(s.near_light.shadow_rays > 0);
+    let mut fresh_desc = desc.clone();
+    fresh_desc.lights[0] = moved;
+    let fresh = solver(&fresh_desc, 1.0);
+    assert_eq!(s.near_light.columns, fresh.near_light.columns);
+    assert_eq!(s.solve().e_near, fresh.solve().e_near);
+    s.scene.lights[0] = Light::Point { position: Vec3::new(-0.6, 1.5, 0.4), intensity: Vec3::splat(30.0) };
+    s.update_lights();
+    assert_eq!(s.near_light.shadow_rays, 0, "a new intensity traces nothing");
+    let e = s.solve().e_near;
+    let f = fresh.solve().e_near;
+    for (x, y) in e.iter().zip(&f) {
+        assert!((*x - 3.0 * *y).abs().max_element() <= 1e-4 * y.abs().max_element().max(1e-6), "{x} vs 3 x {y}");
+    }
+}
+
+/// Above the ray budget no near hits are recorded (documented), and the
+/// same scene and seed give the same near hits.
+#[test]
+fn near_hits_follow_the_budget_and_the_seed() {
+    let desc = plate_scene(64);
+    let scene = prep::prepare(&desc).unwrap();
+    let mut params = SolveParams::from_settings(&scene.settings);
+    params.links.near.max_rays = 100;
+    let s = Solver::new(scene, params, &|_, _| {});
+    assert!(s.links.near.is_empty());
+    assert!(s.solve().e_near.iter().all(|e| *e == Vec3::ZERO));
+    let (a, b) = (solver(&desc, 1.0), solver(&desc, 1.0));
+    assert_eq!(a.links.near, b.links.near);
+    assert_eq!(a.near_light.columns, b.near_light.columns);
+}
