@@ -158,6 +158,15 @@ pub fn run(args: SolveArgs) -> Result<()> {
         s.shadow_rays,
         s.shadow_rays_per_second / 1e6
     );
+    if s.near_hits > 0 {
+        println!(
+            "near hits        {} ({:.1}% of the rays; exact direct light at them: {} shadow rays, {:.1} ms)",
+            s.near_hits,
+            100.0 * s.near_hits as f64 / s.links.rays.max(1) as f64,
+            s.near_rays,
+            s.near_ms
+        );
+    }
     println!(
         "bounces ms       {:.1} ({} bounces, tail {:.2e}{})",
         s.gather_ms,
