@@ -127,6 +127,23 @@ fn agree_on_within(name: &str, share: f64) {
     assert_eq!((cs.rays, cs.misses), (gs.rays, gs.misses), "{name}: ray counts");
     assert!((cs.merged_links as f64 - gs.merged_links as f64).abs() <= 1e-3 * cs.merged_links as f64);
 
+    // Near hits: recorded from the GPU's hits by the same merge; where all
+    // of a vertex's rays met the same triangles, the same near hits.
+    let (cn, gn) = (&cpu.links.near, &gpu.links.near);
+    gn.validate(scene.vertex_count(), scene.triangles.len()).expect("GPU near hits valid");
+    assert_eq!(cn.is_empty(), gn.is_empty(), "{name}: near hits on one path only");
+    if !cn.is_empty() {
+        let same = (0..scene.vertex_count())
+            .filter(|&v| vertex_same[v])
+            .filter(|&v| {
+                let (a, b) = (cn.of(v), gn.of(v));
+                a.len() == b.len()
+                    && a.iter().zip(b).all(|(x, y)| x.tri == y.tri && (x.u - y.u).abs() < 1e-4 && (x.v - y.v).abs() < 1e-4)
+            })
+            .count();
+        assert!(same as f64 >= 0.999 * candidates as f64, "{name}: near hits equal at {same}/{candidates} vertices");
+    }
+
     // Light links: the GPU's visibility rays give the same factors.
     for (l, (c, g)) in cpu.light_links.factors.iter().zip(&gpu.light_links.factors).enumerate() {
         let bad = c.iter().zip(g).filter(|(a, b)| (*a - *b).abs() > 1e-5 * a.abs().max(1e-6)).count();
