@@ -55,7 +55,7 @@ pub struct NearLight {
 }
 
 /// Hits per batch of shadow rays (bounds memory).
-const CHUNK_HITS: usize = 1 << 20;
+const CHUNK_HITS: usize = 1 << 16;
 
 impl NearLight {
     /// The columns of every light of `scene` at `near`'s hits.
@@ -109,7 +109,9 @@ impl NearLight {
     /// The correction `D` of the module doc at every vertex, W/m^2, for
     /// `lights` (whose columns must be traced: [`Self::covers`]) and the
     /// lights' bounce source `e_src`, from near hits of rays shot
-    /// `rays_per_vertex` a vertex. Zero without near hits.
+    /// `rays_per_vertex` a vertex. Zero without near hits, and zero while
+    /// some light's column is stale (a light preview): then the links'
+    /// interpolated first bounce stands.
     pub fn correction(
         &self,
         scene: &PreparedScene,

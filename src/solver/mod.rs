@@ -419,7 +419,13 @@ impl Solver {
                 l.update_with(scene, tracer, &self.params.light)
             }
         };
+        // A preview leaves the near hits' columns as they are: a moved
+        // light's is stale, so the preview goes without the near-field
+        // correction ([`NearLight::covers`]) and the full update traces it.
         let near = |n: &mut NearLight, scene: &PreparedScene, tracer: &dyn crate::trace::Tracer| {
+            if preview {
+                return Ok(());
+            }
             n.update(scene, &self.links.near, tracer, &self.params.light)
         };
         if let Some(g) = &self.gpu {
