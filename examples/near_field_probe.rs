@@ -93,7 +93,8 @@ fn main() {
                 let w = [1.0 - rec.u - rec.v, rec.u, rec.v];
                 let p: Vec3 = (0..3).map(|k| s.positions[tri[k] as usize] * w[k]).sum();
                 let rho: Vec3 = (0..3).map(|k| s.albedo[tri[k] as usize] * w[k]).sum();
-                let interp: Vec3 = (0..3).map(|k| s.albedo[tri[k] as usize] * sol.e_direct[tri[k] as usize] * w[k]).sum();
+                let interp: Vec3 =
+                    (0..3).map(|k| s.albedo[tri[k] as usize] * sol.e_direct[tri[k] as usize] * w[k]).sum();
                 d += rho * direct_at(p, normal, edge) - interp;
             }
             (d / n_rays, count)
@@ -117,7 +118,12 @@ fn main() {
             let raw: Vec<Vec3> = g.e_indirect.iter().zip(&delta).map(|(a, b)| *a + *b).collect();
             solver.smooth(&src, &raw, angle)
         } else {
-            solver.smooth(&src, &g.e_indirect, angle).iter().zip(&delta).map(|(a, b)| (*a + *b).max(Vec3::ZERO)).collect()
+            solver
+                .smooth(&src, &g.e_indirect, angle)
+                .iter()
+                .zip(&delta)
+                .map(|(a, b)| (*a + *b).max(Vec3::ZERO))
+                .collect()
         };
         let total: Vec<Vec3> = (0..e_i.len()).map(|v| sol.e_direct[v] + sol.e_sky[v] + e_i[v]).collect();
         let e = error_stats(&total, &rt, &r.e_total_stderr);

@@ -8,7 +8,7 @@ mod common;
 use glam::Vec3;
 use linkgi::kdtree::traverse::Ray;
 use linkgi::scene::shapes::MeshBuilder;
-use linkgi::scene::{prep, Bounces, Camera, SceneDesc, Settings};
+use linkgi::scene::{prep, Bounces, SceneDesc};
 use linkgi::solver::{SolveParams, Solver};
 use linkgi::trace::CpuTracer;
 
@@ -43,20 +43,7 @@ fn scene(blocker: bool, rays: u32) -> SceneDesc {
         k.quad_grid(Vec3::new(0.0, 0.3, -0.25), Vec3::new(0.5, 0.0, 0.0), Vec3::new(0.0, 0.0, 0.5), 3, 3, dark);
         meshes.push(k.finish("blocker", 30.0));
     }
-    SceneDesc {
-        name: "panel".into(),
-        settings: Settings {
-            rays_per_vertex: rays,
-            bounces: Bounces::Fixed(3),
-            smoothing_angle_deg: 0.0,
-            ..Default::default()
-        },
-        camera: Camera::default(),
-        meshes,
-        lights: vec![],
-        sky: None,
-        warnings: vec![],
-    }
+    common::scene_desc("panel", meshes, vec![], None, rays, Bounces::Fixed(3))
 }
 
 /// Signed form factor from an upward differential area to the `a x b`

@@ -138,7 +138,9 @@ fn agree_on_within(name: &str, share: f64) {
             .filter(|&v| {
                 let (a, b) = (cn.of(v), gn.of(v));
                 a.len() == b.len()
-                    && a.iter().zip(b).all(|(x, y)| x.tri == y.tri && (x.u - y.u).abs() < 1e-4 && (x.v - y.v).abs() < 1e-4)
+                    && a.iter()
+                        .zip(b)
+                        .all(|(x, y)| x.tri == y.tri && (x.u - y.u).abs() < 1e-4 && (x.v - y.v).abs() < 1e-4)
             })
             .count();
         assert!(same as f64 >= 0.999 * candidates as f64, "{name}: near hits equal at {same}/{candidates} vertices");

@@ -8,7 +8,7 @@ mod common;
 use glam::Vec3;
 use linkgi::reference::{self, ReferenceParams};
 use linkgi::scene::shapes::MeshBuilder;
-use linkgi::scene::{prep, Bounces, Camera, Light, SceneDesc, Settings};
+use linkgi::scene::{prep, Bounces, Light, SceneDesc};
 use linkgi::solver::{SolveParams, Solver};
 
 /// A 2 x 2 m floor of two triangles, a 0.4 x 0.4 x 0.01 m plate 5 mm above
@@ -21,15 +21,15 @@ fn plate_scene(rays: u32) -> SceneDesc {
     let mut p = MeshBuilder::new();
     let white = p.add_material("white", Vec3::splat(0.8));
     p.cuboid(Vec3::new(-0.2, 0.005, -0.2), Vec3::new(0.2, 0.015, 0.2), 4, white, false);
-    SceneDesc {
-        name: "plate".into(),
-        settings: Settings { rays_per_vertex: rays, bounces: Bounces::Auto, smoothing_angle_deg: 0.0, ..Default::default() },
-        camera: Camera::default(),
-        meshes: vec![f.finish("floor", 30.0), p.finish("plate", 30.0)],
-        lights: vec![Light::Point { position: Vec3::new(0.3, 2.0, 0.1), intensity: Vec3::splat(10.0) }],
-        sky: None,
-        warnings: vec![],
-    }
+    let light = Light::Point { position: Vec3::new(0.3, 2.0, 0.1), intensity: Vec3::splat(10.0) };
+    common::scene_desc(
+        "plate",
+        vec![f.finish("floor", 30.0), p.finish("plate", 30.0)],
+        vec![light],
+        None,
+        rays,
+        Bounces::Auto,
+    )
 }
 
 fn solver(desc: &SceneDesc, near_factor: f32) -> Solver {

@@ -7,27 +7,14 @@ mod common;
 use glam::Vec3;
 use linkgi::links::RaySetup;
 use linkgi::scene::shapes::MeshBuilder;
-use linkgi::scene::{builtin, Bounces, Camera, SceneDesc, Settings};
+use linkgi::scene::{builtin, Bounces, SceneDesc};
 use linkgi::sky::{EnvMap, Sky};
 use linkgi::solver::Solver;
 use std::f32::consts::PI;
 use std::path::{Path, PathBuf};
 
 fn scene_of(name: &str, meshes: Vec<linkgi::scene::MeshDesc>, sky: Sky, rays: u32) -> SceneDesc {
-    SceneDesc {
-        name: name.into(),
-        settings: Settings {
-            rays_per_vertex: rays,
-            bounces: Bounces::Fixed(3),
-            smoothing_angle_deg: 0.0,
-            ..Default::default()
-        },
-        camera: Camera::default(),
-        meshes,
-        lights: vec![],
-        sky: Some(sky),
-        warnings: vec![],
-    }
+    common::scene_desc(name, meshes, vec![], Some(sky), rays, Bounces::Fixed(3))
 }
 
 /// A 2 x 2 m plane at y = 0 facing up, 10 x 10 quads.

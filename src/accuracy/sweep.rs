@@ -100,7 +100,8 @@ pub fn sweep(
             let t = Instant::now();
             let mut g = solver.gather_corrected(e_source, &gp);
             g.ms = t.elapsed().as_secs_f64() * 1e3;
-            let e_raw: Vec<Vec3> = (0..n).map(|v| (g.e_indirect[v] + src.e_emitter[v] + src.e_near[v]).max(Vec3::ZERO)).collect();
+            let e_raw: Vec<Vec3> =
+                (0..n).map(|v| (g.e_indirect[v] + src.e_emitter[v] + src.e_near[v]).max(Vec3::ZERO)).collect();
             for smoothing in [angle, 0.0] {
                 let t = Instant::now();
                 let e_i = solver.smooth(e_source, &e_raw, smoothing);

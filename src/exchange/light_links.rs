@@ -182,6 +182,19 @@ pub fn geometry(light: &Light, p: Vec3, n: Vec3, min_distance: f32) -> f32 {
     }
 }
 
+/// The unit direction from point `from` toward `light` and the distance
+/// to it (metres; infinite for a directional light).
+pub fn toward(light: &Light, from: Vec3) -> (Vec3, f32) {
+    match *light {
+        Light::Point { position, .. } => {
+            let d = position - from;
+            let len = d.length();
+            (d / len.max(f32::MIN_POSITIVE), len)
+        }
+        Light::Directional { direction, .. } => (-direction.normalize(), f32::INFINITY),
+    }
+}
+
 /// Vertices per chunk of shadow rays handed to a [`ShadowTracer`] (bounds memory).
 const CHUNK_VERTICES: usize = 16384;
 
@@ -523,14 +536,7 @@ fn shadow_rays(
     let mut first_free = false;
     let mut rays = Vec::with_capacity(pts.len());
     for (i, &s) in pts.iter().enumerate() {
-        let (dir, dist) = match *light {
-            Light::Point { position, .. } => {
-                let d = position - s;
-                let len = d.length();
-                (d / len.max(f32::MIN_POSITIVE), len)
-            }
-            Light::Directional { direction, .. } => (-direction.normalize(), f32::INFINITY),
-        };
+        let (dir, dist) = toward(light, s);
         if dist <= 2.0 * eps || !dir.is_finite() {
             // The light sits on the surface at this point: nothing can be in between.
             free += 1;

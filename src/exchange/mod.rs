@@ -23,7 +23,7 @@ pub mod smooth;
 pub use emitter_links::{EmitterLinkParams, EmitterLinks};
 pub use gather::{gather, GatherParams, GatherResult};
 pub use hidden::HiddenParams;
-pub use near_field::NearLight;
 pub use light_links::{BounceSource, LightLinkParams, LightLinks};
+pub use near_field::NearLight;
 pub use noise::NoiseParams;
 pub use smooth::{smooth, smooth_adaptive, SmoothMode, SmoothParams};

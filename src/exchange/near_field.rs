@@ -33,7 +33,7 @@
 //! hits); shadow rays start `eps * l` off the surface (l: the triangle's
 //! longest edge) and stop as short of a point light, as the light links do.
 
-use super::light_links::{geometry, same_column, LightLinkParams};
+use super::light_links::{geometry, same_column, toward, LightLinkParams};
 use crate::kdtree::traverse::{Ray, NO_SKIP};
 use crate::links::NearHits;
 use crate::scene::{prep::PreparedScene, Light};
@@ -181,14 +181,7 @@ fn column(
                 }
                 let eps = params.eps * l;
                 let o = p + normal * eps;
-                let (dir, dist) = match *light {
-                    Light::Point { position, .. } => {
-                        let d = position - o;
-                        let len = d.length();
-                        (d / len.max(f32::MIN_POSITIVE), len)
-                    }
-                    Light::Directional { direction, .. } => (-direction.normalize(), f32::INFINITY),
-                };
+                let (dir, dist) = toward(light, o);
                 if dist <= 2.0 * eps || !dir.is_finite() {
                     return (g, None); // the light sits on the surface here: nothing in between
                 }

@@ -77,8 +77,7 @@ impl<'a> Tracer<'a> {
         // and the rounding left of their sum points anywhere, for example
         // into an object standing on the surface right at the vertex.
         let inward = if s.boundary[v] {
-            let toward: Vec3 =
-                s.rings.row(v).iter().map(|&u| (s.positions[u as usize] - p).normalize_or_zero()).sum();
+            let toward: Vec3 = s.rings.row(v).iter().map(|&u| (s.positions[u as usize] - p).normalize_or_zero()).sum();
             (toward - n * toward.dot(n)).normalize_or_zero()
         } else {
             Vec3::ZERO

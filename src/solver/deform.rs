@@ -137,8 +137,9 @@ impl Solver {
             .expect("a CPU tracer cannot fail");
         stats.emitter_links_ms = self.emitter_links.ms;
         // Near hits are not recorded with dynamic meshes ([`crate::links::near`]): nothing to trace.
-        self.near_light = crate::exchange::NearLight::compute(&self.scene, &self.links.near, &self.accel, &params.light)
-            .expect("a CPU tracer cannot fail");
+        self.near_light =
+            crate::exchange::NearLight::compute(&self.scene, &self.links.near, &self.accel, &params.light)
+                .expect("a CPU tracer cannot fail");
         stats.ray_state_bytes = self.ray_state_bytes();
         stats.ms = start.elapsed().as_secs_f64() * 1e3;
         (self, stats)

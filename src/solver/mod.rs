@@ -7,8 +7,8 @@
 
 use crate::bvh::{BvhBuildParams, BvhStats};
 use crate::exchange::{
-    self, EmitterLinkParams, EmitterLinks, GatherParams, NearLight, GatherResult, HiddenParams, LightLinkParams, LightLinks,
-    SmoothMode, SmoothParams,
+    self, EmitterLinkParams, EmitterLinks, GatherParams, GatherResult, HiddenParams, LightLinkParams, LightLinks,
+    NearLight, SmoothMode, SmoothParams,
 };
 use crate::gpu::{self, Backend, DeviceShare, GpuDevice, GpuLinks, GpuTracer, LogicalDevice, ScheduleParams};
 use crate::kdtree::{KdBuildParams, KdStats, KdTree};
@@ -551,7 +551,8 @@ impl Solver {
         let e_sky = self.e_sky();
         let e_emitter = self.emitter_links.irradiance(&s.emission, n);
         let mut e_source = self.light_links.bounce_source(&s.lights, n);
-        let e_near = self.near_light.correction(s, &self.links.near, &s.lights, &e_source, self.params.links.rays_per_vertex);
+        let e_near =
+            self.near_light.correction(s, &self.links.near, &s.lights, &e_source, self.params.links.rays_per_vertex);
         for (e, ((k, m), d)) in e_source.iter_mut().zip(e_sky.iter().zip(&e_emitter).zip(&e_near)) {
             *e += *k + *m + *d;
         }

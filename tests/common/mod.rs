@@ -25,6 +25,32 @@ pub fn solve_with(scene: prep::PreparedScene, params: SolveParams) -> (Solver, S
     (solver, sol)
 }
 
+/// A scene of `meshes` and `lights` (optional sky) with `rays` per vertex,
+/// `bounces` and smoothing off, the default camera.
+pub fn scene_desc(
+    name: &str,
+    meshes: Vec<linkgi::scene::MeshDesc>,
+    lights: Vec<linkgi::scene::Light>,
+    sky: Option<linkgi::sky::Sky>,
+    rays: u32,
+    bounces: Bounces,
+) -> SceneDesc {
+    SceneDesc {
+        name: name.into(),
+        settings: linkgi::scene::Settings {
+            rays_per_vertex: rays,
+            bounces,
+            smoothing_angle_deg: 0.0,
+            ..Default::default()
+        },
+        camera: linkgi::scene::Camera::default(),
+        meshes,
+        lights,
+        sky,
+        warnings: vec![],
+    }
+}
+
 pub fn with_settings(mut desc: SceneDesc, rays: u32, bounces: Bounces, smoothing: f32) -> SceneDesc {
     desc.settings.rays_per_vertex = rays;
     desc.settings.bounces = bounces;
