@@ -44,13 +44,13 @@ fn main() {
         );
     }
     if let Ok(path) = std::env::var("DUMP") {
-        let mut out = String::from("v,mesh,x,y,z,nx,ny,nz,sol,ref,stderr,e_em,sky,refsky\n");
+        let mut out = String::from("v,mesh,x,y,z,nx,ny,nz,sol,ref,stderr,e_em,sky,refsky,raw\n");
         for (mi, m) in solver.scene.meshes.iter().enumerate() {
             for v in m.vertices.clone() {
                 let v = v as usize;
                 let (p, n) = (solver.scene.positions[v], solver.scene.normals[v]);
                 out += &format!(
-                    "{v},{mi},{},{},{},{},{},{},{},{},{},{},{},{}\n",
+                    "{v},{mi},{},{},{},{},{},{},{},{},{},{},{},{},{}\n",
                     p.x,
                     p.y,
                     p.z,
@@ -62,7 +62,8 @@ fn main() {
                     r.e_total_stderr[v].element_sum() / 3.0,
                     sol.e_emitter[v].element_sum() / 3.0,
                     sol.e_sky[v].element_sum() / 3.0,
-                    r.e_sky[v].element_sum() / 3.0
+                    r.e_sky[v].element_sum() / 3.0,
+                    (sol.e_direct[v] + sol.e_sky[v] + sol.e_indirect_raw[v]).element_sum() / 3.0
                 );
             }
         }
