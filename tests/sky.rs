@@ -242,13 +242,15 @@ fn bad_sky_tables_are_errors_naming_the_file() {
 /// `window` (a glowing lamp shade and a gradient sky through a window, no
 /// point light) against the reference path tracer (4096 paths a vertex),
 /// which handles emitters and the sky on its own. Total relative RMSE,
-/// noise-corrected: 3.9% at 256 rays and 2.0% at 1024 with the emitter
+/// noise-corrected: 3.9% at 256 rays and 1.8% at 1024 with the emitter
 /// links (the shade's direct light by next-event estimation), where the
-/// vertex links alone gave 7.1% and 2.5%; held to 5% and 2.5%, falling
-/// with the rays. What remains is the sky's sampling noise (a small window
-/// seen by a few rays: 25% relative RMSE of `E_sky` at 256 rays, 8% at
-/// 1024) and the error issue's contact interpolation (the cabinet's back,
-/// 5 cm from the wall, and its foot are 13-14% low). The mean must agree:
+/// vertex links alone gave 7.1% and 2.5% (against 16384 paths: 7.4% and
+/// 2.7% alone, 4.1% and 2.1% with them; 4096 paths over-correct for their
+/// noise at 1024 rays); held to 5% and 2.5%, falling with the rays. What
+/// remains is the sky's sampling noise (a small window seen by a few rays:
+/// 25% relative RMSE of `E_sky` at 256 rays, 8% at 1024) and the error
+/// issue's contact interpolation (the cabinet's back, 5 cm from the wall,
+/// is 10% low). The mean must agree:
 /// total bias within 2% (measured -1.1% and -0.8%), sky bias within 5% at
 /// 256 rays and 3% at 1024 (noise: -0.8% to +0.4% over two seeds).
 #[test]
