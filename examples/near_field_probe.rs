@@ -2,7 +2,10 @@
 //! the error against the reference goes if the first bounce of *near* link
 //! rays (hit closer than `c` times the hit triangle's longest edge) uses
 //! the exact direct light at the hit point instead of the vertices'
-//! interpolated one. `cargo run --release --example near_field_probe -- tearoom 1024 16384 [c]`.
+//! interpolated one, and with `SECONDARY=m` also their second bounce from
+//! `m` rays shot at each near hit (the first bounce's radiosity of what
+//! they meet, against the corners' interpolated one).
+//! `cargo run --release --example near_field_probe -- tearoom 1024 16384 [c]`.
 use glam::Vec3;
 use linkgi::accuracy::metrics::error_stats;
 use linkgi::kdtree::traverse::{Ray, NO_SKIP};
@@ -24,7 +27,10 @@ fn main() {
     desc.settings.rays_per_vertex = rays;
     desc.settings.bounces = Bounces::Auto;
     let s = prep::prepare(&desc).unwrap();
-    let solver = Solver::new(s, SolveParams::from_settings(&desc.settings), &|_, _| {});
+    // The solver without its own near hits: "now" is the vertex links alone.
+    let mut params = SolveParams::from_settings(&desc.settings);
+    params.links.near.factor = 0.0;
+    let solver = Solver::new(s, params, &|_, _| {});
     let sol = solver.solve();
     let r = reference::compute_cached(
         &solver.scene,
@@ -72,6 +78,33 @@ fn main() {
         }
         e
     };
+    let m: u32 = std::env::var("SECONDARY").ok().and_then(|x| x.parse().ok()).unwrap_or(0);
+    // First-bounce irradiance at every vertex (one bounce from the lights' source).
+    let one = linkgi::exchange::GatherParams { bounces: Bounces::Fixed(1), ..solver.params.gather };
+    let e1 = solver.gather_corrected(&sol.e_source, &one).e_indirect;
+    let b0: Vec<Vec3> = (0..s.vertex_count()).map(|v| s.albedo[v] * sol.e_source[v] / std::f32::consts::PI).collect();
+    // E^(1) at a surface point: m cosine rays, the hits' B_0 interpolated.
+    let e1_at = |p: Vec3, n: Vec3, l: f32, seed: u32| -> Vec3 {
+        let (t, b) = linkgi::sampling::basis(n);
+        let o = p + n * (1e-4 * l);
+        let k = (m as f32).sqrt() as u32;
+        let mut e = Vec3::ZERO;
+        for i in 0..k * k {
+            let j = ((seed.wrapping_mul(2654435761).wrapping_add(i * 40503)) % 1000) as f32 / 1000.0;
+            let u = glam::Vec2::new(((i % k) as f32 + j) / k as f32, ((i / k) as f32 + 0.5) / k as f32);
+            let d = linkgi::sampling::cosine_hemisphere(u);
+            let dir = (t * d.x + b * d.y + n * d.z).normalize();
+            let ray = Ray { origin: o, dir, tmin: 0.0, tmax: f32::INFINITY, skip: NO_SKIP };
+            if let Some(h) = solver.accel.intersect(&ray) {
+                if h.front {
+                    let tri = s.triangles[h.tri as usize];
+                    let w = h.barycentrics();
+                    e += (0..3).map(|c| b0[tri[c] as usize] * w[c]).sum::<Vec3>();
+                }
+            }
+        }
+        e * std::f32::consts::PI / (k * k) as f32
+    };
     let t0 = Instant::now();
     let (delta, near): (Vec<Vec3>, Vec<u32>) = (0..s.vertex_count())
         .into_par_iter()
@@ -96,6 +129,10 @@ fn main() {
                 let interp: Vec3 =
                     (0..3).map(|k| s.albedo[tri[k] as usize] * sol.e_direct[tri[k] as usize] * w[k]).sum();
                 d += rho * direct_at(p, normal, edge) - interp;
+                if m > 0 {
+                    let interp1: Vec3 = (0..3).map(|c| s.albedo[tri[c] as usize] * e1[tri[c] as usize] * w[c]).sum();
+                    d += rho * e1_at(p, normal, edge, v as u32 * 7919 + count) - interp1;
+                }
             }
             (d / n_rays, count)
         })
