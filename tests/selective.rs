@@ -66,6 +66,8 @@ fn assert_equals_fresh(updated: &Solver, what: &str) {
             assert!((x - y).abs() <= 1e-6 * y.abs(), "{what}: light {l} vertex {v}: {x} vs {y}");
         }
     }
+    assert_eq!(updated.links.near, fresh.links.near, "{what}: near hits");
+    assert_eq!(updated.near_light.columns, fresh.near_light.columns, "{what}: near hits' light columns");
     let (ea, eb) = (&updated.emitter_links, &fresh.emitter_links);
     ea.validate(updated.scene.vertex_count()).expect("emitter links valid");
     assert_eq!((&ea.offsets, &ea.groups, &ea.factors), (&eb.offsets, &eb.groups, &eb.factors), "{what}: emitter links");

@@ -35,7 +35,8 @@
 
 use super::light_links::{geometry, same_column, toward, LightLinkParams};
 use crate::kdtree::traverse::{Ray, NO_SKIP};
-use crate::links::NearHits;
+use crate::links::{NearHit, NearHits};
+use crate::scene::motion::Motion;
 use crate::scene::{prep::PreparedScene, Light};
 use crate::trace::Tracer;
 use glam::Vec3;
@@ -164,30 +165,41 @@ fn column(
     tracer: &dyn Tracer,
     params: &LightLinkParams,
 ) -> crate::Result<(Vec<f32>, u64)> {
-    let mut out = Vec::with_capacity(near.hits.len());
+    column_at(scene, &near.hits, light, tracer, params)
+}
+
+/// The geometry term of `light` at near hit `h` and its shadow ray (none
+/// where `G = 0` or where the light sits on the surface).
+fn shadow_ray(scene: &PreparedScene, h: &NearHit, light: &Light, params: &LightLinkParams) -> (f32, Option<Ray>) {
+    let [a, b, c] = scene.triangles[h.tri as usize].map(|i| scene.positions[i as usize]);
+    let p = a * (1.0 - h.u - h.v) + b * h.u + c * h.v;
+    let normal = (b - a).cross(c - a).normalize_or_zero();
+    let l = (b - a).length().max((c - b).length()).max((a - c).length()).max(f32::MIN_POSITIVE);
+    let g = geometry(light, p, normal, (params.min_distance * l).max(f32::MIN_POSITIVE.sqrt()));
+    if !(g > 0.0) {
+        return (0.0, None);
+    }
+    let eps = params.eps * l;
+    let o = p + normal * eps;
+    let (dir, dist) = toward(light, o);
+    if dist <= 2.0 * eps || !dir.is_finite() {
+        return (g, None); // the light sits on the surface here: nothing in between
+    }
+    (g, Some(Ray { origin: o, dir, tmin: 0.0, tmax: dist - eps, skip: NO_SKIP }))
+}
+
+/// `G V` of `light` at `hits`, and the shadow rays it took.
+fn column_at(
+    scene: &PreparedScene,
+    hits: &[NearHit],
+    light: &Light,
+    tracer: &dyn Tracer,
+    params: &LightLinkParams,
+) -> crate::Result<(Vec<f32>, u64)> {
+    let mut out = Vec::with_capacity(hits.len());
     let mut traced = 0u64;
-    for chunk in near.hits.chunks(CHUNK_HITS) {
-        // Per hit: its geometry term and its shadow ray (none where G = 0).
-        let rays: Vec<(f32, Option<Ray>)> = chunk
-            .par_iter()
-            .map(|h| {
-                let [a, b, c] = scene.triangles[h.tri as usize].map(|i| scene.positions[i as usize]);
-                let p = a * (1.0 - h.u - h.v) + b * h.u + c * h.v;
-                let normal = (b - a).cross(c - a).normalize_or_zero();
-                let l = (b - a).length().max((c - b).length()).max((a - c).length()).max(f32::MIN_POSITIVE);
-                let g = geometry(light, p, normal, (params.min_distance * l).max(f32::MIN_POSITIVE.sqrt()));
-                if !(g > 0.0) {
-                    return (0.0, None);
-                }
-                let eps = params.eps * l;
-                let o = p + normal * eps;
-                let (dir, dist) = toward(light, o);
-                if dist <= 2.0 * eps || !dir.is_finite() {
-                    return (g, None); // the light sits on the surface here: nothing in between
-                }
-                (g, Some(Ray { origin: o, dir, tmin: 0.0, tmax: dist - eps, skip: NO_SKIP }))
-            })
-            .collect();
+    for chunk in hits.chunks(CHUNK_HITS) {
+        let rays: Vec<(f32, Option<Ray>)> = chunk.par_iter().map(|h| shadow_ray(scene, h, light, params)).collect();
         let shadow: Vec<Ray> = rays.iter().filter_map(|r| r.1).collect();
         traced += shadow.len() as u64;
         let visible = tracer.visible(&shadow)?;
@@ -204,4 +216,68 @@ fn column(
         }));
     }
     Ok((out, traced))
+}
+
+impl NearLight {
+    /// The columns after a deformation (`motion`), from `old` ones over the
+    /// near hits `before`: the hits of vertices flagged in `redone`
+    /// (their near hits were found anew), the hits on moved triangles and
+    /// those whose shadow segment meets a box of the motion are traced;
+    /// the others keep their value (nothing on their segment moved). The
+    /// columns equal a fresh [`NearLight::compute`]. Returns the hits traced per light.
+    #[allow(clippy::too_many_arguments)]
+    pub fn update_deformed(
+        &mut self,
+        scene: &PreparedScene,
+        before: &NearHits,
+        after: &NearHits,
+        redone: &[bool],
+        motion: &Motion,
+        tracer: &dyn Tracer,
+        params: &LightLinkParams,
+    ) -> crate::Result<u64> {
+        let start = Instant::now();
+        if !self.covers(&scene.lights) || before.offsets.len() != after.offsets.len() {
+            *self = NearLight::compute(scene, after, tracer, params)?;
+            return Ok(after.hits.len() as u64);
+        }
+        let n = after.offsets.len().saturating_sub(1);
+        let mut rays = 0u64;
+        let mut recomputed = 0u64;
+        for (l, light) in scene.lights.iter().enumerate() {
+            // Per new hit: Some(old value) to keep, None to trace.
+            let kept: Vec<Option<f32>> = (0..n)
+                .into_par_iter()
+                .flat_map_iter(|v| {
+                    let (b0, a) = (before.offsets[v] as usize, after.of(v));
+                    let old = &self.columns[l];
+                    a.iter()
+                        .enumerate()
+                        .map(move |(i, h)| {
+                            if redone[v] || motion.moved_triangle[h.tri as usize] {
+                                return None;
+                            }
+                            let (_, ray) = shadow_ray(scene, h, light, params);
+                            let meets = ray.is_some_and(|r| {
+                                let inv = r.dir.recip();
+                                motion.boxes.iter().any(|b| b.meets_segment(r.origin, inv, r.tmin, r.tmax))
+                            });
+                            (!meets).then(|| old[b0 + i])
+                        })
+                        .collect::<Vec<_>>()
+                })
+                .collect();
+            let todo: Vec<NearHit> =
+                kept.iter().zip(&after.hits).filter(|(k, _)| k.is_none()).map(|(_, h)| *h).collect();
+            let (fresh, r) = column_at(scene, &todo, light, tracer, params)?;
+            rays += r;
+            recomputed += todo.len() as u64;
+            let mut fresh = fresh.into_iter();
+            self.columns[l] =
+                kept.into_iter().map(|k| k.unwrap_or_else(|| fresh.next().expect("one per hit"))).collect();
+        }
+        self.shadow_rays = rays;
+        self.ms = start.elapsed().as_secs_f64() * 1e3;
+        Ok(recomputed)
+    }
 }

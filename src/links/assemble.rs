@@ -9,7 +9,7 @@
 //! merged links as stored, [`MERGED_LINK_BYTES`] each plus a u32 offset
 //! per vertex ([`merged_bytes`]).
 
-use super::merge::{merge_vertex_sums, HitRecord, MergeScratch, HIT_BACK, HIT_MISS};
+use super::merge::{merge_vertex_sums, HitRecord, MergeScratch, HIT_MISS};
 use super::near::{NearHit, NearHits};
 use super::{LinkStats, Links};
 use crate::sky::visibility::miss_mask;
@@ -76,13 +76,7 @@ impl GroupRun {
         let v = self.first + self.counts.len();
         if let Some(limits) = &self.near_limits {
             let before = self.near.len();
-            for h in hits {
-                // Front hits only; a hit on one of the vertex's own triangles is at the vertex.
-                let front = h.tri != HIT_MISS && h.tri & HIT_BACK == 0;
-                if front && h.t < limits[h.tri as usize] && !triangles[h.tri as usize].contains(&(v as u32)) {
-                    self.near.push(NearHit { tri: h.tri, u: h.u, v: h.v });
-                }
-            }
+            super::near::push_near(v, hits, triangles, limits, &mut self.near);
             self.near_counts.push((self.near.len() - before) as u32);
         }
         let before = self.targets.len();

@@ -14,10 +14,13 @@
 //!
 //! Recorded while the hits are merged into links ([`super::GroupRun`]),
 //! whichever tracer shot them (CPU or GPU), so both give the same records.
-//! Off for scenes with dynamic meshes (selective updates do not patch them
-//! yet) and above [`NearParams::max_rays`] link rays (their light columns
-//! would cost a light move more than the rest of it).
+//! A selective update ([`super::selective`]) redoes the near hits of every
+//! vertex whose group it patched or which had a near hit on a moved
+//! triangle, from its rays' hits (one triangle test a ray, no tracing), so
+//! they equal a full shoot's. Off above [`NearParams::max_rays`] link rays
+//! (their light columns would cost a light move more than the rest of it).
 
+use super::merge::{HitRecord, HIT_BACK, HIT_MISS};
 use crate::scene::prep::PreparedScene;
 use std::sync::Arc;
 
@@ -96,12 +99,24 @@ impl NearHits {
     }
 }
 
+/// Appends vertex `v`'s near hits among its hit records `hits` (one per
+/// ray) to `out`: front hits closer than their triangle's limit, not on
+/// one of `v`'s own triangles (such a hit is at the vertex itself).
+pub fn push_near(v: usize, hits: &[HitRecord], triangles: &[[u32; 3]], limits: &[f32], out: &mut Vec<NearHit>) {
+    for h in hits {
+        let front = h.tri != HIT_MISS && h.tri & HIT_BACK == 0;
+        if front && h.t < limits[h.tri as usize] && !triangles[h.tri as usize].contains(&(v as u32)) {
+            out.push(NearHit { tri: h.tri, u: h.u, v: h.v });
+        }
+    }
+}
+
 /// The distance under which a hit on each triangle is near, or `None`
-/// when `scene` records no near hits (see the module doc): dynamic meshes,
-/// too many rays, or a factor of 0.
+/// when `scene` records no near hits (see the module doc): too many rays
+/// or a factor of 0.
 pub fn near_limits(scene: &PreparedScene, rays_per_vertex: u32, params: &NearParams) -> Option<Arc<[f32]>> {
     let rays = scene.vertex_count() as u64 * rays_per_vertex as u64;
-    if !(params.factor > 0.0) || rays > params.max_rays || scene.meshes.iter().any(|m| m.dynamic) {
+    if !(params.factor > 0.0) || rays > params.max_rays {
         return None;
     }
     Some(

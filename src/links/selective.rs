@@ -40,6 +40,7 @@ use super::merge::{
     corner_weights, fixed_scale, merge_vertex, merge_vertex_sums, requantize, HitRecord, MergeScratch, HIT_BACK,
     HIT_MISS,
 };
+use super::near::{near_limits, push_near, NearHit, NearHits};
 use super::shoot::{RaySetup, TraceScratch};
 use super::{LinkParams, LinkStats, Links};
 use crate::bvh::{Bvh, BvhBuildParams};
@@ -326,12 +327,25 @@ impl Context<'_> {
 
     /// Vertex `v`'s group merged from all its rays (its ids in `row`).
     fn rebuild(&self, v: usize, row: &mut [u32], scratch: &mut Scratch) -> Patch {
-        let o = self.setup.origins[v];
         let old = id_counts(row);
+        self.records(v, row, &mut scratch.records);
+        for (id, r) in row.iter_mut().zip(&scratch.records) {
+            *id = r.tri;
+        }
+        let mut p = self.merge(scratch);
+        p.old = old;
+        p
+    }
+
+    /// Vertex `v`'s hit records from its hit ids `row`: each kept hit
+    /// recomputed with one triangle test on its (current) triangle, a ray
+    /// whose triangle it no longer meets traced again.
+    fn records(&self, v: usize, row: &[u32], out: &mut Vec<HitRecord>) {
+        let o = self.setup.origins[v];
         let wedges = self.setup.wedges(v);
-        scratch.records.clear();
+        out.clear();
         for (k, d) in self.setup.world_directions(v).enumerate() {
-            let r = match wedges.iter().find(|w| w.dives_under(d)) {
+            out.push(match wedges.iter().find(|w| w.dives_under(d)) {
                 Some(w) => w.self_hit(),
                 None => kept_record(self.scene, row[k], o, d).unwrap_or_else(|| {
                     record_of(self.tracer.intersect(&Ray {
@@ -342,13 +356,8 @@ impl Context<'_> {
                         skip: v as u32,
                     }))
                 }),
-            };
-            row[k] = r.tri;
-            scratch.records.push(r);
+            });
         }
-        let mut p = self.merge(scratch);
-        p.old = old;
-        p
     }
 
     /// The group merged from `scratch.records` (all rays, in order).
@@ -384,7 +393,8 @@ struct Scratch {
 /// Updates `links` and `hits` (the state before `motion`, with vertex
 /// positions `old_positions`) to `scene` after it, tracing with `tracer`
 /// (built over the new positions). `params` must be the ones the links
-/// were shot with. Returns the new links and the figures.
+/// were shot with. Returns the new links, the figures, and per vertex
+/// whether its near hits were found anew (empty without near hits).
 pub fn reshoot(
     scene: &PreparedScene,
     old_positions: &[Vec3],
@@ -393,7 +403,7 @@ pub fn reshoot(
     params: &LinkParams,
     links: &Links,
     hits: &mut RayHits,
-) -> (Links, ReshootStats) {
+) -> (Links, ReshootStats, Vec<bool>) {
     let start = Instant::now();
     let n = scene.vertex_count();
     let setup = RaySetup::new(scene, params);
@@ -450,6 +460,7 @@ pub fn reshoot(
     out.weights.reserve(links.targets.len() + extra);
     let mut new_sums = Vec::with_capacity(links.targets.len() + extra);
     let mut sky = links.sky.clone();
+    let mut patched = vec![false; n];
     let mut v = 0;
     for (patches, remade_rays, static_rays) in results {
         stats.rays_reshot += remade_rays + static_rays;
@@ -465,6 +476,7 @@ pub fn reshoot(
                     s.back_hits = s.back_hits + p.new[1] - p.old[1];
                     s.misses = s.misses + p.new[2] - p.old[2];
                     stats.groups_patched += 1;
+                    patched[v] = true;
                     sky.set(v, n, rays, p.sky.as_deref());
                 }
                 None => {
@@ -483,13 +495,55 @@ pub fn reshoot(
     link_stats.raw_bytes = link_stats.raw_links * super::assemble::RAW_LINK_BYTES;
     link_stats.merged_links = out.targets.len() as u64;
     link_stats.merged_bytes = super::merged_bytes(link_stats.merged_links, n);
-    stats.ms = start.elapsed().as_secs_f64() * 1e3;
-    link_stats.shoot_ms = stats.ms;
     out.stats = link_stats;
     sky.compact();
     out.sky = sky;
+    let (near, near_redone) = near_hits(&ctx, params, links, ids, &patched);
+    out.near = near;
     *sums = new_sums;
-    (out, stats)
+    stats.ms = start.elapsed().as_secs_f64() * 1e3;
+    out.stats.shoot_ms = stats.ms;
+    (out, stats, near_redone)
+}
+
+/// The near hits after an update ([`super::near`]): those of patched
+/// vertices and of vertices with a near hit on a moved triangle redone
+/// from their hit ids `ids`, the others kept; and which were redone.
+fn near_hits(
+    ctx: &Context,
+    params: &LinkParams,
+    links: &Links,
+    ids: &[u32],
+    patched: &[bool],
+) -> (NearHits, Vec<bool>) {
+    let scene = ctx.scene;
+    let n = scene.vertex_count();
+    let rays = ctx.setup.directions.len();
+    let Some(limits) =
+        (!links.near.offsets.is_empty()).then(|| near_limits(scene, rays as u32, &params.near)).flatten()
+    else {
+        return (NearHits::default(), Vec::new());
+    };
+    let moved = &ctx.motion.moved_triangle;
+    let redone: Vec<Option<Vec<NearHit>>> = (0..n)
+        .into_par_iter()
+        .map_init(Vec::new, |records, v| {
+            if !patched[v] && !links.near.of(v).iter().any(|h| moved[h.tri as usize]) {
+                return None;
+            }
+            ctx.records(v, &ids[v * rays..(v + 1) * rays], records);
+            let mut out = Vec::new();
+            push_near(v, records, &scene.triangles, &limits, &mut out);
+            Some(out)
+        })
+        .collect();
+    let mut near = NearHits { offsets: Vec::with_capacity(n + 1), hits: Vec::with_capacity(links.near.hits.len()) };
+    near.offsets.push(0);
+    for (v, r) in redone.iter().enumerate() {
+        near.hits.extend_from_slice(r.as_deref().unwrap_or(links.near.of(v)));
+        near.offsets.push(near.hits.len() as u32);
+    }
+    (near, redone.iter().map(Option::is_some).collect())
 }
 
 /// The link groups of `vertices` shot with `params` (used for previews at

@@ -119,8 +119,9 @@ impl Solver {
             stats.preview_ms = start.elapsed().as_secs_f64() * 1e3;
         }
         let mut hits = self.ray_hits.take().expect("checked above");
-        let (links, link_stats) =
+        let (links, link_stats, near_redone) =
             reshoot(&self.scene, &old_positions, &motion, &self.accel, &params.links, &self.links, &mut hits);
+        let near_before = std::mem::take(&mut self.links.near);
         progress(self.scene.vertex_count(), self.scene.vertex_count());
         self.links = links;
         self.links_changed();
@@ -136,10 +137,18 @@ impl Solver {
         self.emitter_links = crate::exchange::EmitterLinks::compute(&self.scene, &self.accel, &params.emitter)
             .expect("a CPU tracer cannot fail");
         stats.emitter_links_ms = self.emitter_links.ms;
-        // Near hits are not recorded with dynamic meshes ([`crate::links::near`]): nothing to trace.
-        self.near_light =
-            crate::exchange::NearLight::compute(&self.scene, &self.links.near, &self.accel, &params.light)
-                .expect("a CPU tracer cannot fail");
+        // The near hits' light columns: those the motion can have changed traced again.
+        self.near_light
+            .update_deformed(
+                &self.scene,
+                &near_before,
+                &self.links.near,
+                &near_redone,
+                &motion,
+                &self.accel,
+                &params.light,
+            )
+            .expect("a CPU tracer cannot fail");
         stats.ray_state_bytes = self.ray_state_bytes();
         stats.ms = start.elapsed().as_secs_f64() * 1e3;
         (self, stats)
