@@ -1,5 +1,7 @@
 //! Error of the link solver against the reference on a scene, per mesh and
-//! per quantity (E_sky, E_i, total): `cargo run --release --example sky_probe -- window 256 1024`.
+//! per quantity (E_sky, E_i, total): `cargo run --release --example sky_probe -- window 256 1024 [seed]`.
+//! Overrides: `EMITTER_SAMPLES=n` (emitter-link rays), `NOISE_SCALE=x`
+//! (the smoothing's noise calibration), `DUMP=file.csv` (per-vertex values).
 use glam::Vec3;
 use linkgi::accuracy::metrics::error_stats;
 use linkgi::reference::{self, ReferenceParams};
@@ -19,6 +21,9 @@ fn main() {
     let mut sp = SolveParams::from_settings(&desc.settings);
     if let Ok(n) = std::env::var("EMITTER_SAMPLES") {
         sp.emitter.samples = n.parse().unwrap();
+    }
+    if let Ok(x) = std::env::var("NOISE_SCALE") {
+        sp.smoothing.noise.scale = x.parse().unwrap();
     }
     let solver = Solver::new(s, sp, &|_, _| {});
     eprintln!("emitter links: {} rays, {:.1} ms", solver.emitter_links.shadow_rays, solver.emitter_links.ms);
