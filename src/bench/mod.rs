@@ -119,8 +119,13 @@ pub struct RunTimes {
     pub rays_per_s: f64,
     pub light_links_ms: f64,
     pub shadow_rays_per_s: f64,
+    /// The near hits' light columns, all lights ([`crate::exchange::near_field`]), ms.
+    pub near_ms: f64,
+    /// The emitter links ([`crate::exchange::emitter_links`]), ms.
+    pub emitter_links_ms: f64,
     pub bounces_ms: f64,
-    /// From the prepared scene to smoothed `E_i`: kd + links + light links + bounces + smoothing.
+    /// From the prepared scene to smoothed `E_i`: kd + links + light links
+    /// (near hits' and emitters' included) + bounces + smoothing.
     pub first_solution_ms: f64,
     /// Light 0 moved by 5 cm (directional: turned by about 3 degrees): a
     /// preview of its light links plus bounces and smoothing
@@ -167,6 +172,11 @@ pub struct BenchRow {
     pub k_rays_per_s: Stat,
     pub light_links_ms: Stat,
     pub k_shadow_rays_per_s: Stat,
+    /// Near hits ([`crate::links::near`]) and the time of their light columns, ms.
+    pub near_hits: u64,
+    pub near_ms: Stat,
+    /// Emitter links, ms (NaN without emitters).
+    pub emitter_links_ms: Stat,
     pub bounces_ms: Stat,
     pub first_solution_ms: Stat,
     pub light_preview_ms: Stat,
@@ -229,6 +239,9 @@ impl BenchRow {
             k_rays_per_s: st(|r| r.rays_per_s / 1e3),
             light_links_ms: st(|r| r.light_links_ms),
             k_shadow_rays_per_s: st(|r| r.shadow_rays_per_s / 1e3),
+            near_hits: sizes.near_hits,
+            near_ms: st(|r| r.near_ms),
+            emitter_links_ms: st(|r| r.emitter_links_ms),
             bounces_ms: st(|r| r.bounces_ms),
             first_solution_ms: st(|r| r.first_solution_ms),
             light_preview_ms: st(|r| r.light_preview_ms),
@@ -266,6 +279,8 @@ pub struct Sizes {
     pub gather_bytes: u64,
     /// Bytes of the per-ray state of selective updates (0 without dynamic meshes).
     pub ray_state_bytes: u64,
+    /// Link rays recorded as near hits ([`crate::links::near`]).
+    pub near_hits: u64,
 }
 
 /// Moves light 0 a little and times the preview and the full update, each
@@ -362,6 +377,8 @@ pub fn run_once(
     let first_solution_ms = t0.elapsed().as_secs_f64() * 1e3;
     // Read before the light move below replaces them.
     let (light_links_ms, shadow_rays) = (solver.light_links.ms, solver.light_links.shadow_rays);
+    let near_ms = solver.near_light.ms;
+    let emitter_links_ms = if solver.emitter_links.is_active() { solver.emitter_links.ms } else { f64::NAN };
     let (light_preview_ms, light_move_ms) = time_light_move(&mut solver);
     let sky_turn_ms = time_sky_turn(&mut solver);
     let l = solver.links.stats;
@@ -375,6 +392,7 @@ pub fn run_once(
         bytes_merged: l.merged_bytes,
         gather_bytes: bandwidth::gather_bytes(&solver.links),
         ray_state_bytes: solver.ray_state_bytes(),
+        near_hits: solver.links.near.hits.len() as u64,
     };
     let accel_build_ms = solver.accel_build_ms();
     let (_, deform) = time_deformation(solver);
@@ -386,6 +404,8 @@ pub fn run_once(
         rays_per_s: l.rays_per_second(),
         light_links_ms,
         shadow_rays_per_s: shadow_rays as f64 / (light_links_ms.max(1e-9) * 1e-3),
+        near_ms,
+        emitter_links_ms,
         bounces_ms: solution.gather.ms,
         first_solution_ms,
         light_preview_ms,

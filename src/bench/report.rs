@@ -11,6 +11,15 @@ fn stat(s: &Stat, digits: usize) -> String {
     format!("{:.d$} [{:.d$}, {:.d$}]", s.median, s.min, s.max, d = digits)
 }
 
+/// [`stat`], or "-" where nothing was measured.
+fn stat_or_dash(s: &Stat, digits: usize) -> String {
+    if s.median.is_finite() {
+        stat(s, digits)
+    } else {
+        "-".to_string()
+    }
+}
+
 /// Both tables for `rows` as GitHub markdown.
 pub fn markdown(rows: &[BenchRow]) -> String {
     let mut out = String::new();
@@ -116,6 +125,27 @@ pub fn markdown(rows: &[BenchRow]) -> String {
             stat(&r.light_preview_ms, 1),
             stat(&r.light_move_ms, 1)
         );
+    }
+    let beyond: Vec<&BenchRow> =
+        rows.iter().filter(|r| r.near_hits > 0 || r.emitter_links_ms.median.is_finite()).collect();
+    if !beyond.is_empty() {
+        let _ = writeln!(
+            out,
+            "\n### Near hits and emitter links (median [min, max] of {runs} runs; part of the first solution)\n"
+        );
+        let _ = writeln!(out, "| scene | source | near hits | their light columns ms | emitter links ms |");
+        let _ = writeln!(out, "|---|---|---|---|---|");
+        for r in beyond {
+            let _ = writeln!(
+                out,
+                "| {} | linkgi {} | {} | {} | {} |",
+                r.scene,
+                r.backend,
+                r.near_hits,
+                stat_or_dash(&r.near_ms, 1),
+                stat_or_dash(&r.emitter_links_ms, 1)
+            );
+        }
     }
     let skies: Vec<&BenchRow> = rows.iter().filter(|r| r.sky_turn_ms.median.is_finite()).collect();
     if !skies.is_empty() {
@@ -247,6 +277,8 @@ mod tests {
                 rays_per_s: 1e6 * k,
                 light_links_ms: k / 10.0,
                 shadow_rays_per_s: 2e5 * k,
+                near_ms: k / 8.0,
+                emitter_links_ms: f64::NAN,
                 bounces_ms: k / 5.0,
                 first_solution_ms: 100.0 * k,
                 light_preview_ms: k / 20.0,
@@ -268,6 +300,7 @@ mod tests {
             bytes_merged: 6_000_000,
             gather_bytes: 6_500_000,
             ray_state_bytes: 0,
+            near_hits: 400_000,
         };
         BenchRow::from_runs(scene, &sizes, 256, &runs)
     }
@@ -302,6 +335,8 @@ mod tests {
         assert!(md.contains("| tearoom | linkgi | 11900 | 14000 | 3.00 | 1.00 | 24.0 | 6.0 |"));
         assert!(md.contains("first solution s") && md.contains("2.00 [1.00, 3.00]"));
         assert!(md.contains("| tearoom | linkgi CPU | 1.0 [0.5, 1.5] | 5.0 [2.5, 7.5] |"), "{md}");
+        // Near hits (400k, columns k / 8 ms), no emitters.
+        assert!(md.contains("| tearoom | linkgi CPU | 400000 | 2.5 [1.2, 3.8] | - |"), "{md}");
         // No bandwidth measured: no bandwidth table.
         assert!(!md.contains("Gather bandwidth"));
         let mut r = synthetic("tearoom");
