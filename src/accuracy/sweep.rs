@@ -100,11 +100,10 @@ pub fn sweep(
             let t = Instant::now();
             let mut g = solver.gather_corrected(e_source, &gp);
             g.ms = t.elapsed().as_secs_f64() * 1e3;
-            let e_raw: Vec<Vec3> =
-                (0..n).map(|v| (g.e_indirect[v] + src.e_emitter[v] + src.e_near[v]).max(Vec3::ZERO)).collect();
             for smoothing in [angle, 0.0] {
                 let t = Instant::now();
-                let e_i = solver.smooth(e_source, &e_raw, smoothing);
+                let mut e_i = solver.smooth_gathered(e_source, &g.e_indirect, smoothing);
+                src.add_outside_links(&mut e_i);
                 let smooth_ms = t.elapsed().as_secs_f64() * 1e3;
                 let total: Vec<Vec3> = (0..n).map(|v| e_direct[v] + e_sky[v] + e_i[v]).collect();
                 rows.push(SweepRow {

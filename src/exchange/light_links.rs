@@ -493,10 +493,7 @@ impl Column {
 fn weighted(lights: &[Light], columns: &[Vec<f32>], n: usize) -> Vec<Vec3> {
     let mut e = vec![Vec3::ZERO; n];
     for (light, f) in lights.iter().zip(columns) {
-        let power = match *light {
-            Light::Point { intensity, .. } => intensity,
-            Light::Directional { irradiance, .. } => irradiance,
-        };
+        let power = light.power();
         for (e, &g) in e.iter_mut().zip(f) {
             *e += power * g;
         }

@@ -125,13 +125,7 @@ impl NearLight {
         if near.is_empty() || !self.covers(lights) {
             return vec![Vec3::ZERO; n];
         }
-        let powers: Vec<Vec3> = lights
-            .iter()
-            .map(|l| match *l {
-                Light::Point { intensity, .. } => intensity,
-                Light::Directional { irradiance, .. } => irradiance,
-            })
-            .collect();
+        let powers: Vec<Vec3> = lights.iter().map(Light::power).collect();
         let inv = 1.0 / rays_per_vertex.max(1) as f32;
         (0..n)
             .into_par_iter()

@@ -72,11 +72,6 @@ impl NearHits {
         }
     }
 
-    /// Bytes held.
-    pub fn bytes(&self) -> u64 {
-        (self.offsets.len() * 4 + self.hits.len() * std::mem::size_of::<NearHit>()) as u64
-    }
-
     /// Checks the CSR offsets against `n` vertices, triangle ids against
     /// `triangles` and the barycentrics (finite, inside the triangle).
     pub fn validate(&self, n: usize, triangles: usize) -> Result<(), String> {

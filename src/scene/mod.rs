@@ -108,9 +108,15 @@ impl Light {
     /// Its strength: the largest channel of a point light's intensity (W/sr)
     /// or a directional light's irradiance (W/m^2).
     pub fn strength(&self) -> f32 {
-        match self {
-            Light::Point { intensity, .. } => intensity.max_element(),
-            Light::Directional { irradiance, .. } => irradiance.max_element(),
+        self.power().max_element()
+    }
+
+    /// What multiplies a light-link factor into irradiance: a point light's
+    /// intensity (W/sr) or a directional light's irradiance (W/m^2), per channel.
+    pub fn power(&self) -> Vec3 {
+        match *self {
+            Light::Point { intensity, .. } => intensity,
+            Light::Directional { irradiance, .. } => irradiance,
         }
     }
 

@@ -27,6 +27,17 @@ pub struct Sources {
     pub emission: Vec<Vec3>,
 }
 
+impl Sources {
+    /// Completes gathered `E_i` (W/m^2) in place: adds the parts not
+    /// gathered over the links, the emitters' direct light and the near-hit
+    /// correction, and keeps every channel at least 0.
+    pub fn add_outside_links(&self, e_gathered: &mut [Vec3]) {
+        for ((i, m), d) in e_gathered.iter_mut().zip(&self.e_emitter).zip(&self.e_near) {
+            *i = (*i + *m + *d).max(Vec3::ZERO);
+        }
+    }
+}
+
 impl Solver {
     /// Gathers the bounces and smooths.
     pub fn solve(&self) -> Solution {
@@ -66,13 +77,8 @@ impl Solver {
             self.smooth_gathered(&src.e_source, &gather.e_indirect, angle)
         };
         let mut e_indirect_raw = gather.e_indirect.clone();
-        if self.emitter_links.is_active() || !self.links.near.is_empty() {
-            for e in [&mut e_indirect, &mut e_indirect_raw] {
-                for ((i, m), d) in e.iter_mut().zip(&src.e_emitter).zip(&src.e_near) {
-                    *i = (*i + *m + *d).max(Vec3::ZERO);
-                }
-            }
-        }
+        src.add_outside_links(&mut e_indirect);
+        src.add_outside_links(&mut e_indirect_raw);
         Solution {
             e_direct: src.e_direct,
             e_sky: src.e_sky,
@@ -204,12 +210,19 @@ impl Solver {
         if !self.emitter_links.is_active() && self.links.near.is_empty() {
             return None;
         }
-        let src = self.sources();
-        Some(src.e_emitter.iter().zip(&src.e_near).map(|(m, d)| *m + *d).collect())
+        let s = &self.scene;
+        let n = s.vertex_count();
+        let e_src = self.light_links.bounce_source(&s.lights, n);
+        let rays = self.params.links.rays_per_vertex;
+        let e_near = self.near_light.correction(s, &self.links.near, &s.lights, &e_src, rays);
+        let e_emitter = self.emitter_links.irradiance(&s.emission, n);
+        Some(e_emitter.iter().zip(&e_near).map(|(m, d)| *m + *d).collect())
     }
 
-    /// The gathered bounces `e_gathered` (no emitter light) smoothed.
-    fn smooth_gathered(&self, e_source: &[Vec3], e_raw: &[Vec3], angle_deg: f32) -> Vec<Vec3> {
+    /// The gathered bounces `e_raw` (no emitter light, no near-hit
+    /// correction: [`Solver::gather_corrected`]'s result) smoothed, with
+    /// `e_source` the bounces' source, W/m^2.
+    pub fn smooth_gathered(&self, e_source: &[Vec3], e_raw: &[Vec3], angle_deg: f32) -> Vec<Vec3> {
         let s = &self.scene;
         let p = &self.params.smoothing;
         match p.mode {
