@@ -37,7 +37,7 @@ fn stages(c: &mut Criterion) {
         let gl = GpuLinks::new(dev.clone(), &links, &scene.albedo).unwrap();
         let e_d = vec![glam::Vec3::splat(1.0); scene.vertex_count()];
         let mut kernel = gl.kernel(&e_d, &scene.albedo).unwrap();
-        g.throughput(Throughput::Elements(links.targets.len() as u64));
+        g.throughput(Throughput::Elements(links.link_count() as u64));
         g.bench_function("gather_bounce", |b| b.iter(|| kernel.run_bounces(1).unwrap()));
         g.finish();
     }

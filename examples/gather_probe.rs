@@ -4,7 +4,7 @@
 use glam::{Vec3, Vec4};
 use half::f16;
 use half::slice::HalfFloatSliceExt;
-use linkgi::links::Links;
+
 use linkgi::scene::{self, prep};
 use linkgi::solver::{SolveParams, Solver};
 use rayon::prelude::*;
@@ -99,13 +99,32 @@ fn gather_h(links: &Links, b: &[[f16; 4]], out: &mut [Vec3]) {
     });
 }
 
+/// The links as they were stored before packing: u32 targets beside f16 weights.
+struct Links {
+    offsets: Vec<u32>,
+    targets: Vec<u32>,
+    weights: Vec<f16>,
+}
+
+impl Links {
+    fn vertex_count(&self) -> usize {
+        self.offsets.len() - 1
+    }
+    fn group(&self, v: usize) -> (&[u32], &[f16]) {
+        let r = self.offsets[v] as usize..self.offsets[v + 1] as usize;
+        (&self.targets[r.clone()], &self.weights[r])
+    }
+}
+
 fn main() {
     let name = std::env::args().nth(1).unwrap_or_else(|| "tearoom".into());
     let mut desc = scene::load(&name).unwrap();
     desc.settings.rays_per_vertex = 256;
     let scene = prep::prepare(&desc).unwrap();
     let solver = Solver::new(scene, SolveParams::from_settings(&desc.settings), &|_, _| {});
-    let links = &solver.links;
+    let packed = &solver.links;
+    let wide = Links { offsets: packed.offsets.clone(), targets: packed.targets(), weights: packed.weights.clone() };
+    let links = &wide;
     let n = links.vertex_count();
     println!(
         "{name}: {n} vertices, {} links, {:.1} MB of links",
@@ -125,5 +144,7 @@ fn main() {
         .map(|(a, b)| ((*a - *b).abs() / b.abs().max(Vec3::splat(1e-6))).max_element())
         .fold(0f32, f32::max);
     println!("f16 radiosity: worst relative difference {err:.2e}");
-    best("library gather_bounce_padded", links, || linkgi::exchange::gather::gather_bounce_padded(links, &b, &mut out));
+    best("library gather_bounce_padded (packed)", links, || {
+        linkgi::exchange::gather::gather_bounce_padded(packed, &b, &mut out)
+    });
 }

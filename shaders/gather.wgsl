@@ -3,10 +3,17 @@
 // invocation per vertex, links summed in stored order as on the CPU.
 // `update_bounce`: E_i += E^(b); B = rho * E^(b) / pi; per-workgroup sums of
 // E^(b) for the bounce totals (the CPU adds the partials in f64).
-// Weights are IEEE half floats packed two per u32 (link j in the low half
-// of word j/2 when j is even).
+// Links are compact (src/links/packed.rs): weights are IEEE half floats
+// packed two per u32 (link j in the low half of word j/2 when j is even);
+// targets are gaps in a byte stream of blocks of four links: a control
+// byte (two bits a link: code k means GAP_BYTES byte k data bytes), then
+// the gaps, little-endian; target = previous target + 1 + gap, starting
+// from previous = 0xffffffff. The stream is read as little-endian u32
+// words, padded with 16 zero bytes.
 
 const WORKGROUP: u32 = 256u;
+// Byte k: data bytes of a gap of code k (`links::packed::CODE_BYTES`).
+const GAP_BYTES: u32 = 0x04020100u;
 const PI: f32 = 3.14159265358979323846264338327950288;
 
 // One dispatch covers vertices first_vertex .. first_vertex + vertex_count.
@@ -22,7 +29,7 @@ struct GatherUniforms {
 
 @group(0) @binding(0) var<uniform> params: GatherUniforms;
 @group(0) @binding(1) var<storage, read> offsets: array<u32>;
-@group(0) @binding(2) var<storage, read> targets: array<u32>;
+@group(0) @binding(2) var<storage, read> link_stream: array<u32>;
 @group(0) @binding(3) var<storage, read> weights: array<u32>;
 // Outgoing radiosity B = rho/pi * E of the previous bounce (xyz).
 @group(0) @binding(4) var<storage, read_write> radiosity: array<vec4<f32>>;
@@ -33,6 +40,10 @@ struct GatherUniforms {
 @group(0) @binding(7) var<storage, read_write> total: array<vec4<f32>>;
 // Sum of `bounce` over each workgroup's vertices.
 @group(0) @binding(8) var<storage, read_write> partials: array<vec4<f32>>;
+// Byte offset of each row's first block in `link_stream` (segment-relative).
+@group(0) @binding(9) var<storage, read> row_starts: array<u32>;
+// `decode_targets`: every link's target, at its link index (segment-relative).
+@group(0) @binding(10) var<storage, read_write> decoded: array<u32>;
 
 var<workgroup> sums: array<vec4<f32>, WORKGROUP>;
 
@@ -41,17 +52,73 @@ fn weight(j: u32) -> f32 {
     return select(pair.y, pair.x, (j & 1u) == 0u);
 }
 
+// The `len` (0 to 4) little-endian bytes at byte `i` of the stream.
+fn stream_bytes(i: u32, len: u32) -> u32 {
+    let shift = (i & 3u) * 8u;
+    // (A shift by 32 is a shift by 0 in WGSL: select instead.)
+    let hi = select(link_stream[(i >> 2u) + 1u] << (32u - shift), 0u, shift == 0u);
+    let x = (link_stream[i >> 2u] >> shift) | hi;
+    return select(x & ((1u << (len * 8u)) - 1u), x, len == 4u);
+}
+
+// One row's decoder: the stream position and the previous target.
+struct RowCursor {
+    at: u32,
+    prev: u32,
+}
+
+// The control byte of the block at the cursor (and steps past it).
+fn block_control(c: ptr<function, RowCursor>) -> u32 {
+    let ctl = stream_bytes((*c).at, 1u);
+    (*c).at += 1u;
+    return ctl;
+}
+
+// Lane `lane`'s target of a block with control byte `ctl` (lanes in order).
+fn next_target(c: ptr<function, RowCursor>, ctl: u32, lane: u32) -> u32 {
+    let len = (GAP_BYTES >> (8u * ((ctl >> (2u * lane)) & 3u))) & 0xffu;
+    (*c).prev += 1u + stream_bytes((*c).at, len);
+    (*c).at += len;
+    return (*c).prev;
+}
+
+// Summed as on the CPU: link 4i + l into partial sum l, then pairwise.
 @compute @workgroup_size(256)
 fn gather_bounce(@builtin(global_invocation_id) gid: vec3<u32>) {
     let local = gid.x + gid.y * params.groups_x * WORKGROUP;
     if local >= params.vertex_count {
         return;
     }
-    var acc = vec3<f32>(0.0);
-    for (var j = offsets[local]; j < offsets[local + 1u]; j++) {
-        acc += radiosity[targets[j]].xyz * weight(j);
+    var acc = array<vec3<f32>, 4>(vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0));
+    let j0 = offsets[local];
+    let count = offsets[local + 1u] - j0;
+    var c = RowCursor(row_starts[local], 0xffffffffu);
+    for (var k = 0u; k < count; k += 4u) {
+        let ctl = block_control(&c);
+        for (var l = 0u; l < min(4u, count - k); l++) {
+            let t = next_target(&c, ctl, l);
+            acc[l] += radiosity[t].xyz * weight(j0 + k + l);
+        }
     }
-    bounce[params.first_vertex + local] = vec4<f32>(acc, 0.0);
+    bounce[params.first_vertex + local] = vec4<f32>((acc[0] + acc[1]) + (acc[2] + acc[3]), 0.0);
+}
+
+// Writes every link's decoded target (tests: the WGSL decoder against the CPU's).
+@compute @workgroup_size(256)
+fn decode_targets(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let local = gid.x + gid.y * params.groups_x * WORKGROUP;
+    if local >= params.vertex_count {
+        return;
+    }
+    let j0 = offsets[local];
+    let count = offsets[local + 1u] - j0;
+    var c = RowCursor(row_starts[local], 0xffffffffu);
+    for (var k = 0u; k < count; k += 4u) {
+        let ctl = block_control(&c);
+        for (var l = 0u; l < min(4u, count - k); l++) {
+            decoded[j0 + k + l] = next_target(&c, ctl, l);
+        }
+    }
 }
 
 @compute @workgroup_size(256)

@@ -271,10 +271,30 @@ fn segmented_links_gather_the_same() {
         (gl.segment_count(), r.e_indirect)
     };
     let (one, a) = run(usize::MAX / 8);
-    let (many, b) = run(solver.links.targets.len() / 7);
+    let (many, b) = run(solver.links.link_count() / 7);
     assert_eq!(one, 1);
     assert!(many >= 7, "{many} segments");
     assert_eq!(a, b);
+}
+
+/// The WGSL decoder reads exactly the CPU's targets from the packed
+/// stream, in one segment and in many (rows cut at segment borders).
+#[test]
+fn gpu_decodes_the_packed_targets_bit_for_bit() {
+    let Some(dev) = device() else { return };
+    for name in ["cornell", "window"] {
+        let desc = common::with_settings(scene::load(name).expect("built-in"), 64, Bounces::Fixed(1), 0.0);
+        let (solver, _) = common::solve(&desc);
+        solver.links.validate().expect("valid links");
+        for max_links in [usize::MAX / 8, solver.links.link_count() / 5] {
+            let gl = GpuLinks::with_segment_links(dev.clone(), &solver.links, &solver.scene.albedo, max_links)
+                .expect("upload");
+            let decoded = gl.decode_targets().expect("decode");
+            assert_eq!(decoded.len(), solver.links.link_count());
+            let differ = decoded.iter().zip(&solver.links.targets()).filter(|(a, b)| a != b).count();
+            assert_eq!(differ, 0, "{name}: {differ} targets differ ({} segments)", gl.segment_count());
+        }
+    }
 }
 
 #[test]
@@ -325,7 +345,8 @@ fn scheduler_splits_by_speed_and_loses_nothing() {
     assert!(shares[2].vertices < shares[0].vertices && shares[2].vertices < shares[1].vertices, "slow device got less");
     assert!(shares[2].vertices * 2 < shares[0].vertices.min(shares[1].vertices), "share roughly follows speed");
     assert_eq!(one.links.offsets, split.links.offsets);
-    assert_eq!(one.links.targets, split.links.targets);
+    assert_eq!(one.links.targets(), split.links.targets());
+    assert_eq!(one.links.packed, split.links.packed);
     assert_eq!(one.links.weights, split.links.weights);
 }
 

@@ -1,7 +1,7 @@
 //! Every struct shared with WGSL has the same size and field offsets in
 //! Rust and in the shaders (parsed with naga). No GPU needed.
 
-use linkgi::gpu::layout::{shared_structs, GATHER_WGSL, RENDER_WGSL, SHOOT_WGSL, TONEMAP_WGSL};
+use linkgi::gpu::layout::{shared_constants, shared_structs, GATHER_WGSL, RENDER_WGSL, SHOOT_WGSL, TONEMAP_WGSL};
 use std::collections::HashMap;
 
 /// `name -> (size, [(field, offset)])` of every struct in a WGSL source.
@@ -43,11 +43,33 @@ fn every_wgsl_struct_outside_the_shader_is_listed() {
     // Structs only the shaders use internally.
     // (The renderer uploads LightArray and ShadowMatrices as arrays of
     // LightGpu and column-major 4x4 matrices; VsOut and SkyOut are stage-internal.)
-    let internal = ["Shear", "Best", "VsOut", "SkyOut", "LightArray", "ShadowMatrices"];
+    let internal = ["Shear", "Best", "VsOut", "SkyOut", "LightArray", "ShadowMatrices", "RowCursor"];
     let listed: Vec<&str> = shared_structs().iter().map(|s| s.name).collect();
     for src in [SHOOT_WGSL, GATHER_WGSL, RENDER_WGSL, TONEMAP_WGSL] {
         for name in wgsl_structs(src, "shader").keys() {
             assert!(listed.contains(&name.as_str()) || internal.contains(&name.as_str()), "{name} has no Rust twin");
+        }
+    }
+}
+
+/// Every shared constant has its Rust value in its shader.
+#[test]
+fn shared_constants_match_wgsl() {
+    for (file, name, value) in shared_constants() {
+        let src = match file {
+            "gather.wgsl" => GATHER_WGSL,
+            "shoot.wgsl" => SHOOT_WGSL,
+            other => panic!("no shader {other}"),
+        };
+        let module = naga::front::wgsl::parse_str(src).unwrap_or_else(|e| panic!("{file}: {}", e.emit_to_string(src)));
+        let (_, c) = module
+            .constants
+            .iter()
+            .find(|(_, c)| c.name.as_deref() == Some(name))
+            .unwrap_or_else(|| panic!("{file} declares no const {name}"));
+        match module.global_expressions[c.init] {
+            naga::Expression::Literal(naga::Literal::U32(v)) => assert_eq!(v, value, "{file}: {name}"),
+            ref e => panic!("{file}: {name} is {e:?}, not a u32 literal"),
         }
     }
 }

@@ -99,10 +99,10 @@ fn same_seed_same_links() {
     let (_, a) = build(scene.clone(), &p);
     let (_, b) = build(scene.clone(), &p);
     assert_eq!(a.offsets, b.offsets);
-    assert_eq!(a.targets, b.targets);
+    assert_eq!(a.targets(), b.targets());
     assert_eq!(a.weights, b.weights);
     let (_, c) = build(scene, &LinkParams { seed: 2, ..p });
-    assert_ne!(a.targets, c.targets);
+    assert_ne!(a.targets(), c.targets());
 }
 
 #[test]
@@ -111,5 +111,5 @@ fn batch_size_does_not_change_links() {
     let p = LinkParams { rays_per_vertex: 16, ..Default::default() };
     let (_, a) = build(scene.clone(), &p);
     let (_, b) = build(scene, &LinkParams { batch_vertices: 7, ..p });
-    assert_eq!((a.offsets, a.targets, a.weights), (b.offsets, b.targets, b.weights));
+    assert_eq!((a.offsets, a.packed, a.weights), (b.offsets, b.packed, b.weights));
 }

@@ -387,13 +387,14 @@ fn f32_accumulation_over_thousands_of_links() {
     use half::f16;
     let n = 5001usize;
     let m = n - 1;
-    let mut links = linkgi::links::Links { offsets: vec![0, m as u32], ..Default::default() };
-    links.offsets.extend(std::iter::repeat_n(m as u32, n - 1));
-    links.targets = (1..n as u32).collect();
+    let mut offsets = vec![0, m as u32];
+    offsets.extend(std::iter::repeat_n(m as u32, n - 1));
+    let targets: Vec<u32> = (1..n as u32).collect();
     // Weights varying by a factor of 100, summing to about pi.
     let raw: Vec<f64> = (0..m).map(|i| 1.0 + 99.0 * ((i * 2654435761usize) % 1000) as f64 / 1000.0).collect();
     let total: f64 = raw.iter().sum();
-    links.weights = raw.iter().map(|w| f16::from_f64(w / total * std::f64::consts::PI)).collect();
+    let weights = raw.iter().map(|w| f16::from_f64(w / total * std::f64::consts::PI)).collect();
+    let links = linkgi::links::Links::from_csr(offsets, &targets, weights);
     links.validate().expect("valid links");
     let b: Vec<Vec3> =
         (0..n).map(|i| Vec3::splat(10f32.powf(((i * 7919) % 1000) as f32 / 1000.0 * 6.0 - 3.0))).collect();

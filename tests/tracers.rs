@@ -67,7 +67,7 @@ fn agree_on(name: &str) {
     }
     assert!(compared + 2 >= scene.vertex_count(), "{name}: {compared} groups compared");
     if differ == 0 {
-        assert_eq!(l1.targets, l2.targets);
+        assert_eq!(l1.packed, l2.packed);
         assert_eq!(l1.weights, l2.weights);
     }
 

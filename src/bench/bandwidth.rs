@@ -2,8 +2,8 @@
 //! (the target: one bounce at >= 50% of it).
 //!
 //! A CPU bounce ([`crate::exchange::gather::gather_bounce_padded`]) streams
-//! every link once (4-byte target + 2-byte f16 weight), the CSR offsets (4
-//! bytes a vertex), reads the source radiosity (16 bytes a vertex, padded,
+//! every link once as the gathers store it ([`Links::gather_bytes`]: packed
+//! targets, f16 weights, row offsets), reads the source radiosity (16 bytes a vertex, padded,
 //! counted once: a lower bound, repeated reads hit the cache) and writes the
 //! result (12 bytes a vertex). The reference is a parallel (rayon) sum over a
 //! buffer far larger than the caches: the read bandwidth a streaming
@@ -16,7 +16,7 @@ use std::time::Instant;
 /// Bytes one gather bounce moves at least.
 pub fn gather_bytes(links: &Links) -> u64 {
     let v = links.vertex_count() as u64;
-    links.targets.len() as u64 * 6 + (v + 1) * 4 + v * (16 + 12)
+    links.gather_bytes() + v * (16 + 12)
 }
 
 /// Read bandwidth of a parallel sum over `bytes` (best of `repeats`), GB/s.
@@ -39,13 +39,11 @@ mod tests {
 
     #[test]
     fn gather_bytes_counts_links_offsets_and_vertices() {
-        let links = Links {
-            offsets: vec![0, 2, 3],
-            targets: vec![1, 1, 0],
-            weights: vec![half::f16::ONE; 3],
-            ..Default::default()
-        };
-        assert_eq!(gather_bytes(&links), 3 * 6 + 3 * 4 + 2 * 28);
+        let links = Links::from_csr(vec![0, 2, 3], &[0, 1, 0], vec![half::f16::ONE; 3]);
+        // Packed: row 0 one block (control byte, gaps 0 and 0), row 1 one
+        // block (gap 0); starts 3 x 4, padding 16; weights 3 x 2; offsets 3 x 4.
+        assert_eq!(links.packed.bytes.len(), 2 + 16);
+        assert_eq!(gather_bytes(&links), (2 + 16 + 3 * 4) + 3 * 2 + 3 * 4 + 2 * 28);
     }
 
     #[test]

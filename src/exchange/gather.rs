@@ -14,10 +14,9 @@
 //! and keeps stiff scenes with rho near 1 from stopping short), in fixed
 //! mode it is only reported. Irradiances in W/m^2.
 
-use crate::links::Links;
+use crate::links::{packed, Links};
 use crate::scene::Bounces;
 use glam::{Vec3, Vec4};
-use half::slice::HalfFloatSliceExt;
 use rayon::prelude::*;
 use std::f32::consts::PI;
 use std::time::Instant;
@@ -61,52 +60,94 @@ pub fn gather_bounce(links: &Links, b: &[Vec3], out: &mut [Vec3]) {
 }
 
 /// One bounce with the source radiosity padded to 16 bytes a vertex (one
-/// aligned SIMD load per link). Each group is summed in four interleaved
-/// partial sums (links `4i`, `4i+1`, ...), so the adds of consecutive links
-/// do not wait on each other; the partial sums are added pairwise at the end.
+/// aligned SIMD load per link), reading the compact links
+/// ([`crate::links::packed`]: f16 weights and gap-coded targets). Each
+/// group is summed in four interleaved partial sums (links `4i`, `4i+1`,
+/// ...: one decoded block), so the adds of consecutive links do not wait
+/// on each other; the partial sums are added pairwise at the end.
 pub fn gather_bounce_padded(links: &Links, b: &[Vec4], out: &mut [Vec3]) {
     const CHUNK: usize = 256;
+    assert_eq!(links.packed.rows(), links.vertex_count(), "links not packed (Links::pack)");
+    assert!(!b.is_empty() || links.link_count() == 0, "no radiosity to gather");
     #[cfg(target_arch = "x86_64")]
-    let avx2 = std::arch::is_x86_feature_detected!("avx2");
-    out.par_chunks_mut(CHUNK).enumerate().for_each_init(Vec::new, |buf: &mut Vec<f32>, (ci, chunk)| {
+    let simd = std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("f16c");
+    out.par_chunks_mut(CHUNK).enumerate().for_each(|(ci, chunk)| {
         #[cfg(target_arch = "x86_64")]
-        if avx2 {
-            // SAFETY: the CPU supports AVX2 (checked above).
-            unsafe { gather_chunk_avx2(links, b, ci * CHUNK, chunk, buf) };
+        if simd {
+            // SAFETY: the CPU has AVX2 and F16C (checked above).
+            unsafe { gather_chunk_simd(links, b, ci * CHUNK, chunk) };
             return;
         }
-        gather_chunk(links, b, ci * CHUNK, chunk, buf);
+        gather_chunk(links, b, ci * CHUNK, chunk);
     });
 }
 
-/// [`gather_chunk`] compiled for AVX2 (VEX encoding; the arithmetic, and so
-/// every result, is the same: Rust never fuses a multiply and an add).
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-fn gather_chunk_avx2(links: &Links, b: &[Vec4], first: usize, chunk: &mut [Vec3], buf: &mut Vec<f32>) {
-    gather_chunk(links, b, first, chunk, buf)
-}
-
-/// Gathers vertices `first..first + chunk.len()` into `chunk`.
-#[inline(always)]
-fn gather_chunk(links: &Links, b: &[Vec4], first: usize, chunk: &mut [Vec3], buf: &mut Vec<f32>) {
+/// Gathers vertices `first..first + chunk.len()` into `chunk`, decoding
+/// the targets block by block ([`packed::decode_block`]): the portable
+/// kernel, and the oracle of the SIMD one.
+fn gather_chunk(links: &Links, b: &[Vec4], first: usize, chunk: &mut [Vec3]) {
+    let last = b.len().saturating_sub(1);
     for (i, o) in chunk.iter_mut().enumerate() {
-        let (targets, weights) = links.group(first + i);
-        buf.resize(weights.len(), 0.0);
-        weights.convert_to_f32_slice(buf);
+        let v = first + i;
+        let (j0, j1) = (links.offsets[v] as usize, links.offsets[v + 1] as usize);
+        let (mut pos, mut prev) = (links.packed.starts[v] as usize, u32::MAX);
         let mut acc = [Vec4::ZERO; 4];
-        let (t4, t_rest) = targets.as_chunks::<4>();
-        let (w4, w_rest) = buf.as_chunks::<4>();
-        for (t, w) in t4.iter().zip(w4) {
-            acc[0] += b[t[0] as usize] * w[0];
-            acc[1] += b[t[1] as usize] * w[1];
-            acc[2] += b[t[2] as usize] * w[2];
-            acc[3] += b[t[3] as usize] * w[3];
-        }
-        for (k, (&t, &w)) in t_rest.iter().zip(w_rest).enumerate() {
-            acc[k] += b[t as usize] * w;
+        for j in (j0..j1).step_by(4) {
+            let t = packed::decode_block(&links.packed.bytes, &mut pos, &mut prev);
+            for k in 0..(j1 - j).min(4) {
+                acc[k] += b[(t[k] as usize).min(last)] * links.weights[j + k].to_f32();
+            }
         }
         *o = ((acc[0] + acc[1]) + (acc[2] + acc[3])).truncate();
+    }
+}
+
+/// [`gather_chunk`] with SSE/AVX2 decoding ([`packed::simd::decode_block`])
+/// and F16C weight conversion: the same multiplies and adds in the same
+/// order, so the same bits.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,f16c")]
+unsafe fn gather_chunk_simd(links: &Links, b: &[Vec4], first: usize, chunk: &mut [Vec3]) {
+    use std::arch::x86_64::*;
+    let last = _mm_set1_epi32(b.len().saturating_sub(1) as i32);
+    let bp = b.as_ptr() as *const f32;
+    let wp = links.weights.as_ptr() as *const u16;
+    let row = |t: __m128i, k: i32| -> *const f32 {
+        let i = match k {
+            0 => _mm_cvtsi128_si32(t),
+            1 => _mm_extract_epi32::<1>(t),
+            2 => _mm_extract_epi32::<2>(t),
+            _ => _mm_extract_epi32::<3>(t),
+        };
+        bp.add(4 * i as u32 as usize)
+    };
+    for (i, o) in chunk.iter_mut().enumerate() {
+        let v = first + i;
+        let (j0, j1) = (links.offsets[v] as usize, links.offsets[v + 1] as usize);
+        let mut p = links.packed.bytes.as_ptr().add(links.packed.starts[v] as usize);
+        let mut prev = _mm_set1_epi32(-1);
+        let mut acc = [_mm_setzero_ps(); 4];
+        let mut j = j0;
+        while j + 4 <= j1 {
+            // Targets beyond the radiosity are clamped (they never occur in
+            // valid links: `Links::validate`), so every load is in bounds.
+            let t = _mm_min_epu32(packed::simd::decode_block(&mut p, &mut prev), last);
+            let w = _mm_cvtph_ps(_mm_loadl_epi64(wp.add(j) as *const __m128i));
+            acc[0] = _mm_add_ps(acc[0], _mm_mul_ps(_mm_load_ps(row(t, 0)), _mm_shuffle_ps::<0x00>(w, w)));
+            acc[1] = _mm_add_ps(acc[1], _mm_mul_ps(_mm_load_ps(row(t, 1)), _mm_shuffle_ps::<0x55>(w, w)));
+            acc[2] = _mm_add_ps(acc[2], _mm_mul_ps(_mm_load_ps(row(t, 2)), _mm_shuffle_ps::<0xaa>(w, w)));
+            acc[3] = _mm_add_ps(acc[3], _mm_mul_ps(_mm_load_ps(row(t, 3)), _mm_shuffle_ps::<0xff>(w, w)));
+            j += 4;
+        }
+        if j < j1 {
+            let t = _mm_min_epu32(packed::simd::decode_block(&mut p, &mut prev), last);
+            for (k, a) in acc.iter_mut().enumerate().take(j1 - j) {
+                let w = _mm_set1_ps(links.weights[j + k].to_f32());
+                *a = _mm_add_ps(*a, _mm_mul_ps(_mm_load_ps(row(t, k as i32)), w));
+            }
+        }
+        let s = _mm_add_ps(_mm_add_ps(acc[0], acc[1]), _mm_add_ps(acc[2], acc[3]));
+        *o = Vec4::from(s).truncate();
     }
 }
 
@@ -281,20 +322,22 @@ mod tests {
     use half::f16;
     use rand::{Rng, SeedableRng};
 
-    /// Random links with groups of 0 to 11 links (every remainder of the
-    /// four-way split), some vertices without links.
+    /// Random merged links (targets strictly increasing) with groups of 0
+    /// to 11 links (every remainder of the four-way split), some vertices
+    /// without links, gaps of every packed code.
     fn random_links(n: usize, seed: u64) -> Links {
         let mut rng = rand_pcg::Pcg32::seed_from_u64(seed);
-        let mut links = Links { offsets: vec![0], ..Default::default() };
+        let (mut offsets, mut targets, mut weights) = (vec![0u32], Vec::new(), Vec::new());
         for _ in 0..n {
             let k = rng.random_range(0..12);
-            for _ in 0..k {
-                links.targets.push(rng.random_range(0..n as u32));
-                links.weights.push(f16::from_f32(rng.random_range(0.0..0.5)));
-            }
-            links.offsets.push(links.targets.len() as u32);
+            let mut t: Vec<u32> = (0..k).map(|_| rng.random_range(0..n as u32)).collect();
+            t.sort_unstable();
+            t.dedup();
+            weights.extend(t.iter().map(|_| f16::from_f32(rng.random_range(0.0..0.5))));
+            targets.extend(t);
+            offsets.push(targets.len() as u32);
         }
-        links
+        Links::from_csr(offsets, &targets, weights)
     }
 
     #[test]
@@ -318,20 +361,20 @@ mod tests {
         }
     }
 
-    /// The AVX2 build of the kernel and the portable one give the same bits.
+    /// The SIMD kernel and the portable one give the same bits.
     #[cfg(target_arch = "x86_64")]
     #[test]
-    fn avx2_kernel_equals_portable_kernel() {
-        if !std::arch::is_x86_feature_detected!("avx2") {
+    fn simd_kernel_equals_portable_kernel() {
+        if !(std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("f16c")) {
             return;
         }
         let n = 2000;
         let links = random_links(n, 9);
         let b: Vec<Vec4> = (0..n).map(|i| Vec4::new((i as f32).sin(), 0.25, 3.0 / (1.0 + i as f32), 0.0)).collect();
         let (mut a, mut c) = (vec![Vec3::ZERO; n], vec![Vec3::ZERO; n]);
-        gather_chunk(&links, &b, 0, &mut a, &mut Vec::new());
-        // SAFETY: AVX2 is supported (checked above).
-        unsafe { gather_chunk_avx2(&links, &b, 0, &mut c, &mut Vec::new()) };
+        gather_chunk(&links, &b, 0, &mut a);
+        // SAFETY: AVX2 and F16C are supported (checked above).
+        unsafe { gather_chunk_simd(&links, &b, 0, &mut c) };
         for (x, y) in a.iter().zip(&c) {
             assert_eq!(x.to_array().map(f32::to_bits), y.to_array().map(f32::to_bits));
         }

@@ -150,12 +150,7 @@ mod tests {
     #[test]
     fn a_hidden_target_takes_its_visible_neighbours_irradiance() {
         let w = 2.0f32;
-        let links = Links {
-            offsets: vec![0, 0, 1, 2, 3],
-            targets: vec![3, 3, 0],
-            weights: vec![f16::from_f32(w); 3],
-            ..Default::default()
-        };
+        let links = Links::from_csr(vec![0, 0, 1, 2, 3], &[3, 3, 0], vec![f16::from_f32(w); 3]);
         let rings = Csr::from_pairs(4, &[(0, 1), (0, 2), (1, 0), (2, 0)]);
         let normals = vec![Vec3::Y; 4];
         let albedo = vec![Vec3::splat(0.5); 4];

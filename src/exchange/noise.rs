@@ -42,9 +42,8 @@
 //! The model is within a factor of 2.3 of both scenes at every count;
 //! `tests/accuracy.rs` holds it to a factor of 2.5 on the Cornell box.
 
-use crate::links::Links;
+use crate::links::{packed, Links};
 use glam::{Vec3, Vec4};
-use half::slice::HalfFloatSliceExt;
 use rayon::prelude::*;
 use std::f32::consts::PI;
 
@@ -92,50 +91,44 @@ pub fn variance(
     let n_c = rays_per_vertex.max(1) as f32;
     let factor = (params.scale * (params.reference_rays as f32 / n_c).powf(params.exponent)).min(1.0) / n_c;
     #[cfg(target_arch = "x86_64")]
-    let avx2 = std::arch::is_x86_feature_detected!("avx2");
+    let avx2 = std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("f16c");
     (0..links.vertex_count())
         .into_par_iter()
-        .map_init(Vec::new, |buf: &mut Vec<f32>, v| {
+        .map(|v| {
             #[cfg(target_arch = "x86_64")]
             if avx2 {
-                // SAFETY: the CPU supports AVX2 (checked above).
-                let (m1, m2) = unsafe { moments_avx2(links, &b, v, buf) };
+                // SAFETY: the CPU supports AVX2 and F16C (checked above).
+                let (m1, m2) = unsafe { moments_avx2(links, &b, v) };
                 return (PI * m2 - m1 * m1).max(Vec3::ZERO) * factor;
             }
-            let (m1, m2) = moments(links, &b, v, buf);
+            let (m1, m2) = moments(links, &b, v);
             (PI * m2 - m1 * m1).max(Vec3::ZERO) * factor
         })
         .collect()
 }
 
-/// [`moments`] compiled for AVX2 (the same arithmetic).
+/// [`moments`] compiled for AVX2 and F16C (the same arithmetic).
 #[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-fn moments_avx2(links: &Links, b: &[[Vec4; 2]], v: usize, buf: &mut Vec<f32>) -> (Vec3, Vec3) {
-    moments(links, b, v, buf)
+#[target_feature(enable = "avx2,f16c")]
+fn moments_avx2(links: &Links, b: &[[Vec4; 2]], v: usize) -> (Vec3, Vec3) {
+    moments(links, b, v)
 }
 
 /// `(sum_j w_j B_j, sum_j w_j B_j^2)` over vertex `v`'s links, in two
-/// interleaved partial sums (as the gather kernel).
+/// interleaved partial sums (even and odd links), decoding the packed
+/// targets block by block as the gather does.
 #[inline(always)]
-fn moments(links: &Links, b: &[[Vec4; 2]], v: usize, buf: &mut Vec<f32>) -> (Vec3, Vec3) {
-    let (targets, weights) = links.group(v);
-    buf.resize(weights.len(), 0.0);
-    weights.convert_to_f32_slice(buf);
+fn moments(links: &Links, b: &[[Vec4; 2]], v: usize) -> (Vec3, Vec3) {
+    let (j0, j1) = (links.offsets[v] as usize, links.offsets[v + 1] as usize);
+    let (mut pos, mut prev) = (links.packed.starts[v] as usize, u32::MAX);
     let (mut m1, mut m2) = ([Vec4::ZERO; 2], [Vec4::ZERO; 2]);
-    let (t2, t_rest) = targets.as_chunks::<2>();
-    let (w2, w_rest) = buf.as_chunks::<2>();
-    for (t, w) in t2.iter().zip(w2) {
-        let (x, y) = (&b[t[0] as usize], &b[t[1] as usize]);
-        m1[0] += x[0] * w[0];
-        m2[0] += x[1] * w[0];
-        m1[1] += y[0] * w[1];
-        m2[1] += y[1] * w[1];
-    }
-    for (&t, &w) in t_rest.iter().zip(w_rest) {
-        let x = &b[t as usize];
-        m1[0] += x[0] * w;
-        m2[0] += x[1] * w;
+    for j in (j0..j1).step_by(4) {
+        let t = packed::decode_block(&links.packed.bytes, &mut pos, &mut prev);
+        for k in 0..(j1 - j).min(4) {
+            let (x, w) = (&b[t[k] as usize], links.weights[j + k].to_f32());
+            m1[k & 1] += x[0] * w;
+            m2[k & 1] += x[1] * w;
+        }
     }
     ((m1[0] + m1[1]).truncate(), (m2[0] + m2[1]).truncate())
 }
@@ -151,19 +144,20 @@ mod tests {
     fn moments_equal_f64_sums() {
         let mut rng = rand_pcg::Pcg32::seed_from_u64(3);
         let n = 500;
-        let mut links = Links { offsets: vec![0], ..Default::default() };
+        let (mut offsets, mut targets, mut weights) = (vec![0u32], Vec::new(), Vec::new());
         for _ in 0..n {
-            for _ in 0..rng.random_range(0..9) {
-                links.targets.push(rng.random_range(0..n as u32));
-                links.weights.push(f16::from_f32(rng.random_range(0.0..0.3)));
-            }
-            links.offsets.push(links.targets.len() as u32);
+            let mut t: Vec<u32> = (0..rng.random_range(0..9)).map(|_| rng.random_range(0..n as u32)).collect();
+            t.sort_unstable();
+            t.dedup();
+            weights.extend(t.iter().map(|_| f16::from_f32(rng.random_range(0.0..0.3))));
+            targets.extend(t);
+            offsets.push(targets.len() as u32);
         }
+        let links = Links::from_csr(offsets, &targets, weights);
         let bv: Vec<Vec3> = (0..n).map(|i| Vec3::new(1.0 + i as f32 * 0.01, 0.5, (i % 7) as f32)).collect();
         let b: Vec<[Vec4; 2]> = bv.iter().map(|x| [x.extend(0.0), (*x * *x).extend(0.0)]).collect();
-        let mut buf = Vec::new();
         for v in 0..n {
-            let (m1, m2) = moments(&links, &b, v, &mut buf);
+            let (m1, m2) = moments(&links, &b, v);
             let (t, w) = links.group(v);
             for c in 0..3 {
                 let want1: f64 = t.iter().zip(w).map(|(&t, w)| w.to_f64() * bv[t as usize][c] as f64).sum();

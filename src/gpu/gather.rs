@@ -4,29 +4,37 @@
 //! the per-workgroup sums of each bounce (16 bytes per 256 vertices) to
 //! decide whether to stop. Irradiance in W/m^2.
 //!
-//! Links larger than one storage binding (lavapipe: 128 MiB, i.e. 33 M
-//! links of `u32` targets) are cut into segments of whole rows, each with
-//! its own buffers, gathered by one dispatch each.
+//! The links are uploaded as the CPU gather reads them ([`crate::links::packed`]:
+//! the target stream as u32 words, the row starts, f16 weight pairs).
+//! Links larger than one storage binding (lavapipe: 128 MiB) are cut into
+//! segments of whole rows (at most a binding's quarter of links, and of
+//! stream bytes at most a binding), each with its own buffers, gathered by
+//! one dispatch each.
 
 use super::buffers::{checked, compute_pipelines, dispatch_size, read_back, storage_init, uniform_init};
 use super::context::GpuDevice;
 use super::layout::{GatherUniforms, GATHER_WGSL};
 use crate::error::Result;
 use crate::exchange::gather::{source_radiosity, BounceKernel};
+use crate::links::packed::PAD;
 use crate::links::Links;
 use glam::Vec3;
 use std::f32::consts::PI;
 use std::sync::Arc;
 
-const WORKGROUP: u32 = 256;
+/// Invocations per workgroup of the gather shaders.
+pub const WORKGROUP: u32 = 256;
 
 /// Rows `first..first + count` of the link matrix on the device.
 struct Segment {
     uniforms: wgpu::Buffer,
     offsets: wgpu::Buffer,
-    targets: wgpu::Buffer,
+    stream: wgpu::Buffer,
+    starts: wgpu::Buffer,
     weights: wgpu::Buffer,
     groups: (u32, u32),
+    /// Links of the segment.
+    links: usize,
 }
 
 /// Links and albedo resident on one device.
@@ -34,6 +42,7 @@ pub struct GpuLinks {
     pub dev: Arc<GpuDevice>,
     gather: wgpu::ComputePipeline,
     update: wgpu::ComputePipeline,
+    decode: wgpu::ComputePipeline,
     uniforms: wgpu::Buffer,
     segments: Vec<Segment>,
     albedo: wgpu::Buffer,
@@ -73,6 +82,9 @@ impl GpuLinks {
         albedo: &[Vec3],
         max_links: usize,
     ) -> Result<GpuLinks> {
+        if links.packed.rows() != links.vertex_count() {
+            return Err(crate::Error::Gpu("uploading links: links not packed (Links::pack)".into()));
+        }
         checked(&dev.clone(), "uploading links", || Self::upload(dev, links, albedo, max_links.max(2)))
     }
 
@@ -89,12 +101,24 @@ impl GpuLinks {
         let n = links.vertex_count() as u32;
         let groups = dispatch_size(n, WORKGROUP, dev.limits.max_compute_workgroups_per_dimension);
         let max_dim = dev.limits.max_compute_workgroups_per_dimension;
-        let segments = segments(&links.offsets, max_links)
+        let limit = dev.limits.max_storage_buffer_binding_size.min(dev.limits.max_buffer_size) as usize;
+        let starts = &links.packed.starts;
+        // Whole rows, at most `max_links` links and a binding of stream bytes each.
+        let rows: Vec<(usize, usize)> = segments(&links.offsets, max_links)
+            .into_iter()
+            .flat_map(|(a, b)| {
+                let rebased: Vec<u32> = starts[a..=b].iter().map(|s| s - starts[a]).collect();
+                segments(&rebased, limit - PAD - 4).into_iter().map(move |(x, y)| (a + x, a + y))
+            })
+            .collect();
+        let segments = rows
             .into_iter()
             .enumerate()
             .map(|(i, (a, b))| {
                 let (l0, l1) = (links.offsets[a] as usize, links.offsets[b] as usize);
                 let offsets: Vec<u32> = links.offsets[a..=b].iter().map(|o| o - l0 as u32).collect();
+                let (s0, s1) = (starts[a] as usize, starts[b] as usize);
+                let row_starts: Vec<u32> = starts[a..b].iter().map(|s| s - s0 as u32).collect();
                 let mut packed: Vec<u16> = links.weights[l0..l1].iter().map(|w| w.to_bits()).collect();
                 if packed.len() % 2 == 1 {
                     packed.push(0);
@@ -109,9 +133,11 @@ impl GpuLinks {
                 Segment {
                     uniforms: uniform_init(d, &format!("gather uniforms, segment {i}"), &u),
                     offsets: storage_init(d, &format!("link offsets, segment {i}"), &offsets),
-                    targets: storage_init(d, &format!("link targets, segment {i}"), &links.targets[l0..l1]),
+                    stream: storage_init(d, &format!("link target stream, segment {i}"), &links.packed.words(s0, s1)),
+                    starts: storage_init(d, &format!("link row starts, segment {i}"), &row_starts),
                     weights: storage_init(d, &format!("link weights (f16 pairs), segment {i}"), &packed),
                     groups,
+                    links: l1 - l0,
                 }
             })
             .collect();
@@ -119,6 +145,7 @@ impl GpuLinks {
         GpuLinks {
             gather: pipeline("gather_bounce"),
             update: pipeline("update_bounce"),
+            decode: pipeline("decode_targets"),
             uniforms: uniform_init(d, "update uniforms", &uniforms),
             segments,
             albedo: storage_init(d, "albedo", &vec4s(albedo)),
@@ -168,10 +195,11 @@ impl GpuLinks {
                     &[
                         (0, &g.uniforms),
                         (1, &g.offsets),
-                        (2, &g.targets),
+                        (2, &g.stream),
                         (3, &g.weights),
                         (4, &radiosity),
                         (5, &bounce),
+                        (9, &g.starts),
                     ],
                 )
             })
@@ -193,6 +221,43 @@ impl GpuLinks {
             stand_ins: Vec::new(),
             albedo: albedo.to_vec(),
         }
+    }
+}
+
+impl GpuLinks {
+    /// Every link's target as the WGSL decoder reads it from the uploaded
+    /// stream (`decode_targets`), in link order: equal to `Links::targets`.
+    pub fn decode_targets(&self) -> Result<Vec<u32>> {
+        checked(&self.dev, "decoding link targets", || {
+            let d = &self.dev.device;
+            let mut out = Vec::new();
+            for (i, g) in self.segments.iter().enumerate() {
+                let decoded =
+                    storage_init(d, &format!("decoded targets, segment {i}"), &vec![u32::MAX; g.links.max(1)]);
+                let group = d.create_bind_group(&wgpu::BindGroupDescriptor {
+                    label: Some("decode_targets bind group"),
+                    layout: &self.decode.get_bind_group_layout(0),
+                    entries: &[(0, &g.uniforms), (1, &g.offsets), (2, &g.stream), (9, &g.starts), (10, &decoded)]
+                        .iter()
+                        .map(|(i, b)| wgpu::BindGroupEntry { binding: *i, resource: b.as_entire_binding() })
+                        .collect::<Vec<_>>(),
+                });
+                let mut enc =
+                    d.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("decode targets") });
+                {
+                    let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                        label: Some("decode targets"),
+                        timestamp_writes: None,
+                    });
+                    pass.set_pipeline(&self.decode);
+                    pass.set_bind_group(0, &group, &[]);
+                    pass.dispatch_workgroups(g.groups.0, g.groups.1, 1);
+                }
+                let t: Vec<u32> = read_back(&self.dev, enc, &decoded, "decoded targets")?;
+                out.extend_from_slice(&t[..g.links]);
+            }
+            Ok(out)
+        })?
     }
 }
 

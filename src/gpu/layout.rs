@@ -156,6 +156,15 @@ pub fn shared_structs() -> Vec<SharedStruct> {
     ]
 }
 
+/// Constants shared with WGSL: `(shader file, name, value)`, checked by
+/// the layout test against the shaders' `const` declarations.
+pub fn shared_constants() -> Vec<(&'static str, &'static str, u32)> {
+    vec![
+        ("gather.wgsl", "GAP_BYTES", crate::links::packed::GAP_BYTES_WORD),
+        ("gather.wgsl", "WORKGROUP", crate::gpu::gather::WORKGROUP),
+    ]
+}
+
 /// The WGSL sources, for pipelines and the layout test.
 pub const SHOOT_WGSL: &str = include_str!("../../shaders/shoot.wgsl");
 pub const GATHER_WGSL: &str = include_str!("../../shaders/gather.wgsl");

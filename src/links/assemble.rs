@@ -6,26 +6,19 @@
 //! vertex order into [`Links`] with the counters and storage sizes.
 //!
 //! Sizes: raw links are counted as (u32 target, f32 weight), 8 bytes;
-//! merged links as stored, [`MERGED_LINK_BYTES`] each plus a u32 offset
-//! per vertex ([`merged_bytes`]).
+//! merged links as the gathers read them ([`Links::gather_bytes`]).
 
 use super::merge::{merge_vertex_sums, HitRecord, MergeScratch, HIT_MISS};
 use super::near::{NearHit, NearHits};
+use super::packed::PackedTargets;
 use super::{LinkStats, Links};
 use crate::sky::visibility::miss_mask;
 use crate::sky::SkyVisibility;
 use half::f16;
 use std::sync::Arc;
 
-/// Bytes of one merged link as stored (u32 target + f16 weight).
-pub const MERGED_LINK_BYTES: u64 = 6;
 /// Bytes of one raw link (u32 target + f32 weight).
 pub const RAW_LINK_BYTES: u64 = 8;
-
-/// Bytes of `links` merged links over `vertices` vertices (links plus the offsets).
-pub fn merged_bytes(links: u64, vertices: usize) -> u64 {
-    links * MERGED_LINK_BYTES + 4 * (vertices as u64 + 1)
-}
 
 /// The merged link groups of consecutive vertices `first..first + counts.len()`.
 #[derive(Clone, Debug, Default)]
@@ -33,7 +26,8 @@ pub struct GroupRun {
     pub first: usize,
     /// Links of each vertex, in order.
     pub counts: Vec<u32>,
-    pub targets: Vec<u32>,
+    /// The groups' targets, packed (an unfinished stream, [`super::packed`]).
+    pub packed: PackedTargets,
     pub weights: Vec<f16>,
     /// Fixed-point sums of the links ([`super::merge::fixed_scale`]), kept
     /// only when the run records them ([`GroupRun::recording`]).
@@ -49,6 +43,8 @@ pub struct GroupRun {
     /// Per triangle, the distance under which a hit on it is near.
     near_limits: Option<Arc<[f32]>>,
     scratch: MergeScratch,
+    /// The group being merged.
+    targets: Vec<u32>,
 }
 
 impl GroupRun {
@@ -79,7 +75,7 @@ impl GroupRun {
             super::near::push_near(v, hits, triangles, limits, &mut self.near);
             self.near_counts.push((self.near.len() - before) as u32);
         }
-        let before = self.targets.len();
+        self.targets.clear();
         let sums = self.record_sums.then_some(&mut self.sums);
         let c = merge_vertex_sums(
             hits,
@@ -90,7 +86,8 @@ impl GroupRun {
             &mut self.weights,
             sums,
         );
-        self.counts.push((self.targets.len() - before) as u32);
+        self.counts.push(self.targets.len() as u32);
+        self.packed.push_group(&self.targets);
         let st = &mut self.stats;
         st.rays += hits.len() as u64;
         st.front_hits += c.front as u64;
@@ -108,7 +105,7 @@ impl GroupRun {
     pub fn append(&mut self, next: GroupRun) {
         debug_assert_eq!(next.first, self.first + self.counts.len());
         self.counts.extend(next.counts);
-        self.targets.extend(next.targets);
+        self.packed.append(&next.packed);
         self.weights.extend(next.weights);
         self.sums.extend(next.sums);
         self.sky.extend(next.sky);
@@ -147,7 +144,7 @@ impl CsrBuilder {
             let last = *links.offsets.last().expect("non-empty");
             links.offsets.push(last + c);
         }
-        links.targets.extend(r.targets);
+        links.packed.append(&r.packed);
         links.weights.extend(r.weights);
         self.sums.extend(r.sums);
         self.sky.extend(r.sky);
@@ -177,17 +174,17 @@ impl CsrBuilder {
         if links.offsets.len() != n + 1 {
             return Err(format!("link groups cover {} of {n} vertices", links.offsets.len() - 1));
         }
-        links.targets.shrink_to_fit();
+        links.packed.finish();
+        links.packed.bytes.shrink_to_fit();
         links.weights.shrink_to_fit();
         links.sky = SkyVisibility::from_sparse(n, self.sky);
         if !self.near.offsets.is_empty() && self.near.offsets.len() != n + 1 {
             return Err(format!("near hits recorded for {} of {n} vertices", self.near.offsets.len() - 1));
         }
         links.near = self.near;
+        links.set_sizes();
         let stats = &mut links.stats;
-        stats.merged_links = links.targets.len() as u64;
         stats.raw_bytes = stats.raw_links * RAW_LINK_BYTES;
-        stats.merged_bytes = merged_bytes(stats.merged_links, n);
         stats.shoot_ms = shoot_ms;
         Ok(links)
     }

@@ -11,8 +11,12 @@
 //! ([`Links::sky`], [`crate::sky::visibility`]). Weights are unitless (sr-weighted cosines): `E = W L`, with `L`
 //! in W/(m^2 sr) and `E` in W/m^2; a closed scene's rows sum to pi.
 //!
-//! Storage: a link is a `u32` target plus an IEEE half-precision weight
-//! (6 bytes). Per target, barycentric weights are summed in fixed point
+//! Storage: a link is an IEEE half-precision weight and its target, coded
+//! as the gap to the previous target of its group in a byte stream
+//! ([`packed`]; about 0.5 bytes), what both gathers read: about 2.5 bytes a
+//! link ([`Links::gather_bytes`]; u32 targets with the f16 weights took 6).
+//! Groups are packed as they are merged ([`assemble::GroupRun`]), so full
+//! u32 targets exist only one group at a time. Per target, barycentric weights are summed in fixed point
 //! ([`merge::fixed_scale`]: 2^-23 of a ray's weight at 256 rays, so the sum
 //! does not depend on ray order); weights are then rounded to f16 in target
 //! order with the rounding error carried to the next link (error
@@ -24,13 +28,14 @@
 pub mod assemble;
 pub mod merge;
 pub mod near;
+pub mod packed;
 pub mod selective;
 pub mod shoot;
 
 use crate::sky::SkyVisibility;
 use half::f16;
 
-pub use assemble::{assemble, merged_bytes, CsrBuilder, GroupRun};
+pub use assemble::{assemble, CsrBuilder, GroupRun};
 pub use merge::{merge_vertex, HitRecord, MergeScratch, HIT_BACK, HIT_MISS};
 pub use near::{NearHit, NearHits, NearParams};
 pub use selective::{RayHits, ReshootStats};
@@ -51,7 +56,8 @@ pub struct LinkStats {
     pub merged_links: u64,
     /// Raw storage: (u32 target, f32 weight) per raw link.
     pub raw_bytes: u64,
-    /// Merged storage: 6 bytes per link plus a u32 offset per vertex.
+    /// Bytes the gathers read ([`Links::gather_bytes`]): packed targets,
+    /// f16 weights and the row offsets.
     pub merged_bytes: u64,
     pub shoot_ms: f64,
 }
@@ -72,13 +78,15 @@ impl LinkStats {
     }
 }
 
-/// The link matrix in CSR form: vertex `v`'s link group is
-/// `targets[offsets[v]..offsets[v+1]]` with the matching `weights`.
+/// The link matrix in CSR form: vertex `v`'s link group is links
+/// `offsets[v]..offsets[v+1]`: their `weights`, and their targets (strictly
+/// increasing) coded in `packed` ([`packed`]; [`Links::group`] decodes).
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Links {
     pub offsets: Vec<u32>,
-    pub targets: Vec<u32>,
     pub weights: Vec<f16>,
+    /// The targets as the gathers read them ([`packed`]).
+    pub packed: packed::PackedTargets,
     /// Links to the sky: the projection of every vertex's missed ray
     /// directions ([`crate::sky::visibility`]); empty when no ray missed.
     pub sky: SkyVisibility,
@@ -88,46 +96,89 @@ pub struct Links {
 }
 
 impl Links {
+    /// Links from CSR arrays (targets of a group strictly increasing),
+    /// packed, with `stats.merged_links` and `stats.merged_bytes` set.
+    pub fn from_csr(offsets: Vec<u32>, targets: &[u32], weights: Vec<f16>) -> Links {
+        let packed = packed::PackedTargets::encode(&offsets, targets);
+        let mut links = Links { offsets, weights, packed, ..Default::default() };
+        links.set_sizes();
+        links
+    }
+
+    /// Sets `stats.merged_links` and `stats.merged_bytes` from the arrays.
+    pub fn set_sizes(&mut self) {
+        self.stats.merged_links = self.weights.len() as u64;
+        self.stats.merged_bytes = self.gather_bytes();
+    }
+
+    /// Bytes of the links as the gathers read them: the packed targets
+    /// with their row starts, 2 per weight, 4 per row offset. The one size
+    /// formula (stats, bench, GPU upload).
+    pub fn gather_bytes(&self) -> u64 {
+        self.packed.bytes() + 2 * self.weights.len() as u64 + 4 * self.offsets.len() as u64
+    }
+
     pub fn vertex_count(&self) -> usize {
         self.offsets.len().saturating_sub(1)
     }
 
-    /// Vertex `v`'s link group.
-    pub fn group(&self, v: usize) -> (&[u32], &[f16]) {
-        let r = self.offsets[v] as usize..self.offsets[v + 1] as usize;
-        (&self.targets[r.clone()], &self.weights[r])
+    /// Links in all groups.
+    pub fn link_count(&self) -> usize {
+        self.weights.len()
+    }
+
+    /// Vertex `v`'s targets, appended to `out`.
+    pub fn targets_into(&self, v: usize, out: &mut Vec<u32>) {
+        let count = (self.offsets[v + 1] - self.offsets[v]) as usize;
+        self.packed.decode_group(v, count, out);
+    }
+
+    /// Every link's target in link order (decoded).
+    pub fn targets(&self) -> Vec<u32> {
+        let mut out = Vec::with_capacity(self.link_count());
+        for v in 0..self.vertex_count() {
+            self.targets_into(v, &mut out);
+        }
+        out
+    }
+
+    /// Vertex `v`'s link group: its targets (decoded) and weights.
+    pub fn group(&self, v: usize) -> (Vec<u32>, &[f16]) {
+        let mut t = Vec::new();
+        self.targets_into(v, &mut t);
+        (t, &self.weights[self.offsets[v] as usize..self.offsets[v + 1] as usize])
+    }
+
+    /// Vertex `v`'s weights.
+    pub fn weights_of(&self, v: usize) -> &[f16] {
+        &self.weights[self.offsets[v] as usize..self.offsets[v + 1] as usize]
     }
 
     /// Sum of vertex `v`'s weights (pi for a vertex that sees only front faces).
     pub fn row_sum(&self, v: usize) -> f64 {
         // f16 -> f32 is exact (and a hardware conversion on x86), so this
         // equals summing `to_f64` values.
-        self.group(v).1.iter().map(|w| w.to_f32() as f64).sum()
+        self.weights_of(v).iter().map(|w| w.to_f32() as f64).sum()
     }
 
-    /// Checks offsets (monotone, matching lengths), targets (in range,
-    /// strictly increasing within a group, so merged) and weights (finite,
-    /// positive, rows summing to at most pi).
+    /// Checks offsets (monotone, matching lengths), the packed targets (in
+    /// range, strictly increasing within a group, so merged; each row's
+    /// bytes exactly its links') and weights (finite, positive, rows
+    /// summing to at most pi).
     pub fn validate(&self) -> Result<(), String> {
         let n = self.vertex_count();
         if self.offsets.first() != Some(&0) {
             return Err("offsets do not start at 0".into());
         }
-        if *self.offsets.last().unwrap() as usize != self.targets.len() || self.targets.len() != self.weights.len() {
-            return Err("offsets, targets and weights disagree in length".into());
+        if *self.offsets.last().unwrap() as usize != self.weights.len() {
+            return Err("offsets and weights disagree in length".into());
         }
+        if let Some(v) = (0..n).find(|&v| self.offsets[v] > self.offsets[v + 1]) {
+            return Err(format!("offsets decrease at vertex {v}"));
+        }
+        self.packed.validate(&self.offsets, n)?;
         for v in 0..n {
-            if self.offsets[v] > self.offsets[v + 1] {
-                return Err(format!("offsets decrease at vertex {v}"));
-            }
-            let (t, w) = self.group(v);
-            if let Some(bad) = t.iter().find(|&&x| x as usize >= n) {
-                return Err(format!("vertex {v} links to {bad}, but there are {n} vertices"));
-            }
-            if t.windows(2).any(|p| p[0] >= p[1]) {
-                return Err(format!("vertex {v}: targets not strictly increasing (unmerged)"));
-            }
-            if let Some(bad) = w.iter().find(|x| !(x.is_finite() && x.to_f32() > 0.0)) {
+            if let Some(bad) = self.weights_of(v).iter().find(|x| !(x.is_finite() && x.to_f32() > 0.0)) {
                 return Err(format!("vertex {v}: weight {bad} is not finite and positive"));
             }
             let sum = self.row_sum(v);

@@ -288,7 +288,9 @@ impl Context<'_> {
     fn patched(&self, v: usize, scratch: &mut Scratch) -> Patch {
         scratch.deltas.sort_unstable_by_key(|&(t, _)| t);
         let r = self.links.offsets[v] as usize..self.links.offsets[v + 1] as usize;
-        let (targets, sums) = (&self.links.targets[r.clone()], &self.sums[r]);
+        scratch.targets.clear();
+        self.links.targets_into(v, &mut scratch.targets);
+        let (targets, sums) = (&scratch.targets, &self.sums[r]);
         let mut p = Patch {
             targets: Vec::with_capacity(targets.len() + 4),
             weights: Vec::new(),
@@ -388,6 +390,8 @@ struct Scratch {
     deltas: Vec<(u32, i64)>,
     hits: Vec<Option<Hit>>,
     merge: MergeScratch,
+    /// A group's targets, decoded.
+    targets: Vec<u32>,
 }
 
 /// Updates `links` and `hits` (the state before `motion`, with vertex
@@ -410,7 +414,7 @@ pub fn reshoot(
     let rays = setup.directions.len();
     assert_eq!(hits.rays_per_vertex, rays, "ray state of another ray count");
     assert_eq!(hits.ids.len(), n * rays, "ray state of another scene");
-    assert_eq!(hits.sums.len(), links.targets.len(), "link sums of other links");
+    assert_eq!(hits.sums.len(), links.link_count(), "link sums of other links");
     let RayHits { ids, sums, .. } = hits;
     let probe = (!motion.moved_triangles.is_empty())
         .then(|| Bvh::build(&scene.positions, &motion.moved_triangles, &BvhBuildParams::default()));
@@ -456,9 +460,10 @@ pub fn reshoot(
     out.offsets.push(0);
     let mut link_stats = links.stats;
     let extra: usize = results.iter().flat_map(|r| r.0.iter().flatten()).map(|p| p.targets.len()).sum();
-    out.targets.reserve(links.targets.len() + extra);
-    out.weights.reserve(links.targets.len() + extra);
-    let mut new_sums = Vec::with_capacity(links.targets.len() + extra);
+    out.weights.reserve(links.link_count() + extra);
+    out.packed.bytes.reserve(links.packed.bytes.len() + extra);
+    out.packed.starts.reserve(n + 1);
+    let mut new_sums = Vec::with_capacity(links.link_count() + extra);
     let mut sky = links.sky.clone();
     let mut patched = vec![false; n];
     let mut v = 0;
@@ -468,7 +473,7 @@ pub fn reshoot(
         for p in patches {
             match p {
                 Some(p) => {
-                    out.targets.extend_from_slice(&p.targets);
+                    out.packed.push_group(&p.targets);
                     out.weights.extend_from_slice(&p.weights);
                     new_sums.extend_from_slice(&p.sums);
                     let s = &mut link_stats;
@@ -480,22 +485,21 @@ pub fn reshoot(
                     sky.set(v, n, rays, p.sky.as_deref());
                 }
                 None => {
-                    let (t, w) = links.group(v);
-                    out.targets.extend_from_slice(t);
-                    out.weights.extend_from_slice(w);
+                    out.packed.push_row_of(&links.packed, v);
+                    out.weights.extend_from_slice(links.weights_of(v));
                     new_sums.extend_from_slice(&sums[links.offsets[v] as usize..links.offsets[v + 1] as usize]);
                 }
             }
-            out.offsets.push(out.targets.len() as u32);
+            out.offsets.push(out.weights.len() as u32);
             v += 1;
         }
     }
     stats.static_rays = (n - motion.remade_count) as u64 * rays as u64;
     link_stats.raw_links = 3 * link_stats.front_hits;
     link_stats.raw_bytes = link_stats.raw_links * super::assemble::RAW_LINK_BYTES;
-    link_stats.merged_links = out.targets.len() as u64;
-    link_stats.merged_bytes = super::merged_bytes(link_stats.merged_links, n);
     out.stats = link_stats;
+    out.packed.finish();
+    out.set_sizes();
     sky.compact();
     out.sky = sky;
     let (near, near_redone) = near_hits(&ctx, params, links, ids, &patched);
@@ -568,13 +572,15 @@ pub fn shoot_groups(
 }
 
 /// What [`splice_groups`] took out of a link matrix: its groups from
-/// vertex `first` on, and its figures.
+/// the first replaced vertex on (offsets, weights, packed rows) and its stats.
 #[derive(Debug)]
 pub struct Spliced {
     first: usize,
     offsets: Vec<u32>,
-    targets: Vec<u32>,
     weights: Vec<f16>,
+    /// Row starts of rows `first..` plus the stream's end, and their bytes with the padding.
+    starts: Vec<u32>,
+    bytes: Vec<u8>,
     stats: LinkStats,
 }
 
@@ -587,32 +593,36 @@ pub fn splice_groups(links: &mut Links, groups: &[(u32, Vec<u32>, Vec<f16>)]) ->
     let n = links.vertex_count();
     let first = groups.first().map_or(n, |g| g.0 as usize);
     let start = links.offsets[first] as usize;
+    let byte_start = links.packed.starts[first] as usize;
     let saved = Spliced {
         first,
         offsets: links.offsets.split_off(first + 1),
-        targets: links.targets.split_off(start),
         weights: links.weights.split_off(start),
+        starts: links.packed.starts.split_off(first),
+        bytes: links.packed.bytes.split_off(byte_start),
         stats: links.stats,
     };
     let mut next = groups.iter().peekable();
     for v in first..n {
         match next.peek() {
             Some((g, t, w)) if *g as usize == v => {
-                links.targets.extend_from_slice(t);
+                links.packed.push_group(t);
                 links.weights.extend_from_slice(w);
                 next.next();
             }
             _ => {
                 let a = if v == first { start } else { saved.offsets[v - first - 1] as usize };
                 let b = saved.offsets[v - first] as usize;
-                links.targets.extend_from_slice(&saved.targets[a - start..b - start]);
                 links.weights.extend_from_slice(&saved.weights[a - start..b - start]);
+                let (x, y) = (saved.starts[v - first] as usize, saved.starts[v - first + 1] as usize);
+                links.packed.starts.push(links.packed.bytes.len() as u32);
+                links.packed.bytes.extend_from_slice(&saved.bytes[x - byte_start..y - byte_start]);
             }
         }
-        links.offsets.push(links.targets.len() as u32);
+        links.offsets.push(links.weights.len() as u32);
     }
-    links.stats.merged_links = links.targets.len() as u64;
-    links.stats.merged_bytes = super::merged_bytes(links.stats.merged_links, n);
+    links.packed.finish();
+    links.set_sizes();
     saved
 }
 
@@ -620,12 +630,15 @@ impl Spliced {
     /// Puts the groups taken out by [`splice_groups`] back into `links`.
     pub fn restore(mut self, links: &mut Links) {
         let start = links.offsets[self.first] as usize;
+        let byte_start = links.packed.starts[self.first] as usize;
         links.offsets.truncate(self.first + 1);
-        links.targets.truncate(start);
         links.weights.truncate(start);
+        links.packed.starts.truncate(self.first);
+        links.packed.bytes.truncate(byte_start);
         links.offsets.append(&mut self.offsets);
-        links.targets.append(&mut self.targets);
         links.weights.append(&mut self.weights);
+        links.packed.starts.append(&mut self.starts);
+        links.packed.bytes.append(&mut self.bytes);
         links.stats = self.stats;
     }
 }
