@@ -194,17 +194,22 @@ pub fn markdown(rows: &[BenchRow]) -> String {
             "\n### Gather bandwidth (CPU; machine read bandwidth {:.1} GB/s, parallel sum over 512 MB)\n",
             first.read_gbps
         );
-        let _ = writeln!(out, "| scene | MB per bounce | ms per bounce | GB/s | % of read bandwidth |");
-        let _ = writeln!(out, "|---|---|---|---|---|");
+        let _ = writeln!(
+            out,
+            "| scene | bytes a link | MB per bounce | ms per bounce | G links/s | GB/s | % of read bandwidth |"
+        );
+        let _ = writeln!(out, "|---|---|---|---|---|---|---|");
         for r in cpu {
             let ms = r.bounces_ms.median / r.bounces.max(1) as f64;
             let gbps = r.gather_bytes as f64 / (ms * 1e-3) / 1e9;
             let _ = writeln!(
                 out,
-                "| {} | {:.1} | {:.2} | {:.1} | {:.0}% |",
+                "| {} | {:.2} | {:.1} | {:.2} | {:.2} | {:.1} | {:.0}% |",
                 r.scene,
+                r.mb_merged * 1e6 / r.links_merged.max(1) as f64,
                 r.gather_bytes as f64 / 1e6,
                 ms,
+                r.links_merged as f64 / (ms * 1e-3) / 1e9,
                 gbps,
                 100.0 * gbps / r.read_gbps
             );

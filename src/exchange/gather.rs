@@ -102,9 +102,11 @@ fn gather_chunk(links: &Links, b: &[Vec4], first: usize, chunk: &mut [Vec3]) {
     }
 }
 
-/// [`gather_chunk`] with SSE/AVX2 decoding ([`packed::simd::decode_block`])
-/// and F16C weight conversion: the same multiplies and adds in the same
-/// order, so the same bits.
+/// [`gather_chunk`] with SSSE3 decoding ([`packed::simd::decode_block`]),
+/// F16C weight conversion and AVX2 arithmetic: two links' radiosity in one
+/// 256-bit register (partial sums 0 and 1 in one register, 2 and 3 in
+/// another), the same multiplies and adds in the same order per lane, so
+/// the same bits.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,f16c")]
 unsafe fn gather_chunk_simd(links: &Links, b: &[Vec4], first: usize, chunk: &mut [Vec3]) {
@@ -112,38 +114,40 @@ unsafe fn gather_chunk_simd(links: &Links, b: &[Vec4], first: usize, chunk: &mut
     let last = _mm_set1_epi32(b.len().saturating_sub(1) as i32);
     let bp = b.as_ptr() as *const f32;
     let wp = links.weights.as_ptr() as *const u16;
-    let row = |t: __m128i, k: i32| -> *const f32 {
-        let i = match k {
-            0 => _mm_cvtsi128_si32(t),
-            1 => _mm_extract_epi32::<1>(t),
-            2 => _mm_extract_epi32::<2>(t),
-            _ => _mm_extract_epi32::<3>(t),
-        };
-        bp.add(4 * i as u32 as usize)
-    };
+    let (lo_pair, hi_pair) = (_mm256_setr_epi32(0, 0, 0, 0, 1, 1, 1, 1), _mm256_setr_epi32(2, 2, 2, 2, 3, 3, 3, 3));
     for (i, o) in chunk.iter_mut().enumerate() {
         let v = first + i;
         let (j0, j1) = (links.offsets[v] as usize, links.offsets[v + 1] as usize);
         let mut p = links.packed.bytes.as_ptr().add(links.packed.starts[v] as usize);
         let mut prev = _mm_set1_epi32(-1);
-        let mut acc = [_mm_setzero_ps(); 4];
+        let (mut acc01, mut acc23) = (_mm256_setzero_ps(), _mm256_setzero_ps());
         let mut j = j0;
         while j + 4 <= j1 {
             // Targets beyond the radiosity are clamped (they never occur in
             // valid links: `Links::validate`), so every load is in bounds.
             let t = _mm_min_epu32(packed::simd::decode_block(&mut p, &mut prev), last);
-            let w = _mm_cvtph_ps(_mm_loadl_epi64(wp.add(j) as *const __m128i));
-            acc[0] = _mm_add_ps(acc[0], _mm_mul_ps(_mm_load_ps(row(t, 0)), _mm_shuffle_ps::<0x00>(w, w)));
-            acc[1] = _mm_add_ps(acc[1], _mm_mul_ps(_mm_load_ps(row(t, 1)), _mm_shuffle_ps::<0x55>(w, w)));
-            acc[2] = _mm_add_ps(acc[2], _mm_mul_ps(_mm_load_ps(row(t, 2)), _mm_shuffle_ps::<0xaa>(w, w)));
-            acc[3] = _mm_add_ps(acc[3], _mm_mul_ps(_mm_load_ps(row(t, 3)), _mm_shuffle_ps::<0xff>(w, w)));
+            let (t01, t23) = (_mm_cvtsi128_si64(t) as u64, _mm_extract_epi64::<1>(t) as u64);
+            let row = |t: u64| bp.add(4 * (t as u32) as usize);
+            let b01 = _mm256_loadu2_m128(row(t01 >> 32), row(t01));
+            let b23 = _mm256_loadu2_m128(row(t23 >> 32), row(t23));
+            let w = _mm256_castps128_ps256(_mm_cvtph_ps(_mm_loadl_epi64(wp.add(j) as *const __m128i)));
+            acc01 = _mm256_add_ps(acc01, _mm256_mul_ps(b01, _mm256_permutevar8x32_ps(w, lo_pair)));
+            acc23 = _mm256_add_ps(acc23, _mm256_mul_ps(b23, _mm256_permutevar8x32_ps(w, hi_pair)));
             j += 4;
         }
+        let mut acc = [
+            _mm256_castps256_ps128(acc01),
+            _mm256_extractf128_ps::<1>(acc01),
+            _mm256_castps256_ps128(acc23),
+            _mm256_extractf128_ps::<1>(acc23),
+        ];
         if j < j1 {
-            let t = _mm_min_epu32(packed::simd::decode_block(&mut p, &mut prev), last);
+            let mut t = [0u32; 4];
+            let d = _mm_min_epu32(packed::simd::decode_block(&mut p, &mut prev), last);
+            _mm_storeu_si128(t.as_mut_ptr() as *mut __m128i, d);
             for (k, a) in acc.iter_mut().enumerate().take(j1 - j) {
                 let w = _mm_set1_ps(links.weights[j + k].to_f32());
-                *a = _mm_add_ps(*a, _mm_mul_ps(_mm_load_ps(row(t, k as i32)), w));
+                *a = _mm_add_ps(*a, _mm_mul_ps(_mm_load_ps(bp.add(4 * t[k] as usize)), w));
             }
         }
         let s = _mm_add_ps(_mm_add_ps(acc[0], acc[1]), _mm_add_ps(acc[2], acc[3]));

@@ -92,13 +92,14 @@ pub fn variance(
     let factor = (params.scale * (params.reference_rays as f32 / n_c).powf(params.exponent)).min(1.0) / n_c;
     #[cfg(target_arch = "x86_64")]
     let avx2 = std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("f16c");
+    assert_eq!(links.packed.rows(), links.vertex_count(), "links not packed");
     (0..links.vertex_count())
         .into_par_iter()
         .map(|v| {
             #[cfg(target_arch = "x86_64")]
             if avx2 {
                 // SAFETY: the CPU supports AVX2 and F16C (checked above).
-                let (m1, m2) = unsafe { moments_avx2(links, &b, v) };
+                let (m1, m2) = unsafe { moments_simd(links, &b, v) };
                 return (PI * m2 - m1 * m1).max(Vec3::ZERO) * factor;
             }
             let (m1, m2) = moments(links, &b, v);
@@ -107,11 +108,49 @@ pub fn variance(
         .collect()
 }
 
-/// [`moments`] compiled for AVX2 and F16C (the same arithmetic).
+/// [`moments`] with SSSE3 block decoding ([`packed::simd::decode_block`]),
+/// F16C weights and AVX2 arithmetic: a target's `[B, B^2]` (32 bytes) in
+/// one register, so one load, multiply and add a link; the same arithmetic
+/// per lane in the same order as [`moments`], so the same bits.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,f16c")]
-fn moments_avx2(links: &Links, b: &[[Vec4; 2]], v: usize) -> (Vec3, Vec3) {
-    moments(links, b, v)
+unsafe fn moments_simd(links: &Links, b: &[[Vec4; 2]], v: usize) -> (Vec3, Vec3) {
+    use std::arch::x86_64::*;
+    let last = _mm_set1_epi32(b.len().saturating_sub(1) as i32);
+    let bp = b.as_ptr() as *const f32;
+    let wp = links.weights.as_ptr() as *const u16;
+    let row = |t: u32| _mm256_loadu_ps(bp.add(8 * t as usize));
+    let (j0, j1) = (links.offsets[v] as usize, links.offsets[v + 1] as usize);
+    let mut p = links.packed.bytes.as_ptr().add(links.packed.starts[v] as usize);
+    let mut prev = _mm_set1_epi32(-1);
+    let mut acc = [_mm256_setzero_ps(); 2];
+    let mut j = j0;
+    while j + 4 <= j1 {
+        // Clamped as in the gather: every load is in bounds.
+        let t = _mm_min_epu32(packed::simd::decode_block(&mut p, &mut prev), last);
+        let (t01, t23) = (_mm_cvtsi128_si64(t) as u64, _mm_extract_epi64::<1>(t) as u64);
+        let w = _mm256_castps128_ps256(_mm_cvtph_ps(_mm_loadl_epi64(wp.add(j) as *const __m128i)));
+        let lane = |k: i32| _mm256_permutevar8x32_ps(w, _mm256_set1_epi32(k));
+        acc[0] = _mm256_add_ps(acc[0], _mm256_mul_ps(row(t01 as u32), lane(0)));
+        acc[1] = _mm256_add_ps(acc[1], _mm256_mul_ps(row((t01 >> 32) as u32), lane(1)));
+        acc[0] = _mm256_add_ps(acc[0], _mm256_mul_ps(row(t23 as u32), lane(2)));
+        acc[1] = _mm256_add_ps(acc[1], _mm256_mul_ps(row((t23 >> 32) as u32), lane(3)));
+        j += 4;
+    }
+    if j < j1 {
+        let mut t = [0u32; 4];
+        let d = _mm_min_epu32(packed::simd::decode_block(&mut p, &mut prev), last);
+        _mm_storeu_si128(t.as_mut_ptr() as *mut __m128i, d);
+        for k in 0..j1 - j {
+            let w = _mm256_set1_ps(links.weights[j + k].to_f32());
+            acc[k & 1] = _mm256_add_ps(acc[k & 1], _mm256_mul_ps(row(t[k]), w));
+        }
+    }
+    let half =
+        |a: __m256, hi: bool| Vec4::from(if hi { _mm256_extractf128_ps::<1>(a) } else { _mm256_castps256_ps128(a) });
+    let m1 = half(acc[0], false) + half(acc[1], false);
+    let m2 = half(acc[0], true) + half(acc[1], true);
+    (m1.truncate(), m2.truncate())
 }
 
 /// `(sum_j w_j B_j, sum_j w_j B_j^2)` over vertex `v`'s links, in two
@@ -138,6 +177,34 @@ mod tests {
     use super::*;
     use half::f16;
     use rand::{Rng, SeedableRng};
+
+    /// The SIMD decoding kernel gives the portable kernel's bits.
+    #[cfg(target_arch = "x86_64")]
+    #[test]
+    fn simd_moments_equal_portable_moments() {
+        if !(std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("f16c")) {
+            return;
+        }
+        let mut rng = rand_pcg::Pcg32::seed_from_u64(5);
+        let n = 700;
+        let (mut offsets, mut targets, mut weights) = (vec![0u32], Vec::new(), Vec::new());
+        for _ in 0..n {
+            let mut t: Vec<u32> = (0..rng.random_range(0..13)).map(|_| rng.random_range(0..n as u32)).collect();
+            t.sort_unstable();
+            t.dedup();
+            weights.extend(t.iter().map(|_| f16::from_f32(rng.random_range(0.0..0.3))));
+            targets.extend(t);
+            offsets.push(targets.len() as u32);
+        }
+        let links = Links::from_csr(offsets, &targets, weights);
+        let b: Vec<[Vec4; 2]> =
+            (0..n).map(|i| [Vec4::splat(1.0 + (i as f32).sin()), Vec4::splat(0.3 * i as f32)]).collect();
+        for v in 0..n {
+            // SAFETY: AVX2 and F16C are available (checked above).
+            let (a, c) = (moments(&links, &b, v), unsafe { moments_simd(&links, &b, v) });
+            assert_eq!((a.0.to_array(), a.1.to_array()), (c.0.to_array(), c.1.to_array()), "vertex {v}");
+        }
+    }
 
     /// The interleaved kernel equals a plain f64 sum of `w B` and `w B^2`.
     #[test]

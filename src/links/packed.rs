@@ -87,25 +87,27 @@ pub fn encode_group(targets: &[u32], out: &mut Vec<u8>) {
     }
 }
 
+/// Masks of a gap's bytes in a little-endian u32, per code.
+const GAP_MASKS: [u32; 4] = [0, 0xff, 0xffff, 0xffff_ffff];
+
 /// Decodes one block at `bytes[*pos..]`: the next four targets after `prev`
 /// (slots past a group's end repeat the next-vertex rule and are to be
-/// ignored); advances `pos` and `prev` (to the fourth target).
+/// ignored); advances `pos` and `prev` (to the fourth target). Reads up to
+/// 16 bytes past the control byte (inside the padding at the stream's end).
 #[inline(always)]
 pub fn decode_block(bytes: &[u8], pos: &mut usize, prev: &mut u32) -> [u32; 4] {
-    let ctl = bytes[*pos] as u32;
-    let mut p = *pos + 1;
+    let ctl = bytes[*pos] as usize;
+    let data = &bytes[*pos + 1..*pos + 17];
+    let mut p = 0;
     let mut out = [0u32; 4];
     for (k, o) in out.iter_mut().enumerate() {
-        let len = CODE_BYTES[(ctl >> (2 * k) & 3) as usize] as usize;
-        let mut gap = 0u32;
-        for (i, b) in bytes[p..p + len].iter().enumerate() {
-            gap |= (*b as u32) << (8 * i);
-        }
-        p += len;
-        *prev = prev.wrapping_add(1).wrapping_add(gap);
+        let code = ctl >> (2 * k) & 3;
+        let raw = u32::from_le_bytes([data[p], data[p + 1], data[p + 2], data[p + 3]]);
+        p += CODE_BYTES[code] as usize;
+        *prev = prev.wrapping_add(1).wrapping_add(raw & GAP_MASKS[code]);
         *o = *prev;
     }
-    *pos = p;
+    *pos += 1 + p;
     out
 }
 
