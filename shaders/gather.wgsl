@@ -5,11 +5,11 @@
 // E^(b) for the bounce totals (the CPU adds the partials in f64).
 // Links are compact (src/links/packed.rs): weights are IEEE half floats
 // packed two per u32 (link j in the low half of word j/2 when j is even);
-// targets are gaps in a byte stream of blocks of four links: a control
-// byte (two bits a link: code k means GAP_BYTES byte k data bytes), then
-// the gaps, little-endian; target = previous target + 1 + gap, starting
-// from previous = 0xffffffff. The stream is read as little-endian u32
-// words, padded with 16 zero bytes.
+// targets are gaps in a byte stream: a row is the control bytes of its
+// blocks of four links (two bits a link: code k means GAP_BYTES byte k
+// data bytes), then the blocks' gaps, little-endian; target = previous
+// target + 1 + gap, starting from previous = 0xffffffff. The stream is
+// read as little-endian u32 words, padded with 16 zero bytes.
 
 const WORKGROUP: u32 = 256u;
 // Byte k: data bytes of a gap of code k (`links::packed::CODE_BYTES`).
@@ -61,24 +61,31 @@ fn stream_bytes(i: u32, len: u32) -> u32 {
     return select(x & ((1u << (len * 8u)) - 1u), x, len == 4u);
 }
 
-// One row's decoder: the stream position and the previous target.
+// One row's decoder: the next control byte, the next data byte and the
+// previous target.
 struct RowCursor {
-    at: u32,
+    ctl: u32,
+    data: u32,
     prev: u32,
 }
 
-// The control byte of the block at the cursor (and steps past it).
+// The decoder at the start of a row of `count` links starting at byte `start`.
+fn row_cursor(start: u32, count: u32) -> RowCursor {
+    return RowCursor(start, start + (count + 3u) / 4u, 0xffffffffu);
+}
+
+// The next block's control byte (and steps past it).
 fn block_control(c: ptr<function, RowCursor>) -> u32 {
-    let ctl = stream_bytes((*c).at, 1u);
-    (*c).at += 1u;
+    let ctl = stream_bytes((*c).ctl, 1u);
+    (*c).ctl += 1u;
     return ctl;
 }
 
 // Lane `lane`'s target of a block with control byte `ctl` (lanes in order).
 fn next_target(c: ptr<function, RowCursor>, ctl: u32, lane: u32) -> u32 {
     let len = (GAP_BYTES >> (8u * ((ctl >> (2u * lane)) & 3u))) & 0xffu;
-    (*c).prev += 1u + stream_bytes((*c).at, len);
-    (*c).at += len;
+    (*c).prev += 1u + stream_bytes((*c).data, len);
+    (*c).data += len;
     return (*c).prev;
 }
 
@@ -92,7 +99,7 @@ fn gather_bounce(@builtin(global_invocation_id) gid: vec3<u32>) {
     var acc = array<vec3<f32>, 4>(vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0));
     let j0 = offsets[local];
     let count = offsets[local + 1u] - j0;
-    var c = RowCursor(row_starts[local], 0xffffffffu);
+    var c = row_cursor(row_starts[local], count);
     for (var k = 0u; k < count; k += 4u) {
         let ctl = block_control(&c);
         for (var l = 0u; l < min(4u, count - k); l++) {
@@ -112,7 +119,7 @@ fn decode_targets(@builtin(global_invocation_id) gid: vec3<u32>) {
     }
     let j0 = offsets[local];
     let count = offsets[local + 1u] - j0;
-    var c = RowCursor(row_starts[local], 0xffffffffu);
+    var c = row_cursor(row_starts[local], count);
     for (var k = 0u; k < count; k += 4u) {
         let ctl = block_control(&c);
         for (var l = 0u; l < min(4u, count - k); l++) {

@@ -83,17 +83,17 @@ pub fn gather_bounce_padded(links: &Links, b: &[Vec4], out: &mut [Vec3]) {
 }
 
 /// Gathers vertices `first..first + chunk.len()` into `chunk`, decoding
-/// the targets block by block ([`packed::decode_block`]): the portable
+/// the targets block by block ([`packed::Cursor`]): the portable
 /// kernel, and the oracle of the SIMD one.
 fn gather_chunk(links: &Links, b: &[Vec4], first: usize, chunk: &mut [Vec3]) {
     let last = b.len().saturating_sub(1);
     for (i, o) in chunk.iter_mut().enumerate() {
         let v = first + i;
         let (j0, j1) = (links.offsets[v] as usize, links.offsets[v + 1] as usize);
-        let (mut pos, mut prev) = (links.packed.starts[v] as usize, u32::MAX);
+        let mut c = links.packed.cursor(v, j1 - j0);
         let mut acc = [Vec4::ZERO; 4];
         for j in (j0..j1).step_by(4) {
-            let t = packed::decode_block(&links.packed.bytes, &mut pos, &mut prev);
+            let t = c.block(&links.packed.bytes);
             for k in 0..(j1 - j).min(4) {
                 acc[k] += b[(t[k] as usize).min(last)] * links.weights[j + k].to_f32();
             }
@@ -102,7 +102,7 @@ fn gather_chunk(links: &Links, b: &[Vec4], first: usize, chunk: &mut [Vec3]) {
     }
 }
 
-/// [`gather_chunk`] with SSSE3 decoding ([`packed::simd::decode_block`]),
+/// [`gather_chunk`] with SSSE3 decoding ([`packed::simd::Cursor`]),
 /// F16C weight conversion and AVX2 arithmetic: two links' radiosity in one
 /// 256-bit register (partial sums 0 and 1 in one register, 2 and 3 in
 /// another), the same multiplies and adds in the same order per lane, so
@@ -118,14 +118,13 @@ unsafe fn gather_chunk_simd(links: &Links, b: &[Vec4], first: usize, chunk: &mut
     for (i, o) in chunk.iter_mut().enumerate() {
         let v = first + i;
         let (j0, j1) = (links.offsets[v] as usize, links.offsets[v + 1] as usize);
-        let mut p = links.packed.bytes.as_ptr().add(links.packed.starts[v] as usize);
-        let mut prev = _mm_set1_epi32(-1);
+        let mut c = packed::simd::Cursor::new(&links.packed, v, j1 - j0);
         let (mut acc01, mut acc23) = (_mm256_setzero_ps(), _mm256_setzero_ps());
         let mut j = j0;
         while j + 4 <= j1 {
             // Targets beyond the radiosity are clamped (they never occur in
             // valid links: `Links::validate`), so every load is in bounds.
-            let t = _mm_min_epu32(packed::simd::decode_block(&mut p, &mut prev), last);
+            let t = _mm_min_epu32(c.block(), last);
             let (t01, t23) = (_mm_cvtsi128_si64(t) as u64, _mm_extract_epi64::<1>(t) as u64);
             let row = |t: u64| bp.add(4 * (t as u32) as usize);
             let b01 = _mm256_loadu2_m128(row(t01 >> 32), row(t01));
@@ -143,7 +142,7 @@ unsafe fn gather_chunk_simd(links: &Links, b: &[Vec4], first: usize, chunk: &mut
         ];
         if j < j1 {
             let mut t = [0u32; 4];
-            let d = _mm_min_epu32(packed::simd::decode_block(&mut p, &mut prev), last);
+            let d = _mm_min_epu32(c.block(), last);
             _mm_storeu_si128(t.as_mut_ptr() as *mut __m128i, d);
             for (k, a) in acc.iter_mut().enumerate().take(j1 - j) {
                 let w = _mm_set1_ps(links.weights[j + k].to_f32());

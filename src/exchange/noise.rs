@@ -108,7 +108,7 @@ pub fn variance(
         .collect()
 }
 
-/// [`moments`] with SSSE3 block decoding ([`packed::simd::decode_block`]),
+/// [`moments`] with SSSE3 block decoding ([`packed::simd::Cursor`]),
 /// F16C weights and AVX2 arithmetic: a target's `[B, B^2]` (32 bytes) in
 /// one register, so one load, multiply and add a link; the same arithmetic
 /// per lane in the same order as [`moments`], so the same bits.
@@ -121,13 +121,12 @@ unsafe fn moments_simd(links: &Links, b: &[[Vec4; 2]], v: usize) -> (Vec3, Vec3)
     let wp = links.weights.as_ptr() as *const u16;
     let row = |t: u32| _mm256_loadu_ps(bp.add(8 * t as usize));
     let (j0, j1) = (links.offsets[v] as usize, links.offsets[v + 1] as usize);
-    let mut p = links.packed.bytes.as_ptr().add(links.packed.starts[v] as usize);
-    let mut prev = _mm_set1_epi32(-1);
+    let mut c = packed::simd::Cursor::new(&links.packed, v, j1 - j0);
     let mut acc = [_mm256_setzero_ps(); 2];
     let mut j = j0;
     while j + 4 <= j1 {
         // Clamped as in the gather: every load is in bounds.
-        let t = _mm_min_epu32(packed::simd::decode_block(&mut p, &mut prev), last);
+        let t = _mm_min_epu32(c.block(), last);
         let (t01, t23) = (_mm_cvtsi128_si64(t) as u64, _mm_extract_epi64::<1>(t) as u64);
         let w = _mm256_castps128_ps256(_mm_cvtph_ps(_mm_loadl_epi64(wp.add(j) as *const __m128i)));
         let lane = |k: i32| _mm256_permutevar8x32_ps(w, _mm256_set1_epi32(k));
@@ -139,7 +138,7 @@ unsafe fn moments_simd(links: &Links, b: &[[Vec4; 2]], v: usize) -> (Vec3, Vec3)
     }
     if j < j1 {
         let mut t = [0u32; 4];
-        let d = _mm_min_epu32(packed::simd::decode_block(&mut p, &mut prev), last);
+        let d = _mm_min_epu32(c.block(), last);
         _mm_storeu_si128(t.as_mut_ptr() as *mut __m128i, d);
         for k in 0..j1 - j {
             let w = _mm256_set1_ps(links.weights[j + k].to_f32());
@@ -159,10 +158,10 @@ unsafe fn moments_simd(links: &Links, b: &[[Vec4; 2]], v: usize) -> (Vec3, Vec3)
 #[inline(always)]
 fn moments(links: &Links, b: &[[Vec4; 2]], v: usize) -> (Vec3, Vec3) {
     let (j0, j1) = (links.offsets[v] as usize, links.offsets[v + 1] as usize);
-    let (mut pos, mut prev) = (links.packed.starts[v] as usize, u32::MAX);
+    let mut c = links.packed.cursor(v, j1 - j0);
     let (mut m1, mut m2) = ([Vec4::ZERO; 2], [Vec4::ZERO; 2]);
     for j in (j0..j1).step_by(4) {
-        let t = packed::decode_block(&links.packed.bytes, &mut pos, &mut prev);
+        let t = c.block(&links.packed.bytes);
         for k in 0..(j1 - j).min(4) {
             let (x, w) = (&b[t[k] as usize], links.weights[j + k].to_f32());
             m1[k & 1] += x[0] * w;
