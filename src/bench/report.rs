@@ -346,9 +346,10 @@ mod tests {
         assert!(!md.contains("Gather bandwidth"));
         let mut r = synthetic("tearoom");
         r.read_gbps = 10.0;
-        // 6.5 MB a bounce, 4 ms (median) for 3 bounces: 4.9 GB/s, 49% of 10 GB/s.
+        // 1 M links in 6 MB: 6 bytes a link; 6.5 MB a bounce, 4 ms (median)
+        // for 3 bounces: 0.75 G links/s, 4.9 GB/s, 49% of 10 GB/s.
         let md = markdown(&[r]);
-        assert!(md.contains("| tearoom | 6.5 | 1.33 | 4.9 | 49% |"), "{md}");
+        assert!(md.contains("| tearoom | 6.00 | 6.5 | 1.33 | 0.75 | 4.9 | 49% |"), "{md}");
     }
 
     #[test]

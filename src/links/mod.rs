@@ -13,7 +13,7 @@
 //!
 //! Storage: a link is an IEEE half-precision weight and its target, coded
 //! as the gap to the previous target of its group in a byte stream
-//! ([`packed`]; about 0.5 bytes), what both gathers read: about 2.5 bytes a
+//! ([`packed`]; 0.6-0.8 bytes), what both gathers read: about 2.7-2.8 bytes a
 //! link ([`Links::gather_bytes`]; u32 targets with the f16 weights took 6).
 //! Groups are packed as they are merged ([`assemble::GroupRun`]), so full
 //! u32 targets exist only one group at a time. Per target, barycentric weights are summed in fixed point

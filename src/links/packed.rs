@@ -22,7 +22,9 @@
 //! Measured on this project's scenes at 256 rays a vertex (scene vertex
 //! order, `cargo run --release --example link_order_probe`): 51-62% of gaps
 //! are 0, 28-37% under 256, 1-5% under 65536, 0.1% larger; the targets take
-//! 0.54 bytes a link on conference (0.39 on tearoom) beside the 2-byte weight.
+//! 0.79 bytes a link on conference (0.64 on tearoom) with their control
+//! bytes, 2.81 (2.66) with the weight and the row offsets and starts
+//! ([`super::Links::gather_bytes`]; u32 targets took 6).
 //!
 //! Deviations from the issue, measured: weights stay IEEE half floats.
 //! An 8-bit float per link (4-bit exponent below the group's largest
@@ -30,8 +32,8 @@
 //! E_i by 1.5e-3 RMS and 13% at the worst vertex; 12 bits (8-bit mantissa)
 //! by 8e-5 RMS and 1% at the worst vertex (`examples/weight_quant_probe.rs`).
 //! Half floats keep every weight exactly as merged ([`super::merge`]),
-//! convert in one instruction (F16C) and cost 2.5 bytes a link with the
-//! targets, inside the 3-byte budget. Vertex order: a Morton order over
+//! convert in one instruction (F16C) and keep a link under 3 bytes with
+//! the targets. Vertex order: a Morton order over
 //! positions made the gaps larger (conference: 24% instead of 51% zero
 //! gaps, 2.08 instead of 1.79 bytes a link with an 8-bit weight) and the
 //! gather 5-10% slower than the scenes' own order (meshes come in strips
@@ -63,7 +65,7 @@ pub fn code_of(gap: u32) -> u32 {
 /// ([`PackedTargets::push_group`], [`PackedTargets::push_row_of`],
 /// [`PackedTargets::append`]) and then [`PackedTargets::finish`]ed, or all
 /// at once ([`PackedTargets::encode`]). Byte offsets are u32: a stream
-/// holds at most 4 GiB (about 1.6 G links at this project's 2.5 bytes).
+/// holds at most 4 GiB (about 1.5 G links at this project's 2.8 bytes).
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct PackedTargets {
     /// Byte offset of each row's first block (one per row, plus the
