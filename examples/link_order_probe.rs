@@ -124,6 +124,52 @@ fn main() {
         new_of_old[o as usize] = i as u32;
     }
     stats("morton", &links, &new_of_old, &old_of_new);
+    // A shuffled order (an exporter that scrambles vertices), and Morton over it.
+    let mut shuffled: Vec<u32> = (0..n as u32).collect();
+    let mut state = 0x9E3779B97F4A7C15u64;
+    for i in (1..n).rev() {
+        state ^= state << 13;
+        state ^= state >> 7;
+        state ^= state << 17;
+        shuffled.swap(i, (state % (i as u64 + 1)) as usize);
+    }
+    let mut inv = vec![0u32; n];
+    for (i, &o) in shuffled.iter().enumerate() {
+        inv[o as usize] = i as u32;
+    }
+    stats("shuffled", &links, &inv, &shuffled);
+    // Breadth-first over one-rings, from each unvisited vertex in the given order.
+    let bfs = |start_order: &[u32]| {
+        let mut seen = vec![false; n];
+        let mut order = Vec::with_capacity(n);
+        for &s0 in start_order {
+            if seen[s0 as usize] {
+                continue;
+            }
+            seen[s0 as usize] = true;
+            let mut head = order.len();
+            order.push(s0);
+            while head < order.len() {
+                let v = order[head] as usize;
+                head += 1;
+                for &u in scene.rings.row(v) {
+                    if !seen[u as usize] {
+                        seen[u as usize] = true;
+                        order.push(u);
+                    }
+                }
+            }
+        }
+        let mut inv = vec![0u32; n];
+        for (i, &o) in order.iter().enumerate() {
+            inv[o as usize] = i as u32;
+        }
+        (order, inv)
+    };
+    let (o, i) = bfs(&id);
+    stats("bfs", &links, &i, &o);
+    let (o, i) = bfs(&shuffled);
+    stats("bfs(shuf)", &links, &i, &o);
     // The same links renumbered, timed in the library's gather.
     let (mut offsets, mut targets, mut weights) = (vec![0u32], Vec::new(), Vec::new());
     let mut row: Vec<(u32, half::f16)> = Vec::new();

@@ -191,3 +191,56 @@ fn stored_links_keep_the_exact_weights_light() {
         assert!(rms <= 1e-4 && worst <= 2e-3, "{name}: rms {rms:.2e}, worst {worst:.2e}");
     }
 }
+
+/// A scene whose triangles come in scrambled order (so do its solver
+/// vertices, numbered by first corner) is renumbered breadth-first
+/// (`scene::order`): its edges are as short in numbers as the scene's in
+/// order (the scrambled numbering's are twice as long in bits) and its
+/// packed links take the bytes of the scene in order within 5%.
+#[test]
+fn scrambled_meshes_are_renumbered_and_their_links_stay_compact() {
+    use linkgi::scene::order::locality;
+    let desc = linkgi::scene::load("cornell").expect("built-in");
+    let mut scrambled = desc.clone();
+    for m in &mut scrambled.meshes {
+        let t = m.triangles.len();
+        assert_ne!(t % 7919, 0);
+        let perm: Vec<usize> = (0..t).map(|i| (i * 7919 + 13) % t).collect();
+        m.triangles = perm.iter().map(|&i| desc_tri(&desc, &m.name, i)).collect();
+        m.triangle_material = perm.iter().map(|&i| m.triangle_material[i]).collect();
+    }
+    let (a, b) = (prep::prepare(&desc).unwrap(), prep::prepare(&scrambled).unwrap());
+    assert_eq!(a.vertex_count(), b.vertex_count());
+    let mut pa: Vec<[u32; 3]> = a.positions.iter().map(|p| p.to_array().map(f32::to_bits)).collect();
+    let mut pb: Vec<[u32; 3]> = b.positions.iter().map(|p| p.to_array().map(f32::to_bits)).collect();
+    pa.sort_unstable();
+    pb.sort_unstable();
+    assert_eq!(pa, pb, "the same solver vertices");
+    // The scrambled numbering as it would be without renumbering: triangles
+    // in scrambled order, vertices by first corner.
+    let mut first_corner = vec![u32::MAX; b.vertex_count()];
+    let mut next = 0;
+    for t in &b.triangles {
+        for &v in t {
+            if first_corner[v as usize] == u32::MAX {
+                first_corner[v as usize] = next;
+                next += 1;
+            }
+        }
+    }
+    let by_corner: Vec<[u32; 3]> = b.triangles.iter().map(|t| t.map(|v| first_corner[v as usize])).collect();
+    let (ordered, renumbered, kept) = (locality(&a.triangles), locality(&b.triangles), locality(&by_corner));
+    eprintln!("cornell locality: in order {ordered:.2}, scrambled and renumbered {renumbered:.2}, scrambled {kept:.2}");
+    assert!(renumbered < 0.8 * kept && renumbered < 1.2 * ordered);
+    let params = LinkParams { rays_per_vertex: 16, ..Default::default() };
+    let (_, la) = build(a, &params);
+    let (_, lb) = build(b, &params);
+    let bytes = |l: &linkgi::links::Links| l.gather_bytes() as f64 / l.link_count() as f64;
+    eprintln!("bytes a link: in order {:.3}, scrambled and renumbered {:.3}", bytes(&la), bytes(&lb));
+    assert!(bytes(&lb) < 1.05 * bytes(&la));
+}
+
+/// Triangle `i` of the mesh named `name` in `desc`.
+fn desc_tri(desc: &linkgi::scene::SceneDesc, name: &str, i: usize) -> [u32; 3] {
+    desc.meshes.iter().find(|m| m.name == name).expect("mesh").triangles[i]
+}

@@ -17,6 +17,7 @@ mod gltf_mesh;
 pub mod gltf_write;
 pub mod motion;
 pub mod obj;
+pub mod order;
 pub mod prep;
 pub mod shapes;
 

@@ -11,7 +11,9 @@
 //! triangle corners is one *solver vertex* with an angle-weighted normal, an
 //! albedo (its material's, or its corners' per-vertex albedo), a one-ring and
 //! a position-welded id. Triangles too large for `f32` (their edge cross
-//! product overflows) are an error.
+//! product overflows) are an error. Solver vertices are numbered in the
+//! order of their first triangle corner; a mesh whose triangles come in
+//! scrambled order is renumbered breadth-first ([`super::order`]).
 //!
 //! Solver vertices on a crease (their welded position has more than one
 //! solver vertex) or on an open border are flagged `boundary`: their ray
@@ -303,7 +305,7 @@ fn prepare_mesh(mesh: &super::MeshDesc) -> Result<MeshPrep> {
             face_n[triangles.iter().position(|t: &[u32; 3]| t.contains(&(i as u32))).unwrap_or(0)]
         });
     }
-    Ok(MeshPrep {
+    let mut mp = MeshPrep {
         positions,
         normals,
         albedo: albedo.iter().map(|a: &Vec3| a.clamp(Vec3::ZERO, Vec3::splat(super::MAX_ALBEDO))).collect(),
@@ -312,7 +314,32 @@ fn prepare_mesh(mesh: &super::MeshDesc) -> Result<MeshPrep> {
         position_id,
         welded_count: welded_pos.len() as u32,
         dropped,
-    })
+    };
+    if let Some(order) = super::order::better_order(&mp.triangles, mp.positions.len()) {
+        mp.renumber(&order);
+    }
+    Ok(mp)
+}
+
+impl MeshPrep {
+    /// Renumbers the solver vertices: `order[new] = old` ([`super::order`]).
+    fn renumber(&mut self, order: &[u32]) {
+        let mut new_of_old = vec![0u32; order.len()];
+        for (new, &old) in order.iter().enumerate() {
+            new_of_old[old as usize] = new as u32;
+        }
+        fn permute<T: Copy>(v: &mut Vec<T>, order: &[u32]) {
+            *v = order.iter().map(|&o| v[o as usize]).collect();
+        }
+        permute(&mut self.positions, order);
+        permute(&mut self.normals, order);
+        permute(&mut self.albedo, order);
+        permute(&mut self.emission, order);
+        permute(&mut self.position_id, order);
+        for t in &mut self.triangles {
+            *t = t.map(|v| new_of_old[v as usize]);
+        }
+    }
 }
 
 /// Prepares a scene for solving. Errors name the mesh and the problem.
