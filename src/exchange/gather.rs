@@ -329,25 +329,11 @@ pub fn drive(kernel: &mut dyn BounceKernel, params: &GatherParams) -> crate::Res
 #[cfg(test)]
 mod tests {
     use super::*;
-    use half::f16;
-    use rand::{Rng, SeedableRng};
 
-    /// Random merged links (targets strictly increasing) with groups of 0
-    /// to 11 links (every remainder of the four-way split), some vertices
-    /// without links, gaps of every packed code.
+    /// Random merged links with groups of 0 to 11 links (every remainder
+    /// of the four-way split), some vertices without links.
     fn random_links(n: usize, seed: u64) -> Links {
-        let mut rng = rand_pcg::Pcg32::seed_from_u64(seed);
-        let (mut offsets, mut targets, mut weights) = (vec![0u32], Vec::new(), Vec::new());
-        for _ in 0..n {
-            let k = rng.random_range(0..12);
-            let mut t: Vec<u32> = (0..k).map(|_| rng.random_range(0..n as u32)).collect();
-            t.sort_unstable();
-            t.dedup();
-            weights.extend(t.iter().map(|_| f16::from_f32(rng.random_range(0.0..0.5))));
-            targets.extend(t);
-            offsets.push(targets.len() as u32);
-        }
-        Links::from_csr(offsets, &targets, weights)
+        crate::links::random_links(n, 12, 0.5, seed)
     }
 
     #[test]

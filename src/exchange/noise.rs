@@ -174,8 +174,6 @@ fn moments(links: &Links, b: &[[Vec4; 2]], v: usize) -> (Vec3, Vec3) {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use half::f16;
-    use rand::{Rng, SeedableRng};
 
     /// The SIMD decoding kernel gives the portable kernel's bits.
     #[cfg(target_arch = "x86_64")]
@@ -184,18 +182,8 @@ mod tests {
         if !(std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("f16c")) {
             return;
         }
-        let mut rng = rand_pcg::Pcg32::seed_from_u64(5);
         let n = 700;
-        let (mut offsets, mut targets, mut weights) = (vec![0u32], Vec::new(), Vec::new());
-        for _ in 0..n {
-            let mut t: Vec<u32> = (0..rng.random_range(0..13)).map(|_| rng.random_range(0..n as u32)).collect();
-            t.sort_unstable();
-            t.dedup();
-            weights.extend(t.iter().map(|_| f16::from_f32(rng.random_range(0.0..0.3))));
-            targets.extend(t);
-            offsets.push(targets.len() as u32);
-        }
-        let links = Links::from_csr(offsets, &targets, weights);
+        let links = crate::links::random_links(n, 13, 0.3, 5);
         let b: Vec<[Vec4; 2]> =
             (0..n).map(|i| [Vec4::splat(1.0 + (i as f32).sin()), Vec4::splat(0.3 * i as f32)]).collect();
         for v in 0..n {
@@ -208,18 +196,8 @@ mod tests {
     /// The interleaved kernel equals a plain f64 sum of `w B` and `w B^2`.
     #[test]
     fn moments_equal_f64_sums() {
-        let mut rng = rand_pcg::Pcg32::seed_from_u64(3);
         let n = 500;
-        let (mut offsets, mut targets, mut weights) = (vec![0u32], Vec::new(), Vec::new());
-        for _ in 0..n {
-            let mut t: Vec<u32> = (0..rng.random_range(0..9)).map(|_| rng.random_range(0..n as u32)).collect();
-            t.sort_unstable();
-            t.dedup();
-            weights.extend(t.iter().map(|_| f16::from_f32(rng.random_range(0.0..0.3))));
-            targets.extend(t);
-            offsets.push(targets.len() as u32);
-        }
-        let links = Links::from_csr(offsets, &targets, weights);
+        let links = crate::links::random_links(n, 9, 0.3, 3);
         let bv: Vec<Vec3> = (0..n).map(|i| Vec3::new(1.0 + i as f32 * 0.01, 0.5, (i % 7) as f32)).collect();
         let b: Vec<[Vec4; 2]> = bv.iter().map(|x| [x.extend(0.0), (*x * *x).extend(0.0)]).collect();
         for v in 0..n {

@@ -189,3 +189,22 @@ impl Links {
         Ok(())
     }
 }
+
+/// Random merged links for unit tests: `n` vertices, groups of 0 to
+/// `max_group - 1` draws (distinct targets, strictly increasing, so fewer
+/// when draws repeat), weights in `[0, max_weight)`.
+#[cfg(test)]
+pub(crate) fn random_links(n: usize, max_group: usize, max_weight: f32, seed: u64) -> Links {
+    use rand::{Rng, SeedableRng};
+    let mut rng = rand_pcg::Pcg32::seed_from_u64(seed);
+    let (mut offsets, mut targets, mut weights) = (vec![0u32], Vec::new(), Vec::new());
+    for _ in 0..n {
+        let mut t: Vec<u32> = (0..rng.random_range(0..max_group)).map(|_| rng.random_range(0..n as u32)).collect();
+        t.sort_unstable();
+        t.dedup();
+        weights.extend(t.iter().map(|_| f16::from_f32(rng.random_range(0.0..max_weight))));
+        targets.extend(t);
+        offsets.push(targets.len() as u32);
+    }
+    Links::from_csr(offsets, &targets, weights)
+}
