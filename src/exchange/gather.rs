@@ -113,7 +113,8 @@ fn gather_chunk(links: &Links, b: &[Vec4], first: usize, chunk: &mut [Vec3]) {
 /// arithmetic 7-10% slower; row offsets widened to 64 bits in SIMD 10%
 /// slower and weights broadcast from memory no faster (the vector shuffle
 /// pipes are the limit); every radiosity read sent to one vertex (always
-/// in L1) 3% faster, so memory is not. u32 targets read 39 ms.
+/// in L1) 3% faster, so memory is not; AVX-512 (four links a register)
+/// 0-8% faster, within the VM's noise, not kept. u32 targets read 39 ms.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,f16c")]
 unsafe fn gather_chunk_simd(links: &Links, b: &[Vec4], first: usize, chunk: &mut [Vec3]) {
