@@ -31,6 +31,7 @@ pub mod near;
 pub mod packed;
 pub mod selective;
 pub mod shoot;
+pub mod splice;
 
 use crate::sky::SkyVisibility;
 use half::f16;

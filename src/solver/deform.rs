@@ -13,7 +13,8 @@
 //! full solve of the deformed scene with the same seed. Times in ms.
 
 use super::{SolveParams, Solver};
-use crate::links::selective::{reshoot, shoot_groups, splice_groups};
+use crate::links::selective::{reshoot, shoot_groups};
+use crate::links::splice::splice_groups;
 use crate::links::{LinkParams, ReshootStats};
 use crate::scene::motion::Motion;
 use crate::scene::prep::PreparedScene;
