@@ -37,7 +37,8 @@
 //! positions made the gaps larger (conference: 24% instead of 51% zero
 //! gaps, 2.08 instead of 1.79 bytes a link with an 8-bit weight) and the
 //! gather 5-10% slower than the scenes' own order (meshes come in strips
-//! of neighbouring vertices), so vertices keep the scene's order.
+//! of neighbouring vertices), so vertices keep the scene's order unless a
+//! mesh comes scrambled ([`crate::scene::order`]).
 
 use rayon::prelude::*;
 
@@ -65,7 +66,9 @@ pub fn code_of(gap: u32) -> u32 {
 /// ([`PackedTargets::push_group`], [`PackedTargets::push_row_of`],
 /// [`PackedTargets::append`]) and then [`PackedTargets::finish`]ed, or all
 /// at once ([`PackedTargets::encode`]). Byte offsets are u32: a stream
-/// holds at most 4 GiB (about 1.5 G links at this project's 2.8 bytes).
+/// holds at most 4 GiB (about 5 G links at 0.8 bytes a target; the CSR
+/// link offsets stop at 4 G links first), beyond which building panics
+/// with that message.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct PackedTargets {
     /// Byte offset of each row's first block (one per row, plus the
@@ -73,6 +76,11 @@ pub struct PackedTargets {
     pub starts: Vec<u32>,
     /// Blocks of every row, then (once finished) [`PAD`] zero bytes.
     pub bytes: Vec<u8>,
+}
+
+/// A byte offset in the stream as stored (see [`PackedTargets`]).
+fn offset(len: usize) -> u32 {
+    u32::try_from(len).expect("packed link stream over 4 GiB: its row starts are u32")
 }
 
 /// Appends the row of one group's targets (strictly increasing) to `out`.
@@ -240,37 +248,37 @@ impl PackedTargets {
         let total: usize = parts.iter().map(|p| p.1.len()).sum();
         let mut out = PackedTargets { starts: Vec::with_capacity(n + 1), bytes: Vec::with_capacity(total + PAD) };
         for (starts, bytes) in parts {
-            let base = out.bytes.len() as u32;
+            let base = offset(out.bytes.len() + bytes.len()) - bytes.len() as u32;
             out.starts.extend(starts.iter().map(|s| s + base));
             out.bytes.extend_from_slice(&bytes);
         }
-        out.starts.push(out.bytes.len() as u32);
+        out.starts.push(offset(out.bytes.len()));
         out.bytes.resize(out.bytes.len() + PAD, 0);
         out
     }
 
     /// Appends a row holding `targets` (strictly increasing) to an unfinished stream.
     pub fn push_group(&mut self, targets: &[u32]) {
-        self.starts.push(self.bytes.len() as u32);
+        self.starts.push(offset(self.bytes.len()));
         encode_group(targets, &mut self.bytes);
     }
 
     /// Appends a copy of row `v` of `other` (finished, or with `v` not its last row).
     pub fn push_row_of(&mut self, other: &PackedTargets, v: usize) {
-        self.starts.push(self.bytes.len() as u32);
+        self.starts.push(offset(self.bytes.len()));
         self.bytes.extend_from_slice(&other.bytes[other.starts[v] as usize..other.starts[v + 1] as usize]);
     }
 
     /// Appends the rows of `other`, an unfinished stream.
     pub fn append(&mut self, other: &PackedTargets) {
-        let base = self.bytes.len() as u32;
+        let base = offset(self.bytes.len() + other.bytes.len()) - other.bytes.len() as u32;
         self.starts.extend(other.starts.iter().map(|s| s + base));
         self.bytes.extend_from_slice(&other.bytes);
     }
 
     /// Closes the stream: the end offset and the padding.
     pub fn finish(&mut self) {
-        self.starts.push(self.bytes.len() as u32);
+        self.starts.push(offset(self.bytes.len()));
         self.bytes.resize(self.bytes.len() + PAD, 0);
     }
 
