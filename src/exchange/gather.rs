@@ -67,7 +67,11 @@ pub fn gather_bounce(links: &Links, b: &[Vec3], out: &mut [Vec3]) {
 /// on each other; the partial sums are added pairwise at the end.
 pub fn gather_bounce_padded(links: &Links, b: &[Vec4], out: &mut [Vec3]) {
     const CHUNK: usize = 256;
-    assert_eq!(links.packed.rows(), links.vertex_count(), "links not packed (Links::pack)");
+    assert_eq!(
+        links.packed.rows(),
+        links.vertex_count(),
+        "the links have no packed targets (build them with Links::from_csr or a CsrBuilder)"
+    );
     assert!(!b.is_empty() || links.link_count() == 0, "no radiosity to gather");
     #[cfg(target_arch = "x86_64")]
     let simd = std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("f16c");

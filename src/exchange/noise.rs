@@ -92,7 +92,7 @@ pub fn variance(
     let factor = (params.scale * (params.reference_rays as f32 / n_c).powf(params.exponent)).min(1.0) / n_c;
     #[cfg(target_arch = "x86_64")]
     let avx2 = std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("f16c");
-    assert_eq!(links.packed.rows(), links.vertex_count(), "links not packed");
+    assert_eq!(links.packed.rows(), links.vertex_count(), "the links have no packed targets");
     (0..links.vertex_count())
         .into_par_iter()
         .map(|v| {

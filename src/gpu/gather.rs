@@ -83,7 +83,7 @@ impl GpuLinks {
         max_links: usize,
     ) -> Result<GpuLinks> {
         if links.packed.rows() != links.vertex_count() {
-            return Err(crate::Error::Gpu("uploading links: links not packed (Links::pack)".into()));
+            return Err(crate::Error::Gpu("uploading links: the links have no packed targets".into()));
         }
         checked(&dev.clone(), "uploading links", || Self::upload(dev, links, albedo, max_links.max(2)))
     }
