@@ -102,9 +102,10 @@ pub fn run(args: SolveArgs) -> Result<()> {
     }
     println!("links raw        {} ({:.2} MB)", s.links.raw_links, mb(s.links.raw_bytes));
     println!(
-        "links merged     {} ({:.2} MB, {:.1}x fewer)",
+        "links merged     {} ({:.2} MB packed, {:.2} bytes a link, {:.1}x fewer)",
         s.links.merged_links,
         mb(s.links.merged_bytes),
+        s.links.merged_bytes as f64 / s.links.merged_links.max(1) as f64,
         s.links.raw_links as f64 / s.links.merged_links.max(1) as f64
     );
     println!("rays             {} ({} missed, {} back faces)", s.links.rays, s.links.misses, s.links.back_hits);
