@@ -196,7 +196,7 @@ pub struct BenchRow {
     pub ray_state_mb: f64,
     /// Offscreen frames per second of the renderer with the solved GI (NaN: not measured).
     pub render_fps: f64,
-    /// The renderer used ("gpu: <adapter>" or "cpu fallback").
+    /// The renderer used (`"gpu: <adapter>"` or `"cpu fallback"`).
     pub renderer: String,
     /// Peak resident memory of the measured runs, MB (NaN where the OS does not tell).
     pub peak_mb: f64,

@@ -2,11 +2,11 @@
 //! at the vertices and one-ring oversampled as the bounce source
 //! ([`light_links`]), emissive surfaces' direct light by next-event
 //! estimation ([`emitter_links`]), exact direct light at the hit points of
-//! short link rays ([`near_field`]), bounces gathered over the vertex links ([`gather`]),
+//! short link rays ([`near_field`]), bounces gathered over the vertex links ([`mod@gather`]),
 //! hidden vertices' radiosity replaced as link targets by their visible
 //! neighbours' ([`hidden`]), a noise estimate of every vertex's `E_i` from
 //! its links ([`noise`]) and feature-aware, noise-aware one-ring smoothing
-//! ([`smooth`]).
+//! ([`mod@smooth`]).
 //!
 //! Units: per-vertex irradiance `E` in W/m^2 per RGB channel; radiosity
 //! (exitant radiance of a Lambertian vertex) `B = rho / pi * E` in

@@ -1,6 +1,6 @@
 //! Noise estimate of the gathered indirect irradiance `E_i` per vertex,
 //! from the links and the radiosity they carry (input of the noise-aware
-//! smoothing, [`super::smooth`]).
+//! smoothing, [`mod@super::smooth`]).
 //!
 //! In the fixed point of the gather, `E_i(x) = sum_j w_j B(t_j)` with the
 //! total radiosity `B = rho/pi * (E_src + E_i) + M_e/pi` (W/(m^2 sr); `E_src` the

@@ -1,6 +1,7 @@
 //! Data shared with the WGSL shaders: `#[repr(C)]` + `bytemuck::Pod`, each
-//! mirrored by a WGSL struct of the same name. [`SHARED_STRUCTS`] lists
-//! every one with its size and field offsets, and `tests/gpu_layout.rs`
+//! mirrored by a WGSL struct of the same name. [`shared_structs`] lists
+//! every one with its size and field offsets ([`shared_constants`] the
+//! shared constants), and `tests/gpu_layout.rs`
 //! parses the shaders with naga and checks them against it.
 //!
 //! Lengths in metres; `vec3<f32>` fields are followed by a `u32`/`f32` so

@@ -1,6 +1,6 @@
 //! CPU-only copy of the leaf data, laid out for the CPU rope walk
 //! ([`crate::kdtree::traverse`]). The GPU keeps using the shared
-//! [`KdLeaf`](super::KdLeaf)/[`KdTriangle`](super::KdTriangle) layout; this
+//! [`super::KdLeaf`]/[`super::KdTriangle`] layout; this
 //! one only changes where the CPU reads the same numbers from, so every hit
 //! is bit for bit the one the shared layout gives.
 //!

@@ -47,7 +47,7 @@ pub struct HitCounts {
 }
 
 /// Reusable buffers of [`merge_vertex`]: a hash table from target vertex
-/// to summed weight (slots [`MergeScratch::EMPTY`] between calls) and the
+/// to summed weight (slots empty between calls) and the
 /// list of slots in use.
 #[derive(Clone, Debug, Default)]
 pub struct MergeScratch {

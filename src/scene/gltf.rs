@@ -13,7 +13,7 @@
 //!   [`MeshDesc`] named `file#node` (its node name, else `node<index>`), with
 //!   the identity [`super::Transform`]; welding, crease splitting and
 //!   one-rings happen in [`super::prep`] as for OBJ.
-//! - Albedo: see [`super::gltf_mesh`] (`baseColorFactor` times the base
+//! - Albedo: see `scene::gltf_mesh` (`baseColorFactor` times the base
 //!   colour texture at each vertex's UV times `COLOR_0`, per vertex).
 //! - `KHR_lights_punctual` lights at their nodes' world positions; light
 //!   `direction`s are the node's -z axis.

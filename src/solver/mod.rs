@@ -116,7 +116,7 @@ pub struct SolveParams {
     pub hidden: HiddenParams,
     /// Feature angle of smoothing, degrees; 0: off.
     pub smoothing_angle_deg: f32,
-    /// The smoothing filter (noise-aware by default, [`crate::exchange::smooth`]).
+    /// The smoothing filter (noise-aware by default, [`mod@crate::exchange::smooth`]).
     pub smoothing: SmoothParams,
 }
 
