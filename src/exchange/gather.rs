@@ -115,11 +115,12 @@ fn gather_chunk(links: &Links, b: &[Vec4], first: usize, chunk: &mut [Vec3]) {
 /// Measured on conference (2-core Zen 4 VM, best of 15, same process):
 /// this kernel 30 ms a bounce (3.0 G links/s); the same with 128-bit
 /// arithmetic 7-10% slower; row offsets widened to 64 bits in SIMD 10%
-/// slower, weights broadcast from memory no faster, the targets' prefix
+/// slower; weights broadcast from memory no faster; the targets' prefix
 /// sum in scalar registers (fewer shuffles, more integer work) 3-5%
-/// slower: the loop is near this core's issue limit; every radiosity read sent to one vertex (always
-/// in L1) 3% faster, so memory is not; AVX-512 (four links a register)
-/// 0-8% faster, within the VM's noise, not kept. u32 targets read 39 ms.
+/// slower; AVX-512 (four links a register) 0-8% faster, within the VM's
+/// noise, not kept; every radiosity read sent to one vertex (always in
+/// L1) 3% faster. The loop is near this core's issue limit, not memory
+/// bound. u32 targets read 39 ms.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,f16c")]
 unsafe fn gather_chunk_simd(links: &Links, b: &[Vec4], first: usize, chunk: &mut [Vec3]) {
