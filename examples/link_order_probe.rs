@@ -1,6 +1,7 @@
 //! Link encoding experiments (issue 16): gaps between consecutive sorted
-//! targets of a group in the scene's vertex order and along a Morton
-//! curve, and what they cost in several codes:
+//! targets of a group in the scene's vertex order, along Morton and
+//! Hilbert curves, shuffled, and breadth-first over one-rings, and what
+//! they cost in several codes:
 //! `cargo run --release --example link_order_probe -- tearoom`.
 use linkgi::links::Links;
 use linkgi::scene::{self, prep};
@@ -30,6 +31,63 @@ fn morton_order(p: &[glam::Vec3]) -> Vec<u32> {
         .collect();
     keys.sort_unstable();
     keys.iter().map(|k| k.1).collect() // new -> old
+}
+
+/// Hilbert order over positions (Skilling's transpose algorithm, 3 x 16 bits).
+fn hilbert_order(p: &[glam::Vec3]) -> Vec<u32> {
+    let (mut lo, mut hi) = (glam::Vec3::splat(f32::MAX), glam::Vec3::splat(f32::MIN));
+    for q in p {
+        lo = lo.min(*q);
+        hi = hi.max(*q);
+    }
+    let ext = (hi - lo).max_element().max(1e-30);
+    const BITS: u32 = 16;
+    let key = |q: glam::Vec3| -> u64 {
+        let c = ((q - lo) / ext * 65535.0).as_uvec3();
+        let mut x = [c.x, c.y, c.z];
+        // Inverse undo excess work (axes to transpose).
+        let m = 1u32 << (BITS - 1);
+        let mut qb = m;
+        while qb > 1 {
+            let pm = qb - 1;
+            for i in 0..3 {
+                if x[i] & qb != 0 {
+                    x[0] ^= pm;
+                } else {
+                    let t = (x[0] ^ x[i]) & pm;
+                    x[0] ^= t;
+                    x[i] ^= t;
+                }
+            }
+            qb >>= 1;
+        }
+        // Gray encode.
+        for i in 1..3 {
+            x[i] ^= x[i - 1];
+        }
+        let mut t = 0;
+        let mut qb = m;
+        while qb > 1 {
+            if x[2] & qb != 0 {
+                t ^= qb - 1;
+            }
+            qb >>= 1;
+        }
+        for v in &mut x {
+            *v ^= t;
+        }
+        // Interleave the transposed bits, most significant first.
+        let mut k = 0u64;
+        for b in (0..BITS).rev() {
+            for v in &x {
+                k = k << 1 | ((v >> b) & 1) as u64;
+            }
+        }
+        k
+    };
+    let mut keys: Vec<(u64, u32)> = p.iter().enumerate().map(|(i, q)| (key(*q), i as u32)).collect();
+    keys.sort_unstable();
+    keys.iter().map(|k| k.1).collect()
 }
 
 fn stats(label: &str, links: &Links, new_of_old: &[u32], old_of_new: &[u32]) {
@@ -124,6 +182,12 @@ fn main() {
         new_of_old[o as usize] = i as u32;
     }
     stats("morton", &links, &new_of_old, &old_of_new);
+    let h = hilbert_order(&scene.positions);
+    let mut hinv = vec![0u32; n];
+    for (i, &o) in h.iter().enumerate() {
+        hinv[o as usize] = i as u32;
+    }
+    stats("hilbert", &links, &hinv, &h);
     // A shuffled order (an exporter that scrambles vertices), and Morton over it.
     let mut shuffled: Vec<u32> = (0..n as u32).collect();
     let mut state = 0x9E3779B97F4A7C15u64;

@@ -19,10 +19,10 @@
 //! Measured (`cargo run --release --example link_order_probe`, 256 rays,
 //! gap bytes and control bytes with a 1-byte weight, so add 1 for ours):
 //! conference in its own order 1.79 bytes a link, scrambled 2.73, scrambled
-//! then breadth-first 1.88, a Morton order over positions 2.08 (a
-//! space-filling curve over 3D points breaks the strips, and the gather was
-//! 5-10% slower with it than in the scene's order); tearoom 1.64, 2.22,
-//! 1.69, 1.81.
+//! then breadth-first 1.88, a Morton order over positions 2.08, a Hilbert
+//! order 2.01 (a space-filling curve over 3D points breaks the strips, and
+//! the gather was 5-10% slower in Morton order than in the scene's);
+//! tearoom 1.64, 2.22, 1.69, 1.81, 1.75.
 
 /// The least relative improvement of [`locality`] for which a mesh is renumbered.
 pub const MIN_GAIN: f64 = 0.2;
