@@ -167,6 +167,7 @@ fn preview_shows_remade_vertices_at_few_rays() {
     let mut preview_direct = Vec::new();
     let mut show = |s: &Solver| {
         seen += 1;
+        s.links.validate().expect("spliced preview links are valid");
         // Remade vertices have groups from 16 rays: weights are multiples
         // of pi/16 times barycentrics, so rows sum to at most pi with few links.
         let v = figure.start as usize + 10;

@@ -14,7 +14,7 @@
 //! and keeps stiff scenes with rho near 1 from stopping short), in fixed
 //! mode it is only reported. Irradiances in W/m^2.
 
-use crate::links::{packed, Links};
+use crate::links::Links;
 use crate::scene::Bounces;
 use glam::{Vec3, Vec4};
 use rayon::prelude::*;
@@ -86,27 +86,30 @@ pub fn gather_bounce_padded(links: &Links, b: &[Vec4], out: &mut [Vec3]) {
     });
 }
 
-/// Gathers vertices `first..first + chunk.len()` into `chunk`, decoding
-/// the targets block by block ([`packed::Cursor`]): the portable
-/// kernel, and the oracle of the SIMD one.
+/// Gathers vertices `first..first + chunk.len()` into `chunk` ([`gather_row`]).
 fn gather_chunk(links: &Links, b: &[Vec4], first: usize, chunk: &mut [Vec3]) {
-    let last = b.len().saturating_sub(1);
     for (i, o) in chunk.iter_mut().enumerate() {
-        let v = first + i;
-        let (j0, j1) = (links.offsets[v] as usize, links.offsets[v + 1] as usize);
-        let mut c = links.packed.cursor(v, j1 - j0);
-        let mut acc = [Vec4::ZERO; 4];
-        for j in (j0..j1).step_by(4) {
-            let t = c.block(&links.packed.bytes);
-            for k in 0..(j1 - j).min(4) {
-                acc[k] += b[(t[k] as usize).min(last)] * links.weights[j + k].to_f32();
-            }
-        }
-        *o = ((acc[0] + acc[1]) + (acc[2] + acc[3])).truncate();
+        *o = gather_row(links, b, first + i);
     }
 }
 
-/// [`gather_chunk`] with SSSE3 decoding ([`packed::simd::Cursor`]),
+/// Vertex `v`'s gather, decoding the targets block by block
+/// ([`crate::links::packed::Cursor`]): the portable kernel, and the oracle of the SIMD one.
+fn gather_row(links: &Links, b: &[Vec4], v: usize) -> Vec3 {
+    let last = b.len().saturating_sub(1);
+    let (j0, j1) = (links.offsets[v] as usize, links.offsets[v + 1] as usize);
+    let mut c = links.packed.cursor(v, j1.saturating_sub(j0));
+    let mut acc = [Vec4::ZERO; 4];
+    for j in (j0..j1).step_by(4) {
+        let t = c.block(&links.packed.bytes);
+        for k in 0..(j1 - j).min(4) {
+            acc[k] += b[(t[k] as usize).min(last)] * links.weights[j + k].to_f32();
+        }
+    }
+    ((acc[0] + acc[1]) + (acc[2] + acc[3])).truncate()
+}
+
+/// [`gather_row`] over a chunk with SSSE3 decoding ([`crate::links::packed::simd::Cursor`]),
 /// F16C weight conversion and AVX2 arithmetic: two links' radiosity in one
 /// 256-bit register (partial sums 0 and 1 in one register, 2 and 3 in
 /// another), the same multiplies and adds in the same order per lane, so
@@ -131,8 +134,10 @@ unsafe fn gather_chunk_simd(links: &Links, b: &[Vec4], first: usize, chunk: &mut
     let (lo_pair, hi_pair) = (_mm256_setr_epi32(0, 0, 0, 0, 1, 1, 1, 1), _mm256_setr_epi32(2, 2, 2, 2, 3, 3, 3, 3));
     for (i, o) in chunk.iter_mut().enumerate() {
         let v = first + i;
-        let (j0, j1) = (links.offsets[v] as usize, links.offsets[v + 1] as usize);
-        let mut c = packed::simd::Cursor::new(&links.packed, v, j1 - j0);
+        let Some((j0, j1, mut c)) = links.simd_group(v) else {
+            *o = gather_row(links, b, v);
+            continue;
+        };
         let (mut acc01, mut acc23) = (_mm256_setzero_ps(), _mm256_setzero_ps());
         let mut j = j0;
         while j + 4 <= j1 {

@@ -42,7 +42,7 @@
 //! The model is within a factor of 2.3 of both scenes at every count;
 //! `tests/accuracy.rs` holds it to a factor of 2.5 on the Cornell box.
 
-use crate::links::{packed, Links};
+use crate::links::Links;
 use glam::{Vec3, Vec4};
 use rayon::prelude::*;
 use std::f32::consts::PI;
@@ -108,7 +108,7 @@ pub fn variance(
         .collect()
 }
 
-/// [`moments`] with SSSE3 block decoding ([`packed::simd::Cursor`]),
+/// [`moments`] with SSSE3 block decoding ([`crate::links::packed::simd::Cursor`]),
 /// F16C weights and AVX2 arithmetic: a target's `[B, B^2]` (32 bytes) in
 /// one register, so one load, multiply and add a link; the same arithmetic
 /// per lane in the same order as [`moments`], so the same bits.
@@ -120,8 +120,9 @@ unsafe fn moments_simd(links: &Links, b: &[[Vec4; 2]], v: usize) -> (Vec3, Vec3)
     let bp = b.as_ptr() as *const f32;
     let wp = links.weights.as_ptr() as *const u16;
     let row = |t: u32| _mm256_loadu_ps(bp.add(8 * t as usize));
-    let (j0, j1) = (links.offsets[v] as usize, links.offsets[v + 1] as usize);
-    let mut c = packed::simd::Cursor::new(&links.packed, v, j1 - j0);
+    let Some((j0, j1, mut c)) = links.simd_group(v) else {
+        return moments(links, b, v);
+    };
     let mut acc = [_mm256_setzero_ps(); 2];
     let mut j = j0;
     while j + 4 <= j1 {
@@ -158,7 +159,7 @@ unsafe fn moments_simd(links: &Links, b: &[[Vec4; 2]], v: usize) -> (Vec3, Vec3)
 #[inline(always)]
 fn moments(links: &Links, b: &[[Vec4; 2]], v: usize) -> (Vec3, Vec3) {
     let (j0, j1) = (links.offsets[v] as usize, links.offsets[v + 1] as usize);
-    let mut c = links.packed.cursor(v, j1 - j0);
+    let mut c = links.packed.cursor(v, j1.saturating_sub(j0));
     let (mut m1, mut m2) = ([Vec4::ZERO; 2], [Vec4::ZERO; 2]);
     for j in (j0..j1).step_by(4) {
         let t = c.block(&links.packed.bytes);

@@ -114,7 +114,7 @@ impl Links {
 
     /// Bytes of the links as the gathers read them: the packed targets
     /// with their row starts, 2 per weight, 4 per row offset. The one size
-    /// formula (stats, bench, GPU upload).
+    /// formula (link stats, `linkgi solve`, bench and bandwidth figures).
     pub fn gather_bytes(&self) -> u64 {
         self.packed.bytes() + 2 * self.weights.len() as u64 + 4 * self.offsets.len() as u64
     }
@@ -147,7 +147,25 @@ impl Links {
     pub fn group(&self, v: usize) -> (Vec<u32>, &[f16]) {
         let mut t = Vec::new();
         self.targets_into(v, &mut t);
-        (t, &self.weights[self.offsets[v] as usize..self.offsets[v + 1] as usize])
+        (t, self.weights_of(v))
+    }
+
+    /// Vertex `v`'s link range `(j0, j1)` and a SIMD decoder of its
+    /// targets, when every read of the decoder and every weight of the
+    /// range lies inside the arrays; `None` otherwise (the rows near the
+    /// stream's end, or links whose arrays do not match), for the scalar
+    /// path. What makes the SIMD kernels sound for any `Links`.
+    ///
+    /// # Safety
+    /// SSE2 must be available.
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    pub unsafe fn simd_group(&self, v: usize) -> Option<(usize, usize, packed::simd::Cursor)> {
+        let (j0, j1) = (self.offsets[v] as usize, self.offsets[v + 1] as usize);
+        if j0 > j1 || j1 > self.weights.len() {
+            return None;
+        }
+        packed::simd::Cursor::new(&self.packed, v, j1 - j0).map(|c| (j0, j1, c))
     }
 
     /// Vertex `v`'s weights.

@@ -194,22 +194,32 @@ pub mod simd {
     }
 
     impl Cursor {
-        /// At the start of row `v` (of `count` links) of `p`.
+        /// At the start of row `v` (of `count` links) of `p`, or `None`
+        /// when the row's blocks could read past the stream whatever its
+        /// bytes say (a control byte a block, up to 16 data bytes a block
+        /// and a 16-byte load at the last: true only near the stream's end,
+        /// or for a stream that does not match the links), so that every
+        /// [`Cursor::block`] of the row stays inside the stream.
         ///
         /// # Safety
         /// SSE2 must be available.
         #[inline(always)]
-        pub unsafe fn new(p: &super::PackedTargets, v: usize, count: usize) -> Cursor {
+        pub unsafe fn new(p: &super::PackedTargets, v: usize, count: usize) -> Option<Cursor> {
+            let blocks = count.div_ceil(4);
+            let start = *p.starts.get(v)? as usize;
+            if start + 17 * blocks + super::PAD > p.bytes.len() {
+                return None;
+            }
             let c = p.cursor(v, count);
             let base = p.bytes.as_ptr();
-            Cursor { ctl: base.add(c.ctl), data: base.add(c.data), prev: _mm_set1_epi32(-1) }
+            Some(Cursor { ctl: base.add(c.ctl), data: base.add(c.data), prev: _mm_set1_epi32(-1) })
         }
 
         /// The next four targets, as [`super::Cursor::block`].
         ///
         /// # Safety
-        /// SSSE3 must be available; the cursor must be inside a row of a
-        /// finished stream, with a block left.
+        /// SSSE3 must be available; at most `ceil(count / 4)` blocks of a
+        /// cursor made by [`Cursor::new`].
         #[inline(always)]
         pub unsafe fn block(&mut self) -> __m128i {
             let ctl = *self.ctl as usize;
@@ -233,28 +243,22 @@ impl PackedTargets {
     pub fn encode(offsets: &[u32], targets: &[u32]) -> PackedTargets {
         let n = offsets.len().saturating_sub(1);
         const ROWS: usize = 1024;
-        let parts: Vec<(Vec<u32>, Vec<u8>)> = (0..n.div_ceil(ROWS))
+        let parts: Vec<PackedTargets> = (0..n.div_ceil(ROWS))
             .into_par_iter()
             .map(|c| {
-                let rows = c * ROWS..((c + 1) * ROWS).min(n);
-                let mut starts = Vec::with_capacity(rows.len());
-                let mut bytes = Vec::new();
-                for v in rows {
-                    starts.push(bytes.len() as u32);
-                    encode_group(&targets[offsets[v] as usize..offsets[v + 1] as usize], &mut bytes);
+                let mut part = PackedTargets::default();
+                for v in c * ROWS..((c + 1) * ROWS).min(n) {
+                    part.push_group(&targets[offsets[v] as usize..offsets[v + 1] as usize]);
                 }
-                (starts, bytes)
+                part
             })
             .collect();
-        let total: usize = parts.iter().map(|p| p.1.len()).sum();
+        let total: usize = parts.iter().map(|p| p.bytes.len()).sum();
         let mut out = PackedTargets { starts: Vec::with_capacity(n + 1), bytes: Vec::with_capacity(total + PAD) };
-        for (starts, bytes) in parts {
-            let base = offset(out.bytes.len() + bytes.len()) - bytes.len() as u32;
-            out.starts.extend(starts.iter().map(|s| s + base));
-            out.bytes.extend_from_slice(&bytes);
+        for part in &parts {
+            out.append(part);
         }
-        out.starts.push(offset(out.bytes.len()));
-        out.bytes.resize(out.bytes.len() + PAD, 0);
+        out.finish();
         out
     }
 
@@ -466,13 +470,18 @@ mod tests {
         }
         let (offsets, targets) = groups(11);
         let p = PackedTargets::encode(&offsets, &targets);
-        for v in 0..offsets.len() - 1 {
+        let rows = offsets.len() - 1;
+        let mut refused = 0;
+        for v in 0..rows {
             let count = (offsets[v + 1] - offsets[v]) as usize;
             let mut c = p.cursor(v, count);
-            // SAFETY: SSSE3 is available; the stream is finished (padded).
+            // SAFETY: SSSE3 is available; blocks of a cursor from `new`.
             unsafe {
                 use std::arch::x86_64::*;
-                let mut s = simd::Cursor::new(&p, v, count);
+                let Some(mut s) = simd::Cursor::new(&p, v, count) else {
+                    refused += 1;
+                    continue;
+                };
                 for _ in (0..count).step_by(4) {
                     let want = c.block(&p.bytes);
                     let mut lanes = [0u32; 4];
@@ -481,5 +490,12 @@ mod tests {
                 }
             }
         }
+        // Only rows near the stream's end are left to the scalar decoder.
+        assert!(refused > 0 && refused * 20 < rows, "{refused} of {rows} rows refused");
+        // A row start beyond the stream is refused, not read.
+        let mut bad = p.clone();
+        bad.starts[0] = bad.bytes.len() as u32;
+        // SAFETY: SSE2 is available.
+        assert!(unsafe { simd::Cursor::new(&bad, 0, 8) }.is_none());
     }
 }

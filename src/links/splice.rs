@@ -4,6 +4,7 @@
 //! copying the rows before the first replaced vertex. Rows are the packed
 //! form ([`super::packed`]): unchanged rows are copied as bytes.
 
+use super::packed::PackedTargets;
 use super::{LinkStats, Links};
 use half::f16;
 
@@ -14,9 +15,8 @@ pub struct Spliced {
     first: usize,
     offsets: Vec<u32>,
     weights: Vec<f16>,
-    /// Row starts of rows `first..` plus the stream's end, and their bytes with the padding.
-    starts: Vec<u32>,
-    bytes: Vec<u8>,
+    /// Packed rows `first..` with the padding, starts rebased to the tail.
+    tail: PackedTargets,
     stats: LinkStats,
 }
 
@@ -34,8 +34,10 @@ pub fn splice_groups(links: &mut Links, groups: &[(u32, Vec<u32>, Vec<f16>)]) ->
         first,
         offsets: links.offsets.split_off(first + 1),
         weights: links.weights.split_off(start),
-        starts: links.packed.starts.split_off(first),
-        bytes: links.packed.bytes.split_off(byte_start),
+        tail: PackedTargets {
+            starts: links.packed.starts.split_off(first).iter().map(|s| s - byte_start as u32).collect(),
+            bytes: links.packed.bytes.split_off(byte_start),
+        },
         stats: links.stats,
     };
     let mut next = groups.iter().peekable();
@@ -50,9 +52,7 @@ pub fn splice_groups(links: &mut Links, groups: &[(u32, Vec<u32>, Vec<f16>)]) ->
                 let a = if v == first { start } else { saved.offsets[v - first - 1] as usize };
                 let b = saved.offsets[v - first] as usize;
                 links.weights.extend_from_slice(&saved.weights[a - start..b - start]);
-                let (x, y) = (saved.starts[v - first] as usize, saved.starts[v - first + 1] as usize);
-                links.packed.starts.push(links.packed.bytes.len() as u32);
-                links.packed.bytes.extend_from_slice(&saved.bytes[x - byte_start..y - byte_start]);
+                links.packed.push_row_of(&saved.tail, v - first);
             }
         }
         links.offsets.push(links.weights.len() as u32);
@@ -73,8 +73,8 @@ impl Spliced {
         links.packed.bytes.truncate(byte_start);
         links.offsets.append(&mut self.offsets);
         links.weights.append(&mut self.weights);
-        links.packed.starts.append(&mut self.starts);
-        links.packed.bytes.append(&mut self.bytes);
+        links.packed.starts.extend(self.tail.starts.iter().map(|s| s + byte_start as u32));
+        links.packed.bytes.append(&mut self.tail.bytes);
         links.stats = self.stats;
     }
 }
