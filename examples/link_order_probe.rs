@@ -6,13 +6,18 @@
 use linkgi::links::Links;
 use linkgi::scene::{self, prep};
 
-fn morton_order(p: &[glam::Vec3]) -> Vec<u32> {
+/// The corner and edge of the cube around the points.
+fn cube(p: &[glam::Vec3]) -> (glam::Vec3, f32) {
     let (mut lo, mut hi) = (glam::Vec3::splat(f32::MAX), glam::Vec3::splat(f32::MIN));
     for q in p {
         lo = lo.min(*q);
         hi = hi.max(*q);
     }
-    let ext = (hi - lo).max_element().max(1e-30);
+    (lo, (hi - lo).max_element().max(1e-30))
+}
+
+fn morton_order(p: &[glam::Vec3]) -> Vec<u32> {
+    let (lo, ext) = cube(p);
     let spread = |mut x: u64| {
         x &= 0x1f_ffff;
         x = (x | x << 32) & 0x1f00000000ffff;
@@ -35,12 +40,7 @@ fn morton_order(p: &[glam::Vec3]) -> Vec<u32> {
 
 /// Hilbert order over positions (Skilling's transpose algorithm, 3 x 16 bits).
 fn hilbert_order(p: &[glam::Vec3]) -> Vec<u32> {
-    let (mut lo, mut hi) = (glam::Vec3::splat(f32::MAX), glam::Vec3::splat(f32::MIN));
-    for q in p {
-        lo = lo.min(*q);
-        hi = hi.max(*q);
-    }
-    let ext = (hi - lo).max_element().max(1e-30);
+    let (lo, ext) = cube(p);
     const BITS: u32 = 16;
     let key = |q: glam::Vec3| -> u64 {
         let c = ((q - lo) / ext * 65535.0).as_uvec3();

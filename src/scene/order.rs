@@ -46,13 +46,7 @@ pub fn locality(triangles: &[[u32; 3]]) -> f64 {
 /// `order[new] = old`. Each connected part starts at its lowest-numbered
 /// vertex; neighbours are taken in increasing number.
 pub fn breadth_first(triangles: &[[u32; 3]], n: usize) -> Vec<u32> {
-    let mut pairs: Vec<(u32, u32)> = triangles
-        .iter()
-        .flat_map(|t| (0..3).flat_map(move |k| [(t[k], t[(k + 1) % 3]), (t[(k + 1) % 3], t[k])]))
-        .collect();
-    pairs.sort_unstable();
-    pairs.dedup();
-    let adj = super::prep::Csr::from_pairs(n, &pairs);
+    let adj = super::prep::rings_of(triangles, n);
     let mut seen = vec![false; n];
     let mut order = Vec::with_capacity(n);
     for s in 0..n {

@@ -73,6 +73,18 @@ impl Csr {
     }
 }
 
+/// One-rings of `n` vertices over `triangles`: each vertex's edge
+/// neighbours, sorted.
+pub fn rings_of(triangles: &[[u32; 3]], n: usize) -> Csr {
+    let mut pairs: Vec<(u32, u32)> = triangles
+        .iter()
+        .flat_map(|t| (0..3).flat_map(move |k| [(t[k], t[(k + 1) % 3]), (t[(k + 1) % 3], t[k])]))
+        .collect();
+    pairs.sort_unstable();
+    pairs.dedup();
+    Csr::from_pairs(n, &pairs)
+}
+
 /// The scene ready for the solver: world-space solver vertices and triangles.
 #[derive(Clone, Debug)]
 pub struct PreparedScene {
@@ -414,20 +426,15 @@ impl PreparedScene {
     pub fn build_topology(&mut self) {
         let n = self.positions.len();
         let mut vt = Vec::with_capacity(self.triangles.len() * 3);
-        let mut ring_pairs = Vec::with_capacity(self.triangles.len() * 6);
         let mut edge_count: HashMap<(u32, u32), u32> = HashMap::with_capacity(self.triangles.len() * 2);
         for (ti, t) in self.triangles.iter().enumerate() {
             for k in 0..3 {
                 let (a, b) = (t[k], t[(k + 1) % 3]);
                 vt.push((a, ti as u32));
-                ring_pairs.push((a, b));
-                ring_pairs.push((b, a));
                 *edge_count.entry((a.min(b), a.max(b))).or_insert(0) += 1;
             }
         }
-        ring_pairs.sort_unstable();
-        ring_pairs.dedup();
-        self.rings = Csr::from_pairs(n, &ring_pairs);
+        self.rings = rings_of(&self.triangles, n);
         self.vertex_triangles = Csr::from_pairs(n, &vt);
         // Crease: more than one solver vertex at a welded position.
         let mut copies: HashMap<u32, u32> = HashMap::new();
