@@ -121,9 +121,11 @@ fn gather_row(links: &Links, b: &[Vec4], v: usize) -> Vec3 {
 /// slower; weights broadcast from memory no faster; the targets' prefix
 /// sum in scalar registers (fewer shuffles, more integer work) 3-5%
 /// slower; AVX-512 (four links a register) 0-8% faster, within the VM's
-/// noise, not kept; every radiosity read sent to one vertex (always in
-/// L1) 3% faster. The loop is near this core's issue limit, not memory
-/// bound. u32 targets read 39 ms.
+/// noise, not kept. Every radiosity read sent to one vertex (always in L1)
+/// made conference 15% faster (30.7 against 36.0 ms, alternating in one
+/// process) and tearoom, whose radiosity fits in L2, no faster: cache
+/// misses cost conference a sixth, the rest is the loop's instructions,
+/// near this core's issue limit. u32 targets read 39 ms.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,f16c")]
 unsafe fn gather_chunk_simd(links: &Links, b: &[Vec4], first: usize, chunk: &mut [Vec3]) {
