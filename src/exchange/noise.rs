@@ -59,6 +59,15 @@ pub struct NoiseParams {
     pub exponent: f32,
 }
 
+impl NoiseParams {
+    /// Actual over independent-ray variance at `rays` rays per vertex:
+    /// `min(1, scale * (reference_rays / rays)^exponent)`.
+    pub fn ratio(&self, rays: u32) -> f32 {
+        let n = rays.max(1) as f32;
+        (self.scale * (self.reference_rays as f32 / n).powf(self.exponent)).min(1.0)
+    }
+}
+
 impl Default for NoiseParams {
     fn default() -> Self {
         Self { scale: 0.2, reference_rays: 256, exponent: 0.75 }
@@ -89,7 +98,7 @@ pub fn variance(
         })
         .collect();
     let n_c = rays_per_vertex.max(1) as f32;
-    let factor = (params.scale * (params.reference_rays as f32 / n_c).powf(params.exponent)).min(1.0) / n_c;
+    let factor = params.ratio(rays_per_vertex) / n_c;
     #[cfg(target_arch = "x86_64")]
     let avx2 = std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("f16c");
     assert_eq!(links.packed.rows(), links.vertex_count(), "the links have no packed targets");

@@ -14,6 +14,10 @@
 //! is sampled by the rays like everything else (noisy at few rays): put
 //! the sun in as a directional light and keep the image for the sky.
 //!
+//! Where a vertex sees the sky through a small opening its estimate is
+//! noisy; the solver smooths it with the noise-aware filter of `E_i`, with
+//! the variance of its own samples ([`crate::exchange::SmoothParams::sky`]).
+//!
 //! `E_sky` is direct light: reported and exported on its own and added to
 //! the source of the bounces like `E_d` (docs/DESIGN.md §4). Rays that
 //! leave the scene after a bounce are not traced (the links end at the

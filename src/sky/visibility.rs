@@ -118,29 +118,40 @@ impl SkyVisibility {
     /// `pi / n_rays * sum_{missed} L(w_k)` with the directions of `frames`
     /// (zero everywhere without visibility or sky).
     pub fn irradiance(&self, sky: Option<&Sky>, frames: &RayFrames, n: usize) -> Vec<Vec3> {
-        let Some(sky) = sky.filter(|_| !self.is_empty()) else { return vec![Vec3::ZERO; n] };
+        self.irradiance_and_moment(sky, frames, n).into_iter().map(|(e, _)| e).collect()
+    }
+
+    /// [`SkyVisibility::irradiance`] with each vertex's second moment of
+    /// its ray estimates, `mean_k X_k^2` ((W/m^2)^2 per channel) with
+    /// `X_k = pi L(w_k)` for a missed ray and 0 for one that hit: the
+    /// input of the sky's noise estimate ([`crate::exchange::smooth::pooled_variance`]).
+    pub fn irradiance_and_moment(&self, sky: Option<&Sky>, frames: &RayFrames, n: usize) -> Vec<(Vec3, Vec3)> {
+        let Some(sky) = sky.filter(|_| !self.is_empty()) else { return vec![(Vec3::ZERO, Vec3::ZERO); n] };
         let radiance = sky.radiance_fn();
-        let scale = std::f32::consts::PI / frames.directions.len() as f32;
+        let rays = frames.directions.len() as f32;
+        let scale = std::f32::consts::PI / rays;
         let dirs = frames.directions;
         (0..n)
             .into_par_iter()
             .map(|v| {
                 let mask = self.vertex(v);
                 if mask.iter().all(|&m| m == 0) {
-                    return Vec3::ZERO;
+                    return (Vec3::ZERO, Vec3::ZERO);
                 }
                 let frame = vertex_frame(frames.normals[v], frames.rotations[v]);
                 let set = dirs.set(frames.sets[v]);
-                let mut sum = Vec3::ZERO;
+                let (mut sum, mut sum2) = (Vec3::ZERO, Vec3::ZERO);
                 for (w, &bits) in mask.iter().enumerate() {
                     let mut b = bits;
                     while b != 0 {
                         let k = w * 64 + b.trailing_zeros() as usize;
                         b &= b - 1;
-                        sum += radiance(world_direction(frame, set[k]));
+                        let l = radiance(world_direction(frame, set[k]));
+                        sum += l;
+                        sum2 += l * l;
                     }
                 }
-                sum * scale
+                (sum * scale, sum2 * (scale * std::f32::consts::PI))
             })
             .collect()
     }

@@ -144,7 +144,16 @@ impl Solver {
             sets: &sets,
             directions: &directions,
         };
-        self.links.sky.irradiance(s.sky.as_ref(), &frames, n)
+        let (e, m2): (Vec<Vec3>, Vec<Vec3>) =
+            self.links.sky.irradiance_and_moment(s.sky.as_ref(), &frames, n).into_iter().unzip();
+        let (angle, sp) = (self.params.smoothing_angle_deg, &self.params.smoothing);
+        if !sp.sky || sp.mode != SmoothMode::Adaptive || angle <= 0.0 {
+            return e;
+        }
+        let mut var = exchange::smooth::pooled_variance(&e, &m2, p.rays_per_vertex, &s.rings, &s.normals, angle);
+        let ratio = sp.noise.ratio(p.rays_per_vertex);
+        var.iter_mut().for_each(|v| *v *= ratio);
+        exchange::smooth_adaptive(&e, &var, &s.rings, &s.normals, angle, sp.passes)
     }
 
     /// Hidden vertices and their visible neighbours ([`exchange::hidden::stand_ins`]),
