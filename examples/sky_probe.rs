@@ -1,6 +1,6 @@
 //! Error of the link solver against the reference on a scene, per mesh and
 //! per quantity (E_sky, E_i, total): `cargo run --release --example sky_probe -- window 256 1024 [seed]`.
-//! Overrides: `EMITTER_SAMPLES=n` (emitter-link rays), `NOISE_SCALE=x`
+//! Overrides: `EMITTER_SAMPLES=n` (emitter-link rays), `SKY_SUB=s` (sky refinement), `NOISE_SCALE=x`
 //! (the smoothing's noise calibration), `DUMP=file.csv` (per-vertex values).
 use glam::Vec3;
 use linkgi::accuracy::metrics::error_stats;
@@ -22,11 +22,20 @@ fn main() {
     if let Ok(n) = std::env::var("EMITTER_SAMPLES") {
         sp.emitter.samples = n.parse().unwrap();
     }
+    if let Ok(x) = std::env::var("SKY_SUB") {
+        sp.sky.sub = x.parse().unwrap();
+    }
     if let Ok(x) = std::env::var("NOISE_SCALE") {
         sp.smoothing.noise.scale = x.parse().unwrap();
     }
     let solver = Solver::new(s, sp, &|_, _| {});
     eprintln!("emitter links: {} rays, {:.1} ms", solver.emitter_links.shadow_rays, solver.emitter_links.ms);
+    eprintln!(
+        "sky refinement: {} rays ({:.2} a link ray), {:.1} ms",
+        solver.sky_refine.rays,
+        solver.sky_refine.rays as f64 / (rays as f64 * solver.scene.vertex_count() as f64),
+        solver.sky_refine.ms
+    );
     let sol = solver.solve();
     let r = reference::compute_cached(
         &solver.scene,

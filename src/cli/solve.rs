@@ -124,6 +124,18 @@ pub fn run(args: SolveArgs) -> Result<()> {
             solution.e_sky.iter().map(|e| e.element_sum() / 3.0).sum::<f32>() / solution.e_sky.len().max(1) as f32,
             mb(solver.links.sky.bytes())
         );
+        let r = &solver.sky_refine;
+        if !r.is_empty() {
+            println!(
+                "sky refinement   {} cells with an edge, {} rays ({}x{} a cell) in {:.1} ms, {:.2} MB",
+                r.cells.len(),
+                r.rays,
+                r.sub,
+                r.sub,
+                r.ms,
+                mb(r.bytes())
+            );
+        }
     }
     let emitters = solver.scene.emission.iter().filter(|e| **e != glam::Vec3::ZERO).count();
     if emitters > 0 {

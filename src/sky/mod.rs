@@ -25,9 +25,11 @@
 //! see it, like any direct light.
 
 pub mod envmap;
+pub mod refine;
 pub mod visibility;
 
 pub use envmap::EnvMap;
+pub use refine::{SkyRefineParams, SkyRefinement};
 pub use visibility::SkyVisibility;
 
 use glam::Vec3;

@@ -138,6 +138,10 @@ impl Solver {
         self.emitter_links = crate::exchange::EmitterLinks::compute(&self.scene, &self.accel, &params.emitter)
             .expect("a CPU tracer cannot fail");
         stats.emitter_links_ms = self.emitter_links.ms;
+        // The sky's refined cells follow the new links' misses: all traced anew.
+        self.sky_refine =
+            crate::sky::SkyRefinement::compute(&self.scene, &self.accel, &self.links.sky, &params.links, &params.sky)
+                .expect("a CPU tracer cannot fail");
         // The near hits' light columns: those the motion can have changed traced again.
         self.near_light
             .update_deformed(

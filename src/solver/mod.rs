@@ -114,6 +114,8 @@ pub struct SolveParams {
     pub gather: GatherParams,
     /// Correction of hidden vertices as link targets ([`crate::exchange::hidden`]).
     pub hidden: HiddenParams,
+    /// More rays where a vertex's view of the sky has an edge ([`crate::sky::refine`]).
+    pub sky: crate::sky::SkyRefineParams,
     /// Feature angle of smoothing, degrees; 0: off.
     pub smoothing_angle_deg: f32,
     /// The smoothing filter (noise-aware by default, [`mod@crate::exchange::smooth`]).
@@ -132,6 +134,7 @@ impl Default for SolveParams {
             emitter: EmitterLinkParams::default(),
             gather: GatherParams::default(),
             hidden: HiddenParams::default(),
+            sky: Default::default(),
             smoothing_angle_deg: 0.0,
             smoothing: SmoothParams::default(),
         }
@@ -174,6 +177,9 @@ pub struct SolveStats {
     /// Shadow rays toward emissive surfaces and their time, ms.
     pub emitter_rays: u64,
     pub emitter_links_ms: f64,
+    /// Rays of the sky's refined cells and their time, ms.
+    pub sky_rays: u64,
+    pub sky_ms: f64,
     /// Near hits ([`crate::links::near`]) and the shadow rays and time of their light columns, ms.
     pub near_hits: u64,
     pub near_rays: u64,
@@ -250,6 +256,8 @@ pub struct Solver {
     pub emitter_links: EmitterLinks,
     /// The lights' direct light at the links' near hits.
     pub near_light: NearLight,
+    /// The sky's refined cells ([`crate::sky::refine`]).
+    pub sky_refine: crate::sky::SkyRefinement,
     /// Present when links, light links and bounces run on a GPU.
     pub gpu: Option<GpuState>,
     pub compute: Compute,
@@ -285,6 +293,8 @@ impl Solver {
         let (links, ray_hits) = links::shoot_links_recording(&scene, &accel, &params.links, record, progress);
         let light_links = LightLinks::compute(&scene, &accel, &params.light);
         let emitter_links = EmitterLinks::compute(&scene, &accel, &params.emitter).expect("a CPU tracer cannot fail");
+        let sky_refine = crate::sky::SkyRefinement::compute(&scene, &accel, &links.sky, &params.links, &params.sky)
+            .expect("a CPU tracer cannot fail");
         let near_light =
             NearLight::compute(&scene, &links.near, &accel, &params.light).expect("a CPU tracer cannot fail");
         Solver {
@@ -295,6 +305,7 @@ impl Solver {
             light_links,
             emitter_links,
             near_light,
+            sky_refine,
             gpu: None,
             compute: Compute::Cpu,
             ray_hits,
@@ -362,6 +373,7 @@ impl Solver {
         let tracer = logical.swap_remove(0).tracer;
         let light_links = LightLinks::compute_with(&scene, &tracer, &params.light)?;
         let emitter_links = EmitterLinks::compute(&scene, &tracer, &params.emitter)?;
+        let sky_refine = crate::sky::SkyRefinement::compute(&scene, &tracer, &links.sky, &params.links, &params.sky)?;
         let near_light = NearLight::compute(&scene, &links.near, &tracer, &params.light)?;
         let gpu_links = GpuLinks::new(tracer.dev.clone(), &links, &scene.albedo)?;
         let gpu = GpuState { tracer, links: gpu_links, shares };
@@ -373,6 +385,7 @@ impl Solver {
             light_links,
             emitter_links,
             near_light,
+            sky_refine,
             gpu: Some(gpu),
             compute: compute.clone(),
             ray_hits: None,
@@ -485,6 +498,8 @@ impl Solver {
             light_links_ms: self.light_links.ms,
             emitter_rays: self.emitter_links.shadow_rays,
             emitter_links_ms: self.emitter_links.ms,
+            sky_rays: self.sky_refine.rays,
+            sky_ms: self.sky_refine.ms,
             near_hits: self.links.near.hits.len() as u64,
             near_rays: self.near_light.shadow_rays,
             near_ms: self.near_light.ms,

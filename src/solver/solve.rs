@@ -144,15 +144,28 @@ impl Solver {
             sets: &sets,
             directions: &directions,
         };
-        let (e, m2): (Vec<Vec3>, Vec<Vec3>) =
-            self.links.sky.irradiance_and_moment(s.sky.as_ref(), &frames, n).into_iter().unzip();
         let (angle, sp) = (self.params.smoothing_angle_deg, &self.params.smoothing);
-        if !sp.sky || sp.mode != SmoothMode::Adaptive || angle <= 0.0 {
-            return e;
-        }
-        let mut var = exchange::smooth::pooled_variance(&e, &m2, p.rays_per_vertex, &s.rings, &s.normals, angle);
-        let ratio = sp.noise.ratio(p.rays_per_vertex);
-        var.iter_mut().for_each(|v| *v *= ratio);
+        let smooth = sp.sky && sp.mode == SmoothMode::Adaptive && angle > 0.0;
+        let (e, var): (Vec<Vec3>, Vec<Vec3>) = if self.sky_refine.is_empty() {
+            // One ray a cell: the variance of independent rays, pooled, times the stratification ratio.
+            let (e, m2): (Vec<Vec3>, Vec<Vec3>) =
+                self.links.sky.irradiance_and_moment(s.sky.as_ref(), &frames, n).into_iter().unzip();
+            if !smooth {
+                return e;
+            }
+            let mut var = exchange::smooth::pooled_variance(&e, &m2, p.rays_per_vertex, &s.rings, &s.normals, angle);
+            let ratio = sp.noise.ratio(p.rays_per_vertex);
+            var.iter_mut().for_each(|v| *v *= ratio);
+            (e, var)
+        } else {
+            // Refined cells: their own variance, pooled over the ring.
+            let (e, var): (Vec<Vec3>, Vec<Vec3>) =
+                self.sky_refine.irradiance(&self.links.sky, s.sky.as_ref(), &frames, p.seed, n).into_iter().unzip();
+            if !smooth {
+                return e;
+            }
+            (e, exchange::smooth(&var, &s.rings, &s.normals, angle))
+        };
         exchange::smooth_adaptive(&e, &var, &s.rings, &s.normals, angle, sp.passes)
     }
 

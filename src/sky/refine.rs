@@ -1,0 +1,375 @@
+//! Sky refinement: more rays where a vertex's view of the sky has an edge,
+//! so sky light through a window or a gap is not left to one ray per
+//! stratum.
+//!
+//! A vertex's `n = k*k` link rays are one jittered ray in each cell of a
+//! `k x k` grid over the unit square, mapped onto the cosine-weighted
+//! hemisphere ([`crate::sampling::DirectionSet`]). Its sky estimate is the
+//! stratified mean `E_sky = pi/n * sum_c X_c` (`X_c = L(w_c)` when ray `c`
+//! left the scene, else 0; `L` in W/(m^2 sr), `E_sky` in W/m^2). Its
+//! variance comes almost all from the cells an opening's edge crosses: a
+//! cell wholly inside or outside the opening gives the same `X_c` whatever
+//! its jitter. So a cell is **refined** when its grid neighbours (up to 8,
+//! itself excluded) hold both a ray that left the scene and one that hit:
+//! its `X_c` is replaced by the mean of `s*s` fresh any-hit rays, one
+//! jittered in each of its `s x s` sub-cells (jitter hashed from the seed,
+//! the direction set, the cell and the sub-cell: same seed, same rays).
+//!
+//! Unbiased: whether a cell is refined depends only on its neighbours' rays,
+//! which are independent of its own, so a kept ray's expectation is
+//! unchanged, and the fresh rays are independent of the choice.
+//!
+//! Variance, per channel: `(pi/n)^2 * sum_{refined c} var_c / s^2`, with
+//! `var_c` the sample variance of the cell's fresh `X` (the sub-cells are
+//! stratified, so this is an upper bound); kept cells count 0. The solver
+//! pools it over the ring and smooths `E_sky` with it
+//! ([`crate::exchange::SmoothParams::sky`]).
+//!
+//! Stored: per vertex the refined cells (ray index) and one bit per fresh
+//! ray (it missed), so any new sky is integrated again without tracing,
+//! like [`super::visibility`]. Deviation from the paper: the paper has no
+//! sky.
+
+use super::visibility::{RayFrames, SkyVisibility};
+use super::Sky;
+use crate::kdtree::Ray;
+use crate::links::{LinkParams, RaySetup};
+use crate::sampling::{block_order, cosine_hemisphere, vertex_frame, world_direction};
+use crate::scene::prep::PreparedScene;
+use crate::trace::Tracer;
+use glam::{Vec2, Vec3};
+use rayon::prelude::*;
+use std::time::Instant;
+
+/// Parameters of the sky refinement.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SkyRefineParams {
+    /// Sub-cells a side of a refined cell: `sub * sub` fresh rays replace
+    /// its one ray (at most [`MAX_SUB`]); 0 turns refinement off.
+    pub sub: u32,
+}
+
+/// The largest [`SkyRefineParams::sub`]: a refined cell's rays fit one u32 mask.
+pub const MAX_SUB: u32 = 5;
+
+impl Default for SkyRefineParams {
+    fn default() -> Self {
+        Self { sub: 3 }
+    }
+}
+
+/// The refined cells of every vertex and which of their rays missed.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct SkyRefinement {
+    /// Sub-cells a side (0: none refined).
+    pub sub: u32,
+    /// Vertex `v`'s cells: `cells[offsets[v]..offsets[v + 1]]` (empty: none anywhere).
+    pub offsets: Vec<u32>,
+    /// Ray index of each refined cell in its vertex's direction set.
+    pub cells: Vec<u32>,
+    /// Bit `j` of a refined cell: its sub-cell `j` ray left the scene.
+    pub masks: Vec<u32>,
+    /// Fresh rays traced.
+    pub rays: u64,
+    /// Time spent, ms.
+    pub ms: f64,
+}
+
+/// The unit-square point of sub-cell `j` of cell `(x, y)` of a `k x k`
+/// grid with `sub x sub` sub-cells, jittered by a hash of `seed`, the
+/// direction set and the cell.
+fn sub_point(k: u32, sub: u32, x: u32, y: u32, j: u32, set: u32, seed: u64) -> Vec2 {
+    let h = hash(seed ^ (u64::from(set) << 56) ^ (u64::from(y * k + x) << 8) ^ u64::from(j));
+    let jitter = Vec2::new((h as u32) as f32, (h >> 32) as u32 as f32) * (1.0 / 4294967296.0);
+    let jitter = jitter.clamp(Vec2::splat(1e-4), Vec2::splat(1.0 - 1e-4));
+    let (jx, jy) = (j % sub, j / sub);
+    let cell = Vec2::new(x as f32, y as f32) + (Vec2::new(jx as f32, jy as f32) + jitter) / sub as f32;
+    cell / k as f32
+}
+
+/// SplitMix64 finalizer.
+fn hash(mut z: u64) -> u64 {
+    z = z.wrapping_add(0x9e37_79b9_7f4a_7c15);
+    z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+    z ^ (z >> 31)
+}
+
+/// The grid of a direction set: each ray's cell and each cell's ray.
+struct Grid {
+    k: u32,
+    cell_of: Vec<(u32, u32)>,
+    ray_of: Vec<u32>,
+}
+
+impl Grid {
+    fn new(k: u32) -> Grid {
+        let cell_of = block_order(k);
+        let mut ray_of = vec![0u32; (k * k) as usize];
+        for (r, &(x, y)) in cell_of.iter().enumerate() {
+            ray_of[(y * k + x) as usize] = r as u32;
+        }
+        Grid { k, cell_of, ray_of }
+    }
+
+    /// The cells (ray indices) whose neighbours hold both a miss and a hit, for miss mask `mask`.
+    fn refined(&self, mask: &[u64]) -> Vec<u32> {
+        let missed = |r: u32| mask[(r / 64) as usize] >> (r % 64) & 1 == 1;
+        let k = self.k as i64;
+        let mut out = Vec::new();
+        for (r, &(x, y)) in self.cell_of.iter().enumerate() {
+            let (mut miss, mut hit) = (false, false);
+            for dy in -1i64..=1 {
+                for dx in -1i64..=1 {
+                    let (nx, ny) = (x as i64 + dx, y as i64 + dy);
+                    if (dx, dy) == (0, 0) || nx < 0 || ny < 0 || nx >= k || ny >= k {
+                        continue;
+                    }
+                    if missed(self.ray_of[(ny * k + nx) as usize]) {
+                        miss = true;
+                    } else {
+                        hit = true;
+                    }
+                }
+            }
+            if miss && hit {
+                out.push(r as u32);
+            }
+        }
+        out
+    }
+}
+
+impl SkyRefinement {
+    /// Traces the fresh rays of every vertex that saw the sky (`vis`, from
+    /// links shot with `link`) with `tracer`; none without a sky.
+    pub fn compute(
+        scene: &PreparedScene,
+        tracer: &dyn Tracer,
+        vis: &SkyVisibility,
+        link: &LinkParams,
+        params: &SkyRefineParams,
+    ) -> crate::Result<SkyRefinement> {
+        let start = Instant::now();
+        let sub = params.sub.min(MAX_SUB);
+        let n = scene.vertex_count();
+        if sub == 0 || vis.is_empty() || scene.sky.is_none() {
+            return Ok(SkyRefinement::default());
+        }
+        let setup = RaySetup::new(scene, link);
+        let grid = Grid::new(setup.directions.k);
+        let cells: Vec<Vec<u32>> = (0..n).into_par_iter().map(|v| grid.refined(vis.vertex(v))).collect();
+        let mut offsets = Vec::with_capacity(n + 1);
+        offsets.push(0u32);
+        for c in &cells {
+            offsets.push(offsets.last().unwrap() + c.len() as u32);
+        }
+        let cells: Vec<u32> = cells.concat();
+        let per = (sub * sub) as usize;
+        let mut masks = vec![0u32; cells.len()];
+        let mut rays = 0u64;
+        // Batches of vertices, so the rays of the whole scene are never held at once.
+        let mut v0 = 0usize;
+        while v0 < n {
+            let mut v1 = v0;
+            while v1 < n && (offsets[v1] - offsets[v0]) as usize * per < 1 << 20 {
+                v1 += 1;
+            }
+            let v1 = v1.max(v0 + 1);
+            // Per ray: its cell slot and bit, or a dive under the surface (a hit, not traced).
+            let batch: Vec<(usize, u32, Option<Ray>)> = (v0..v1)
+                .into_par_iter()
+                .flat_map_iter(|v| {
+                    let frame = vertex_frame(setup.normals[v], setup.rotations[v]);
+                    let set = setup.sets[v];
+                    let (setup, grid) = (&setup, &grid);
+                    let range = offsets[v] as usize..offsets[v + 1] as usize;
+                    let cells = &cells;
+                    range.flat_map(move |slot| {
+                        let (x, y) = grid.cell_of[cells[slot] as usize];
+                        (0..sub * sub).map(move |j| {
+                            let u = sub_point(grid.k, sub, x, y, j, set, link.seed);
+                            let dir = world_direction(frame, cosine_hemisphere(u).normalize());
+                            let under = setup.wedges(v).iter().any(|w| w.dives_under(dir));
+                            let ray =
+                                Ray { origin: setup.origins[v], dir, tmin: 0.0, tmax: f32::INFINITY, skip: v as u32 };
+                            (slot, j, (!under).then_some(ray))
+                        })
+                    })
+                })
+                .collect();
+            let traced: Vec<Ray> = batch.iter().filter_map(|b| b.2).collect();
+            rays += traced.len() as u64;
+            let visible = tracer.visible(&traced)?;
+            let mut it = visible.into_iter();
+            for (slot, j, ray) in batch {
+                if ray.is_some() && it.next() == Some(true) {
+                    masks[slot] |= 1 << j;
+                }
+            }
+            v0 = v1;
+        }
+        Ok(SkyRefinement { sub, offsets, cells, masks, rays, ms: start.elapsed().as_secs_f64() * 1e3 })
+    }
+
+    /// True when no cell is refined.
+    pub fn is_empty(&self) -> bool {
+        self.cells.is_empty()
+    }
+
+    /// Bytes held.
+    pub fn bytes(&self) -> u64 {
+        (4 * (self.offsets.len() + self.cells.len() + self.masks.len())) as u64
+    }
+
+    /// Checks the structure against `n` vertices of `rays` rays each: offsets
+    /// ascending and ending at the cell count, cells in range and ascending
+    /// per vertex, masks within `sub * sub` bits.
+    pub fn validate(&self, n: usize, rays: usize) -> Result<(), String> {
+        if self.is_empty() {
+            return Ok(());
+        }
+        if self.offsets.len() != n + 1
+            || self.offsets[0] != 0
+            || *self.offsets.last().unwrap() as usize != self.cells.len()
+        {
+            return Err(format!("offsets: {} for {n} vertices and {} cells", self.offsets.len(), self.cells.len()));
+        }
+        if self.masks.len() != self.cells.len() || self.sub == 0 || self.sub > MAX_SUB {
+            return Err(format!("{} masks for {} cells, sub {}", self.masks.len(), self.cells.len(), self.sub));
+        }
+        let bits = self.sub * self.sub;
+        for v in 0..n {
+            let (a, b) = (self.offsets[v] as usize, self.offsets[v + 1] as usize);
+            if a > b {
+                return Err(format!("vertex {v}: offsets descend"));
+            }
+            let row = &self.cells[a..b];
+            if row.iter().any(|&c| c as usize >= rays) || row.windows(2).any(|w| w[0] >= w[1]) {
+                return Err(format!("vertex {v}: cells out of range or order"));
+            }
+            if bits < 32 && self.masks[a..b].iter().any(|&m| m >> bits != 0) {
+                return Err(format!("vertex {v}: mask bits beyond {bits} rays"));
+            }
+        }
+        Ok(())
+    }
+
+    /// `E_sky` of every vertex under `sky` (W/m^2) and its variance
+    /// ((W/m^2)^2, see the module doc), from the link rays' misses `vis`
+    /// with the refined cells' rays in place of theirs. `seed` is the links'.
+    pub fn irradiance(
+        &self,
+        vis: &SkyVisibility,
+        sky: Option<&Sky>,
+        frames: &RayFrames,
+        seed: u64,
+        n: usize,
+    ) -> Vec<(Vec3, Vec3)> {
+        let Some(sky) = sky.filter(|_| !vis.is_empty()) else { return vec![(Vec3::ZERO, Vec3::ZERO); n] };
+        let radiance = sky.radiance_fn();
+        let rays = frames.directions.len();
+        let k = frames.directions.k;
+        let grid = Grid::new(k);
+        let scale = std::f32::consts::PI / rays as f32;
+        let sub = self.sub.max(1);
+        let per = (sub * sub) as f32;
+        (0..n)
+            .into_par_iter()
+            .map(|v| {
+                let mask = vis.vertex(v);
+                if mask.iter().all(|&m| m == 0) {
+                    return (Vec3::ZERO, Vec3::ZERO);
+                }
+                let frame = vertex_frame(frames.normals[v], frames.rotations[v]);
+                let set = frames.sets[v];
+                let dirs = frames.directions.set(set);
+                let (cells, masks) = match self.offsets.get(v + 1) {
+                    Some(&b) => {
+                        let a = self.offsets[v] as usize;
+                        (&self.cells[a..b as usize], &self.masks[a..b as usize])
+                    }
+                    None => (&[][..], &[][..]),
+                };
+                let mut sum = Vec3::ZERO;
+                let mut var = Vec3::ZERO;
+                let mut next = cells.iter().zip(masks).peekable();
+                for r in 0..rays as u32 {
+                    if let Some((_, &m)) = next.next_if(|(&c, _)| c == r) {
+                        let (x, y) = grid.cell_of[r as usize];
+                        let (mut s1, mut s2) = (Vec3::ZERO, Vec3::ZERO);
+                        for j in 0..sub * sub {
+                            if m >> j & 1 == 1 {
+                                let u = sub_point(k, sub, x, y, j, set, seed);
+                                let l = radiance(world_direction(frame, cosine_hemisphere(u).normalize()));
+                                s1 += l;
+                                s2 += l * l;
+                            }
+                        }
+                        let mean = s1 / per;
+                        sum += mean;
+                        if sub > 1 {
+                            var += (s2 - s1 * mean).max(Vec3::ZERO) / (per - 1.0) / per;
+                        }
+                    } else if mask[(r / 64) as usize] >> (r % 64) & 1 == 1 {
+                        sum += radiance(world_direction(frame, dirs[r as usize]));
+                    }
+                }
+                (sum * scale, var * scale * scale)
+            })
+            .collect()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A mask of `k*k` rays in which the rays of the cells with `x < edge` missed.
+    fn half_open(grid: &Grid, edge: u32) -> Vec<u64> {
+        let mut mask = vec![0u64; (grid.k * grid.k).div_ceil(64) as usize];
+        for (r, &(x, _)) in grid.cell_of.iter().enumerate() {
+            if x < edge {
+                mask[r / 64] |= 1 << (r % 64);
+            }
+        }
+        mask
+    }
+
+    #[test]
+    fn the_cells_beside_an_edge_are_refined_and_no_others() {
+        let grid = Grid::new(16);
+        // All missed, or all hit: nothing to refine.
+        assert!(grid.refined(&half_open(&grid, 16)).is_empty());
+        assert!(grid.refined(&half_open(&grid, 0)).is_empty());
+        // An edge between columns 5 and 6: columns 5 and 6 are refined, every row.
+        let cells = grid.refined(&half_open(&grid, 6));
+        let mut columns: Vec<u32> = cells.iter().map(|&r| grid.cell_of[r as usize].0).collect();
+        columns.sort_unstable();
+        columns.dedup();
+        assert_eq!(columns, vec![5, 6]);
+        assert_eq!(cells.len(), 32);
+        assert!(cells.windows(2).all(|w| w[0] < w[1]), "ascending ray order");
+        // One missed ray: its 8 neighbours are refined, itself not (its own ray decides nothing).
+        let mut one = vec![0u64; 4];
+        let r = grid.ray_of[(7 * 16 + 7) as usize];
+        one[(r / 64) as usize] |= 1 << (r % 64);
+        let cells = grid.refined(&one);
+        assert_eq!(cells.len(), 8);
+        assert!(!cells.contains(&r));
+    }
+
+    #[test]
+    fn sub_points_stay_in_their_sub_cells_and_follow_the_seed() {
+        let (k, sub) = (16, 3);
+        for j in 0..sub * sub {
+            let u = sub_point(k, sub, 4, 9, j, 1, 7) * k as f32 - Vec2::new(4.0, 9.0);
+            let (jx, jy) = ((j % sub) as f32, (j / sub) as f32);
+            assert!(u.x * sub as f32 >= jx && u.x * sub as f32 <= jx + 1.0, "{u}");
+            assert!(u.y * sub as f32 >= jy && u.y * sub as f32 <= jy + 1.0, "{u}");
+        }
+        assert_eq!(sub_point(k, sub, 4, 9, 2, 1, 7), sub_point(k, sub, 4, 9, 2, 1, 7));
+        assert_ne!(sub_point(k, sub, 4, 9, 2, 1, 7), sub_point(k, sub, 4, 9, 2, 1, 8));
+        assert_ne!(sub_point(k, sub, 4, 9, 2, 0, 7), sub_point(k, sub, 4, 9, 2, 1, 7));
+    }
+}
