@@ -74,30 +74,20 @@ fn main() {
         // Noise calibration: two seeds.
         let s2 = solver_for(2);
         let sol2 = s2.solve();
-        let iid = exchange::noise::variance(
-            &s1.links,
-            &scene.albedo,
-            &scene.emission,
-            &sol.e_source,
-            &sol.e_indirect_raw,
-            n,
-            &NoiseParams { scale: 1.0, reference_rays: n, exponent: 0.0 },
-        );
-        let iid2 = exchange::noise::variance(
-            &s2.links,
-            &scene.albedo,
-            &scene.emission,
-            &sol2.e_source,
-            &sol2.e_indirect_raw,
-            n,
-            &NoiseParams { scale: 1.0, reference_rays: n, exponent: 0.0 },
-        );
-        let actual: f64 = sol
-            .e_indirect_raw
-            .iter()
-            .zip(&sol2.e_indirect_raw)
-            .map(|(a, b)| (*a - *b).length_squared() as f64 / 2.0)
-            .sum();
+        // The gathered part only (emitter links and near-hit corrections are not smoothed).
+        let gathered = |sv: &Solver, sol: &linkgi::solver::Solution| -> Vec<Vec3> {
+            let sc = &sv.scene;
+            let e_src = sv.light_links.bounce_source(&sc.lights, nv);
+            let near = sv.near_light.correction(sc, &sv.links.near, &sc.lights, &e_src, n);
+            let em = sv.emitter_links.irradiance(&sc.emission, nv);
+            (0..nv).map(|v| sol.e_indirect_raw[v] - near[v] - em[v]).collect()
+        };
+        let (g1, g2) = (gathered(&s1, &sol), gathered(&s2, &sol2));
+        let ratio = s1.params.smoothing.noise.ratio(n);
+        let iid: Vec<Vec3> = s1.noise_variance(&sol.e_source, &sol.e_indirect_raw).iter().map(|x| *x / ratio).collect();
+        let iid2: Vec<Vec3> =
+            s2.noise_variance(&sol2.e_source, &sol2.e_indirect_raw).iter().map(|x| *x / ratio).collect();
+        let actual: f64 = g1.iter().zip(&g2).map(|(a, b)| (*a - *b).length_squared() as f64 / 2.0).sum();
         let est: f64 = iid.iter().zip(&iid2).map(|(a, b)| (a.element_sum() + b.element_sum()) as f64 / 2.0).sum();
         let raw = &sol.e_indirect_raw;
         let var = s1.noise_variance(&sol.e_source, raw);

@@ -1,7 +1,7 @@
 //! Error of the link solver against the reference on a scene, per mesh and
 //! per quantity (E_sky, E_i, total): `cargo run --release --example sky_probe -- window 256 1024 [seed]`.
 //! Overrides: `EMITTER_SAMPLES=n` (emitter-link rays), `SKY_SUB=s` (sky refinement), `NOISE_SCALE=x`
-//! (the smoothing's noise calibration), `DUMP=file.csv` (per-vertex values).
+//! (the smoothing's noise calibration), `NOISE_CHECK=m` (its check's vertices), `NOISE_K=k` (neighbours of its local ratio), `DUMP=file.csv` (per-vertex values).
 use glam::Vec3;
 use linkgi::accuracy::metrics::error_stats;
 use linkgi::reference::{self, ReferenceParams};
@@ -25,6 +25,12 @@ fn main() {
     if let Ok(x) = std::env::var("SKY_SUB") {
         sp.sky.sub = x.parse().unwrap();
     }
+    if let Ok(x) = std::env::var("NOISE_CHECK") {
+        sp.smoothing.noise.check_vertices = x.parse().unwrap();
+    }
+    if let Ok(x) = std::env::var("NOISE_K") {
+        sp.smoothing.noise.check_neighbours = x.parse().unwrap();
+    }
     if let Ok(x) = std::env::var("NOISE_SCALE") {
         sp.smoothing.noise.scale = x.parse().unwrap();
     }
@@ -37,6 +43,14 @@ fn main() {
         solver.sky_refine.ms
     );
     let sol = solver.solve();
+    eprintln!(
+        "noise ratio {:.3} (model {:.3}; check {} vertices, {} rays, {:.1} ms)",
+        solver.noise_ratio(&sol.e_source, &sol.e_indirect_raw),
+        solver.params.smoothing.noise.ratio(rays),
+        solver.noise_check.vertices.len(),
+        solver.noise_check.rays,
+        solver.noise_check.ms
+    );
     let r = reference::compute_cached(
         &solver.scene,
         &ReferenceParams { samples_per_vertex: samples, ..Default::default() },

@@ -211,6 +211,15 @@ pub fn world_direction(frame: (Vec3, Vec3, Vec3), d: Vec3) -> Vec3 {
     (t * d.x + b * d.y + n * d.z).normalize()
 }
 
+/// The SplitMix64 finalizer (Steele et al. 2014): a well-mixed 64-bit hash
+/// of `z`, for per-item jitter that must not depend on evaluation order.
+pub fn splitmix64(mut z: u64) -> u64 {
+    z = z.wrapping_add(0x9e37_79b9_7f4a_7c15);
+    z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+    z ^ (z >> 31)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -138,38 +138,63 @@ fn tearoom_error_keeps_falling_with_rays() {
     error_keeps_falling("tearoom", 256, 64);
 }
 
-/// The noise estimate (per-vertex variance of `E_i` from the links) against
-/// the variance seen between two seeds on the Cornell box at 64 and 256
-/// rays: within a factor of 2.5 over all vertices.
+/// The noise estimate (per-vertex variance of the gathered `E_i`, with the
+/// ratios the noise check measures on the scene) against the variance of
+/// each vertex's own rays: the same radiosity `B` (seed 1's solution)
+/// gathered over the links of two seeds, half the squared difference
+/// summed over all vertices, at 64 and 256 rays: within a factor of 2 on
+/// the Cornell box and on `window` (sky, emitters), and on `window` closer
+/// than the model's fixed ratio, which is about twice too large there
+/// (measured 0.73 / 0.93 on cornell, 0.63 / 0.66 on `window`, the model
+/// 1.01 / 0.76 and 2.27 / 1.87; the check's 512 vertices tend to miss the
+/// few vertices with the largest variance, so it reads low). (Between two whole solves the
+/// variance is larger: the radiosity's own noise, smooth over the surface,
+/// which smoothing cannot remove, comes on top.)
 #[test]
 fn noise_estimate_matches_the_spread_between_seeds() {
-    let scene = prep::prepare(&builtin::builtin("cornell").unwrap()).unwrap();
-    for rays in [64, 256] {
-        let solver_for = |seed: u64| {
-            let mut s = scene.settings;
-            s.rays_per_vertex = rays;
-            s.seed = seed;
-            s.bounces = Bounces::Auto;
-            Solver::new(scene.clone(), SolveParams::from_settings(&s), &|_, _| {})
-        };
-        let (a, b) = (solver_for(1), solver_for(2));
-        let (sa, sb) = (a.solve(), b.solve());
-        let actual: f64 = sa
-            .e_indirect_raw
-            .iter()
-            .zip(&sb.e_indirect_raw)
-            .map(|(x, y)| (*x - *y).length_squared() as f64 / 2.0)
-            .sum();
-        let estimate: f64 = [(&a, &sa), (&b, &sb)]
-            .iter()
-            .map(|(s, sol)| {
-                s.noise_variance(&sol.e_source, &sol.e_indirect_raw).iter().map(|v| v.element_sum() as f64).sum::<f64>()
-            })
-            .sum::<f64>()
-            / 2.0;
-        let ratio = estimate / actual;
-        eprintln!("cornell {rays} rays: estimated / actual variance of E_i {ratio:.2}");
-        assert!((0.4..2.5).contains(&ratio), "{rays} rays: noise estimate off by {ratio}");
+    use linkgi::exchange::{gather::gather_bounce, noise};
+    for name in ["cornell", "window"] {
+        let scene = prep::prepare(&builtin::builtin(name).unwrap()).unwrap();
+        for rays in [64, 256] {
+            let solver_for = |seed: u64| {
+                let mut s = scene.settings;
+                s.rays_per_vertex = rays;
+                s.seed = seed;
+                s.bounces = Bounces::Auto;
+                let solver = Solver::new(scene.clone(), SolveParams::from_settings(&s), &|_, _| {});
+                solver.links.validate().expect("links valid");
+                solver.noise_check.validate(solver.scene.vertex_count()).expect("noise check valid");
+                solver
+            };
+            let (a, b) = (solver_for(1), solver_for(2));
+            let sol = a.solve();
+            // The gathered part: the emitters' direct light and the near-hit correction have their own noise.
+            let n = sol.e_indirect_raw.len();
+            let gathered: Vec<Vec3> =
+                (0..n).map(|v| sol.e_indirect_raw[v] - sol.e_emitter[v] - sol.e_near[v]).collect();
+            let emission = a.emitter_links.carried_emission(&a.scene.emission);
+            let moments = noise::radiosity_moments(&a.scene.albedo, &emission, &sol.e_source, &gathered);
+            let radiosity: Vec<Vec3> = moments.iter().map(|m| m[0].truncate()).collect();
+            let (mut ea, mut eb) = (vec![Vec3::ZERO; n], vec![Vec3::ZERO; n]);
+            gather_bounce(&a.links, &radiosity, &mut ea);
+            gather_bounce(&b.links, &radiosity, &mut eb);
+            let actual: f64 = ea.iter().zip(&eb).map(|(x, y)| (*x - *y).length_squared() as f64 / 2.0).sum();
+            let sum = |v: Vec<Vec3>| v.iter().map(|v| v.element_sum() as f64).sum::<f64>();
+            let estimate = sum(a.noise_variance(&sol.e_source, &sol.e_indirect_raw));
+            let p = &a.params.smoothing.noise;
+            let model = sum(noise::variance(&a.links, &a.scene.albedo, &emission, &sol.e_source, &gathered, rays, p));
+            let (ratio, model_ratio) = (estimate / actual, model / actual);
+            eprintln!(
+                "{name} {rays} rays: estimated / actual variance of E_i {ratio:.2} (the model alone {model_ratio:.2})"
+            );
+            assert!((0.5..2.0).contains(&ratio), "{name} {rays} rays: noise estimate off by {ratio}");
+            if name == "window" {
+                assert!(
+                    ratio.ln().abs() < model_ratio.ln().abs(),
+                    "{name} {rays} rays: the check is no closer than the model"
+                );
+            }
+        }
     }
 }
 

@@ -137,6 +137,17 @@ pub fn run(args: SolveArgs) -> Result<()> {
             );
         }
     }
+    let check = &solver.noise_check;
+    if !check.is_empty() && solution.smoothed {
+        println!(
+            "noise check      {} vertices, {} rays in {:.1} ms: actual / independent-ray variance {:.3} (model {:.3})",
+            check.vertices.len(),
+            check.rays,
+            check.ms,
+            solver.noise_ratio(&solution.e_source, &solution.e_indirect_raw),
+            solver.params.smoothing.noise.ratio(solver.params.links.rays_per_vertex)
+        );
+    }
     let emitters = solver.scene.emission.iter().filter(|e| **e != glam::Vec3::ZERO).count();
     if emitters > 0 {
         let e = &solver.emitter_links;

@@ -5,7 +5,8 @@
 //! short link rays ([`near_field`]), bounces gathered over the vertex links ([`mod@gather`]),
 //! hidden vertices' radiosity replaced as link targets by their visible
 //! neighbours' ([`hidden`]), a noise estimate of every vertex's `E_i` from
-//! its links ([`noise`]) and feature-aware, noise-aware one-ring smoothing
+//! its links ([`noise`]), calibrated on the scene by a second estimate at a
+//! sample of vertices ([`noise_check`]), and feature-aware, noise-aware one-ring smoothing
 //! ([`mod@smooth`]).
 //!
 //! Units: per-vertex irradiance `E` in W/m^2 per RGB channel; radiosity
@@ -18,6 +19,7 @@ pub mod hidden;
 pub mod light_links;
 pub mod near_field;
 pub mod noise;
+pub mod noise_check;
 pub mod smooth;
 
 pub use emitter_links::{EmitterLinkParams, EmitterLinks};
@@ -26,4 +28,5 @@ pub use hidden::HiddenParams;
 pub use light_links::{BounceSource, LightLinkParams, LightLinks};
 pub use near_field::NearLight;
 pub use noise::NoiseParams;
+pub use noise_check::NoiseCheck;
 pub use smooth::{smooth, smooth_adaptive, SmoothMode, SmoothParams};

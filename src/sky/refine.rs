@@ -34,7 +34,7 @@ use super::visibility::{RayFrames, SkyVisibility};
 use super::Sky;
 use crate::kdtree::Ray;
 use crate::links::{LinkParams, RaySetup};
-use crate::sampling::{block_order, cosine_hemisphere, vertex_frame, world_direction};
+use crate::sampling::{block_order, cosine_hemisphere, splitmix64, vertex_frame, world_direction};
 use crate::scene::prep::PreparedScene;
 use crate::trace::Tracer;
 use glam::{Vec2, Vec3};
@@ -79,20 +79,12 @@ pub struct SkyRefinement {
 /// grid with `sub x sub` sub-cells, jittered by a hash of `seed`, the
 /// direction set and the cell.
 fn sub_point(k: u32, sub: u32, x: u32, y: u32, j: u32, set: u32, seed: u64) -> Vec2 {
-    let h = hash(seed ^ (u64::from(set) << 56) ^ (u64::from(y * k + x) << 8) ^ u64::from(j));
+    let h = splitmix64(seed ^ (u64::from(set) << 56) ^ (u64::from(y * k + x) << 8) ^ u64::from(j));
     let jitter = Vec2::new((h as u32) as f32, (h >> 32) as u32 as f32) * (1.0 / 4294967296.0);
     let jitter = jitter.clamp(Vec2::splat(1e-4), Vec2::splat(1.0 - 1e-4));
     let (jx, jy) = (j % sub, j / sub);
     let cell = Vec2::new(x as f32, y as f32) + (Vec2::new(jx as f32, jy as f32) + jitter) / sub as f32;
     cell / k as f32
-}
-
-/// SplitMix64 finalizer.
-fn hash(mut z: u64) -> u64 {
-    z = z.wrapping_add(0x9e37_79b9_7f4a_7c15);
-    z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-    z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-    z ^ (z >> 31)
 }
 
 /// The grid of a direction set: each ray's cell and each cell's ray.

@@ -142,6 +142,10 @@ impl Solver {
         self.sky_refine =
             crate::sky::SkyRefinement::compute(&self.scene, &self.accel, &self.links.sky, &params.links, &params.sky)
                 .expect("a CPU tracer cannot fail");
+        // The noise check's rays: a few hundred vertices, traced anew.
+        self.noise_check =
+            crate::exchange::NoiseCheck::compute(&self.scene, &self.accel, &params.links, &params.smoothing.noise)
+                .expect("a CPU tracer cannot fail");
         // The near hits' light columns: those the motion can have changed traced again.
         self.near_light
             .update_deformed(

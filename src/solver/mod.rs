@@ -8,7 +8,7 @@
 use crate::bvh::{BvhBuildParams, BvhStats};
 use crate::exchange::{
     EmitterLinkParams, EmitterLinks, GatherParams, GatherResult, HiddenParams, LightLinkParams, LightLinks, NearLight,
-    SmoothParams,
+    NoiseCheck, SmoothParams,
 };
 use crate::gpu::{self, Backend, DeviceShare, GpuDevice, GpuLinks, GpuTracer, LogicalDevice, ScheduleParams};
 use crate::kdtree::{KdBuildParams, KdStats, KdTree};
@@ -180,6 +180,9 @@ pub struct SolveStats {
     /// Rays of the sky's refined cells and their time, ms.
     pub sky_rays: u64,
     pub sky_ms: f64,
+    /// Rays of the noise check ([`crate::exchange::noise_check`]) and their time, ms.
+    pub noise_check_rays: u64,
+    pub noise_check_ms: f64,
     /// Near hits ([`crate::links::near`]) and the shadow rays and time of their light columns, ms.
     pub near_hits: u64,
     pub near_rays: u64,
@@ -258,6 +261,8 @@ pub struct Solver {
     pub near_light: NearLight,
     /// The sky's refined cells ([`crate::sky::refine`]).
     pub sky_refine: crate::sky::SkyRefinement,
+    /// A second estimate at a sample of vertices, which calibrates the noise estimate ([`crate::exchange::noise_check`]).
+    pub noise_check: NoiseCheck,
     /// Present when links, light links and bounces run on a GPU.
     pub gpu: Option<GpuState>,
     pub compute: Compute,
@@ -297,6 +302,8 @@ impl Solver {
             .expect("a CPU tracer cannot fail");
         let near_light =
             NearLight::compute(&scene, &links.near, &accel, &params.light).expect("a CPU tracer cannot fail");
+        let noise_check = NoiseCheck::compute(&scene, &accel, &params.links, &params.smoothing.noise)
+            .expect("a CPU tracer cannot fail");
         Solver {
             scene,
             params,
@@ -306,6 +313,7 @@ impl Solver {
             emitter_links,
             near_light,
             sky_refine,
+            noise_check,
             gpu: None,
             compute: Compute::Cpu,
             ray_hits,
@@ -375,6 +383,8 @@ impl Solver {
         let emitter_links = EmitterLinks::compute(&scene, &tracer, &params.emitter)?;
         let sky_refine = crate::sky::SkyRefinement::compute(&scene, &tracer, &links.sky, &params.links, &params.sky)?;
         let near_light = NearLight::compute(&scene, &links.near, &tracer, &params.light)?;
+        // On the CPU: the GPU tracer shoots whole vertices' ray sets only.
+        let noise_check = NoiseCheck::compute(&scene, &kd, &params.links, &params.smoothing.noise)?;
         let gpu_links = GpuLinks::new(tracer.dev.clone(), &links, &scene.albedo)?;
         let gpu = GpuState { tracer, links: gpu_links, shares };
         Ok(Solver {
@@ -386,6 +396,7 @@ impl Solver {
             emitter_links,
             near_light,
             sky_refine,
+            noise_check,
             gpu: Some(gpu),
             compute: compute.clone(),
             ray_hits: None,
@@ -500,6 +511,8 @@ impl Solver {
             emitter_links_ms: self.emitter_links.ms,
             sky_rays: self.sky_refine.rays,
             sky_ms: self.sky_refine.ms,
+            noise_check_rays: self.noise_check.rays,
+            noise_check_ms: self.noise_check.ms,
             near_hits: self.links.near.hits.len() as u64,
             near_rays: self.near_light.shadow_rays,
             near_ms: self.near_light.ms,

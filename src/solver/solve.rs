@@ -259,7 +259,10 @@ impl Solver {
 
     /// The noise variance of every vertex's gathered `E_i` ([`crate::exchange::noise`]),
     /// (W/m^2)^2, for `e_raw` = [`Solution::e_indirect_raw`] (the emitters'
-    /// direct light and the near-hit correction in it are taken out).
+    /// direct light and the near-hit correction in it are taken out): the
+    /// independent-ray variance times the noise check's local ratio
+    /// ([`crate::exchange::noise_check`]; the model's without a check),
+    /// averaged over the feature ring ([`crate::exchange::smooth`]).
     pub fn noise_variance(&self, e_source: &[Vec3], e_raw: &[Vec3]) -> Vec<Vec3> {
         let Some(outside) = self.outside_links() else {
             return self.gathered_noise_variance(e_source, e_raw);
@@ -269,14 +272,39 @@ impl Solver {
     }
 
     fn gathered_noise_variance(&self, e_source: &[Vec3], e_raw: &[Vec3]) -> Vec<Vec3> {
-        exchange::noise::variance(
-            &self.links,
-            &self.scene.albedo,
-            &self.emitter_links.carried_emission(&self.scene.emission),
-            e_source,
-            e_raw,
-            self.params.links.rays_per_vertex,
-            &self.params.smoothing.noise,
-        )
+        let s = &self.scene;
+        let emission = self.emitter_links.carried_emission(&s.emission);
+        let b = exchange::noise::radiosity_moments(&s.albedo, &emission, e_source, e_raw);
+        let rays = self.params.links.rays_per_vertex;
+        let mut var = exchange::noise::variance_iid(&self.links, &b, rays);
+        match self.noise_check.ratios(&self.links, &b, &var, rays) {
+            Some(r) => var.iter_mut().zip(&r).for_each(|(v, r)| *v *= *r),
+            None => {
+                let ratio = self.params.smoothing.noise.ratio(rays);
+                var.iter_mut().for_each(|v| *v *= ratio);
+            }
+        }
+        // Pooled over the feature ring: a vertex's own estimate is correlated with its noise
+        // (see the smoothing's module doc).
+        exchange::smooth(&var, &s.rings, &s.normals, self.params.smoothing_angle_deg)
+    }
+
+    /// The scene-wide ratio of actual to independent-ray variance of `E_i`
+    /// for `e_raw` = [`Solution::e_indirect_raw`] and its `e_source`:
+    /// measured over the whole sample of the noise check
+    /// ([`crate::exchange::noise_check`]), or the model's
+    /// ([`crate::exchange::NoiseParams::ratio`]) without a check.
+    /// [`Solver::noise_variance`] applies the local ratios around each vertex.
+    pub fn noise_ratio(&self, e_source: &[Vec3], e_raw: &[Vec3]) -> f32 {
+        let gathered: Vec<Vec3> = match self.outside_links() {
+            Some(outside) => e_raw.iter().zip(&outside).map(|(e, m)| *e - *m).collect(),
+            None => e_raw.to_vec(),
+        };
+        let s = &self.scene;
+        let rays = self.params.links.rays_per_vertex;
+        let emission = self.emitter_links.carried_emission(&s.emission);
+        let b = exchange::noise::radiosity_moments(&s.albedo, &emission, e_source, &gathered);
+        let var = exchange::noise::variance_iid(&self.links, &b, rays);
+        self.noise_check.ratio(&self.links, &b, &var, rays).unwrap_or_else(|| self.params.smoothing.noise.ratio(rays))
     }
 }
