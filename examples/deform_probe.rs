@@ -147,7 +147,7 @@ pub fn hidden_tolerance(s: &Solver) {
         let p = linkgi::exchange::hidden::HiddenParams { tolerance: tol, ..s.params.hidden };
         let t = Instant::now();
         let (e, it) =
-            linkgi::exchange::hidden::correct(&s.links, &sc.albedo, &sc.rings, &sc.normals, &g.e_indirect, &p);
+            linkgi::exchange::hidden::correct(&s.links, s.params.links.rays_per_vertex, &sc.albedo, &g.e_indirect, &p);
         (e, it, t.elapsed().as_secs_f64() * 1e3)
     };
     let (a, ia, ta) = run(1e-3);

@@ -28,7 +28,8 @@ fn main() {
         let e_source = solver.light_links.bounce_source(&s.lights, n);
         let source_ms = ms(t);
         let t = Instant::now();
-        let stand_ins = exchange::hidden::stand_ins(&solver.links, &s.rings, &s.normals, &solver.params.hidden);
+        let stand_ins =
+            exchange::hidden::stand_ins(&solver.links, solver.params.links.rays_per_vertex, &solver.params.hidden);
         let stand_ms = ms(t);
         let t = Instant::now();
         let g = solver.gather_corrected(&e_source, &solver.params.gather);

@@ -204,7 +204,7 @@ pub trait BounceKernel {
 pub struct CpuBounces<'a> {
     links: &'a Links,
     albedo: &'a [Vec3],
-    /// Hidden vertices and their visible neighbours ([`super::hidden::stand_ins`]):
+    /// Hidden vertices and their linkers ([`super::hidden::stand_ins`]):
     /// from the second bounce on, a hidden vertex's radiosity is
     /// `rho/pi` times its neighbours' mean irradiance of the bounce.
     stand_ins: &'a [(usize, Vec<usize>)],

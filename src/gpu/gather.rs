@@ -275,10 +275,10 @@ pub struct GpuBounces<'a> {
     gather_groups: Vec<wgpu::BindGroup>,
     update_group: wgpu::BindGroup,
     group_count: usize,
-    /// Hidden vertices and their visible neighbours
+    /// Hidden vertices and their linkers
     /// ([`crate::exchange::hidden::stand_ins`]); when set, bounces run one
     /// per submission and the host writes each hidden vertex's radiosity
-    /// (`rho/pi` times its neighbours' mean irradiance of the bounce)
+    /// (`rho/pi` times its linkers' mean irradiance of the bounce)
     /// before the next, as the CPU kernel does.
     stand_ins: Vec<(usize, Vec<usize>)>,
     albedo: Vec<Vec3>,

@@ -275,7 +275,7 @@ pub struct Solver {
     stand_ins_cache: StandInsCache,
 }
 
-/// Hidden vertices and their visible neighbours, with the parameters they were found with.
+/// Hidden vertices and their linkers, with the parameters they were found with.
 type StandInsCache = std::sync::Mutex<Option<(HiddenParams, Arc<Vec<(usize, Vec<usize>)>>)>>;
 
 impl Solver {

@@ -169,7 +169,7 @@ impl Solver {
         exchange::smooth_adaptive(&e, &var, &s.rings, &s.normals, angle, sp.passes)
     }
 
-    /// Hidden vertices and their visible neighbours ([`exchange::hidden::stand_ins`]),
+    /// Hidden vertices and their linkers ([`exchange::hidden::stand_ins`]),
     /// from the cache when the links and hidden-vertex parameters are unchanged.
     fn stand_ins(&self) -> Arc<Vec<(usize, Vec<usize>)>> {
         let mut cache = self.stand_ins_cache.lock().unwrap_or_else(|p| p.into_inner());
@@ -178,8 +178,8 @@ impl Solver {
                 return v.clone();
             }
         }
-        let s = &self.scene;
-        let v = Arc::new(exchange::hidden::stand_ins(&self.links, &s.rings, &s.normals, &self.params.hidden));
+        let v =
+            Arc::new(exchange::hidden::stand_ins(&self.links, self.params.links.rays_per_vertex, &self.params.hidden));
         *cache = Some((self.params.hidden, v.clone()));
         v
     }
@@ -208,7 +208,14 @@ impl Solver {
     /// the bounces.
     pub fn correct_hidden(&self, e_gathered: &[Vec3]) -> Vec<Vec3> {
         let s = &self.scene;
-        exchange::hidden::correct(&self.links, &s.albedo, &s.rings, &s.normals, e_gathered, &self.params.hidden).0
+        exchange::hidden::correct(
+            &self.links,
+            self.params.links.rays_per_vertex,
+            &s.albedo,
+            e_gathered,
+            &self.params.hidden,
+        )
+        .0
     }
 
     /// `E_i` smoothed at feature angle `angle_deg` (0: unchanged) with the
