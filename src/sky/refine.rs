@@ -389,10 +389,8 @@ mod tests {
         let r = grid.ray_of[(7 * k + 7) as usize];
         let mut one = vec![0u64; 4];
         one[(r / 64) as usize] |= 1 << (r % 64);
-        let frames_of =
-            |directions: &crate::sampling::DirectionSet| (vec![Vec3::Y], vec![0.0f32], vec![0u32], directions.clone());
         let directions = crate::sampling::DirectionSet::new(k, 1);
-        let (normals, rotations, sets, directions) = frames_of(&directions);
+        let (normals, rotations, sets) = (vec![Vec3::Y], vec![0.0f32], vec![0u32]);
         let frames = RayFrames { normals: &normals, rotations: &rotations, sets: &sets, directions: &directions };
         let sky = Sky::uniform(l);
         let scale = std::f32::consts::PI / (k * k) as f32;
