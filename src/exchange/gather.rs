@@ -206,8 +206,8 @@ pub struct CpuBounces<'a> {
     albedo: &'a [Vec3],
     /// Hidden vertices and their linkers ([`super::hidden::stand_ins`]):
     /// from the second bounce on, a hidden vertex's radiosity is
-    /// `rho/pi` times its neighbours' mean irradiance of the bounce.
-    stand_ins: &'a [(usize, Vec<usize>)],
+    /// `rho/pi` times its linkers' irradiance of the bounce.
+    stand_ins: &'a [super::hidden::StandIn],
     e_i: Vec<Vec3>,
     e_b: Vec<Vec3>,
     /// Radiosity `rho/pi * E` of the newest bounce, padded to 16 bytes.
@@ -242,7 +242,7 @@ impl<'a> CpuBounces<'a> {
     /// bounce (the module doc of [`super::hidden`]: the same fixed point
     /// as [`super::hidden::correct`] after the bounces, without its extra
     /// passes over the links).
-    pub fn with_stand_ins(mut self, stand_ins: &'a [(usize, Vec<usize>)]) -> Self {
+    pub fn with_stand_ins(mut self, stand_ins: &'a [super::hidden::StandIn]) -> Self {
         self.stand_ins = stand_ins;
         self
     }
@@ -259,9 +259,9 @@ impl BounceKernel for CpuBounces<'_> {
                 .zip(&self.e_b)
                 .zip(self.albedo)
                 .for_each(|((b, e), r)| *b = (*e * *r / PI).extend(0.0));
-            for (h, nbrs) in self.stand_ins {
-                let mean = nbrs.iter().map(|&u| self.e_b[u]).sum::<Vec3>() / nbrs.len() as f32;
-                self.b[*h] = (mean * self.albedo[*h] / PI).extend(0.0);
+            for (h, linkers) in self.stand_ins {
+                let e = super::hidden::stand_in_irradiance(linkers, |u| self.e_b[u]);
+                self.b[*h] = (e * self.albedo[*h] / PI).extend(0.0);
             }
             totals.push(total(&self.e_b));
         }

@@ -278,15 +278,15 @@ pub struct GpuBounces<'a> {
     /// Hidden vertices and their linkers
     /// ([`crate::exchange::hidden::stand_ins`]); when set, bounces run one
     /// per submission and the host writes each hidden vertex's radiosity
-    /// (`rho/pi` times its linkers' mean irradiance of the bounce)
+    /// (`rho/pi` times its linkers' irradiance of the bounce)
     /// before the next, as the CPU kernel does.
-    stand_ins: Vec<(usize, Vec<usize>)>,
+    stand_ins: Vec<crate::exchange::hidden::StandIn>,
     albedo: Vec<Vec3>,
 }
 
 impl GpuBounces<'_> {
     /// Applies the hidden-vertex substitution in every bounce (see `stand_ins`).
-    pub fn with_stand_ins(mut self, stand_ins: Vec<(usize, Vec<usize>)>) -> Self {
+    pub fn with_stand_ins(mut self, stand_ins: Vec<crate::exchange::hidden::StandIn>) -> Self {
         self.stand_ins = stand_ins;
         self
     }
@@ -359,8 +359,8 @@ impl GpuBounces<'_> {
         let l = self.links;
         let enc = l.dev.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("read E^(b)") });
         let e: Vec<[f32; 4]> = read_back(&l.dev, enc, &self.bounce, "bounce irradiance")?;
-        for (h, nbrs) in &self.stand_ins {
-            let mean = nbrs.iter().map(|&u| Vec3::new(e[u][0], e[u][1], e[u][2])).sum::<Vec3>() / nbrs.len() as f32;
+        for (h, linkers) in &self.stand_ins {
+            let mean = crate::exchange::hidden::stand_in_irradiance(linkers, |u| Vec3::new(e[u][0], e[u][1], e[u][2]));
             let b = mean * self.albedo[*h] / PI;
             l.dev.queue.write_buffer(&self.radiosity, (*h * 16) as u64, bytemuck::cast_slice(&[b.x, b.y, b.z, 0.0f32]));
         }

@@ -276,7 +276,7 @@ pub struct Solver {
 }
 
 /// Hidden vertices and their linkers, with the parameters they were found with.
-type StandInsCache = std::sync::Mutex<Option<(HiddenParams, Arc<Vec<(usize, Vec<usize>)>>)>>;
+type StandInsCache = std::sync::Mutex<Option<(HiddenParams, Arc<Vec<crate::exchange::hidden::StandIn>>)>>;
 
 impl Solver {
     /// Builds the acceleration structure (`params.tracer`), the vertex

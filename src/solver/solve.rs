@@ -171,7 +171,7 @@ impl Solver {
 
     /// Hidden vertices and their linkers ([`exchange::hidden::stand_ins`]),
     /// from the cache when the links and hidden-vertex parameters are unchanged.
-    fn stand_ins(&self) -> Arc<Vec<(usize, Vec<usize>)>> {
+    fn stand_ins(&self) -> Arc<Vec<exchange::hidden::StandIn>> {
         let mut cache = self.stand_ins_cache.lock().unwrap_or_else(|p| p.into_inner());
         if let Some((p, v)) = &*cache {
             if *p == self.params.hidden {
@@ -194,7 +194,7 @@ impl Solver {
     fn gather_cpu(
         &self,
         b0: &[Vec3],
-        stand_ins: &[(usize, Vec<usize>)],
+        stand_ins: &[exchange::hidden::StandIn],
         params: &exchange::GatherParams,
     ) -> GatherResult {
         let mut kernel =
