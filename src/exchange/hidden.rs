@@ -59,7 +59,7 @@
 //! (`B_b(h) = rho_h/pi sum_u s_u E^(b)(u)` for `b >= 1`, [`stand_ins`] given
 //! to the CPU and GPU bounce kernels) sums to the same `H B(E)` with no
 //! extra passes over the links; [`correct`] stays the oracle (cornell,
-//! auto bounces: the two agree within 8.8e-5 of the mean). Irradiance in
+//! auto bounces: the two agree within 8.3e-5 of the mean). Irradiance in
 //! W/m^2.
 
 use crate::links::Links;
