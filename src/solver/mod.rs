@@ -270,8 +270,8 @@ pub struct Solver {
     /// dynamic meshes only (selective updates, [`Solver::deform`]).
     pub ray_hits: Option<links::RayHits>,
     /// The hidden vertices' stand-ins for the current links, computed on
-    /// the first solve that needs them (a pass over every link weight:
-    /// 137 ms on conference) and kept; [`Solver::links_changed`] drops them.
+    /// the first solve that needs them (two passes over the links:
+    /// 278 ms on conference) and kept; [`Solver::links_changed`] drops them.
     stand_ins_cache: StandInsCache,
 }
 
