@@ -1,7 +1,7 @@
 //! Error of the link solver against the reference on a scene, per mesh and
 //! per quantity (E_sky, E_i, total): `cargo run --release --example sky_probe -- window 256 1024 [seed]`.
 //! Overrides: `EMITTER_SAMPLES=n` (emitter-link rays), `SKY_SUB=s` (sky refinement), `NOISE_SCALE=x`
-//! (the smoothing's noise calibration), `NOISE_CHECK=m` (its check's vertices), `NOISE_K=k` (neighbours of its local ratio), `LINKERS=k` (a hidden vertex's stand-ins), `DUMP=file.csv` (per-vertex values).
+//! (the smoothing's noise calibration), `NOISE_CHECK=m` (its check's vertices), `NOISE_K=k` (neighbours of its local ratio), `LINKERS=k` (a hidden vertex's stand-ins), `NEAR=c` (near hits' length factor), `DUMP=file.csv` (per-vertex values).
 use glam::Vec3;
 use linkgi::accuracy::metrics::error_stats;
 use linkgi::reference::{self, ReferenceParams};
@@ -27,6 +27,9 @@ fn main() {
     }
     if let Ok(x) = std::env::var("NOISE_CHECK") {
         sp.smoothing.noise.check_vertices = x.parse().unwrap();
+    }
+    if let Ok(x) = std::env::var("NEAR") {
+        sp.links.near.factor = x.parse().unwrap();
     }
     if let Ok(x) = std::env::var("LINKERS") {
         sp.hidden.linkers = x.parse().unwrap();
