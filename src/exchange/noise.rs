@@ -125,15 +125,21 @@ pub fn radiosity_moments(albedo: &[Vec3], emission: &[Vec3], e_source: &[Vec3], 
 /// the variance of `E_i` had its `rays_per_vertex` rays been drawn
 /// independently, for radiosity moments `b` ([`radiosity_moments`]).
 pub fn variance_iid(links: &Links, b: &[[Vec4; 2]], rays_per_vertex: u32) -> Vec<Vec3> {
-    let factor = 1.0 / rays_per_vertex.max(1) as f32;
     assert_eq!(links.packed.rows(), links.vertex_count(), "the links have no packed targets");
     (0..links.vertex_count())
         .into_par_iter()
         .map(|v| {
             let (m1, m2) = vertex_moments(links, b, v);
-            (PI * m2 - m1 * m1).max(Vec3::ZERO) * factor
+            iid_variance(m1, m2, rays_per_vertex)
         })
         .collect()
+}
+
+/// `var_iid` of one vertex from its moments `(sum_j w_j B_j, sum_j w_j
+/// B_j^2)` ([`vertex_moments`]) and its rays: `max(0, pi m2 - m1^2) / n_C`.
+#[inline]
+pub fn iid_variance(m1: Vec3, m2: Vec3, rays_per_vertex: u32) -> Vec3 {
+    (PI * m2 - m1 * m1).max(Vec3::ZERO) * (1.0 / rays_per_vertex.max(1) as f32)
 }
 
 /// `(sum_j w_j B_j, sum_j w_j B_j^2)` over vertex `v`'s links (W/m^2 and

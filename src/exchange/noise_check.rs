@@ -10,8 +10,8 @@
 //! 64 / 256 / 1024 rays is 0.59 / 0.28 / - on cornell, 0.37 / 0.12 / - on
 //! the tearoom and 0.28 / 0.11 / 0.059 on `window` (the model: 0.57 / 0.20
 //! / 0.071); in the sphere furnace with the light 0.29 m from the wall
-//! (256 rays) the vertices near the light keep 6 times the ratio of the
-//! far side. A smoothing that believes the noise larger than it is
+//! (256 rays) the vertices within 0.5 m of the light keep 0.64 of the
+//! independent-ray variance, those beyond 0.75 m 0.05-0.09. A smoothing that believes the noise larger than it is
 //! averages away signal; one that believes it smaller leaves noise.
 //!
 //! The check shoots, at `m` sampled vertices, the same number of rays as
@@ -58,8 +58,8 @@
 //!
 //! and the furnace's worst vertex (rho 0.5, the light 0.29 m from the
 //! wall, 256 rays) 4.2% -> 4.3%; with one ratio for the scene it read
-//! 5.04%, over the 5% bound (the ratio near the light is 6 times that of
-//! the far side). One ratio for the scene gave cornell 4.78 / 2.22 /
+//! 5.04%, over the 5% bound (the ratio near the light is 7-13 times that
+//! elsewhere). One ratio for the scene gave cornell 4.78 / 2.22 /
 //! 0.96%, tearoom 4.84 / 2.53 / 1.98%, window 5.77 / 3.09 / 1.97%; `k =
 //! 48`: 4.80 / 2.20%, 4.86 / 2.56%, 5.52 / 3.01% at 64 / 256 rays.
 //! A per-vertex estimate from each vertex's own rays by collapsed strata
@@ -67,18 +67,17 @@
 //! `examples/paired_noise_probe.rs`) overestimates 2-3x and smoothed worse
 //! than the check (window 64 rays 6.4%, tearoom 5.1%).
 //!
-//! Cost: `m` vertices' rays once per link build (2% of the tearoom's rays,
-//! 0.3% of conference's), `m^2` kernel weights (1 MB), and per solve a
+//! Cost: `m` vertices' rays once per link build (3.9% of the tearoom's
+//! rays, 0.28% of conference's), `m^2` kernel weights (1 MB), and per solve a
 //! pass over the sample's links and one over the kernel. The
 //! sample: for `i < m`, one vertex in `[floor(i n / m), floor((i + 1) n /
 //! m))` picked by a hash of the seed (spread over the scene and its
 //! meshes, the same for the same seed); every vertex when `n <= m`.
 
-use super::noise::{vertex_moments, NoiseParams};
-use crate::kdtree::Ray;
-use crate::links::{merge_vertex, HitRecord, LinkParams, Links, MergeScratch, RaySetup, HIT_BACK, HIT_MISS};
+use super::noise::{iid_variance, vertex_moments, NoiseParams};
+use crate::links::{merge_vertex, LinkParams, Links, MergeScratch, RaySetup, TraceScratch};
 use crate::scene::prep::PreparedScene;
-use crate::trace::Tracer;
+use crate::trace::CpuTracer;
 use glam::{Vec3, Vec4};
 use half::f16;
 use rayon::prelude::*;
@@ -106,7 +105,8 @@ pub struct NoiseCheck {
     /// Kernel weights between sampled vertices (module doc), row `i` over
     /// all `m`: `kernel[i * m..(i + 1) * m]`; empty: one ratio for the scene.
     pub kernel: Vec<f32>,
-    /// Rays traced.
+    /// Rays shot, `k*k` a sampled vertex (those diving under the vertex's
+    /// own triangles included, as [`crate::links::LinkStats::rays`] counts them).
     pub rays: u64,
     /// Time spent, ms.
     pub ms: f64,
@@ -157,72 +157,55 @@ fn stratum(v: usize, n: usize, m: usize) -> usize {
 
 impl NoiseCheck {
     /// Shoots the check's rays at `params.check_vertices` vertices of
-    /// `scene` with `tracer` (the links' ray setup with the check's seed).
+    /// `scene` with `tracer` (the links' ray setup and shooting,
+    /// [`RaySetup::trace_vertex_with`], with the check's seed).
     pub fn compute(
         scene: &PreparedScene,
-        tracer: &dyn Tracer,
+        tracer: &dyn CpuTracer,
         link: &LinkParams,
         params: &NoiseParams,
-    ) -> crate::Result<NoiseCheck> {
+    ) -> NoiseCheck {
         let start = Instant::now();
         let vertices = sample_vertices(scene.vertex_count(), params.check_vertices as usize, link.seed);
         if vertices.is_empty() {
-            return Ok(NoiseCheck::default());
+            return NoiseCheck::default();
         }
         let setup = RaySetup::new(scene, &LinkParams { seed: link.seed ^ SEED_OFFSET, ..*link });
-        // Per ray: a dive under an incident triangle (a self hit, not traced) or a ray to trace.
-        let per_vertex: Vec<Vec<Result<HitRecord, Ray>>> = vertices
-            .par_iter()
-            .map(|&v| {
-                let v = v as usize;
-                let wedges = setup.wedges(v);
-                setup
-                    .world_directions(v)
-                    .map(|dir| match wedges.iter().find(|w| w.dives_under(dir)) {
-                        Some(w) => Ok(w.self_hit()),
-                        None => {
-                            Err(Ray { origin: setup.origins[v], dir, tmin: 0.0, tmax: f32::INFINITY, skip: v as u32 })
-                        }
-                    })
-                    .collect()
-            })
-            .collect();
-        let rays: Vec<Ray> = per_vertex.iter().flatten().filter_map(|r| r.err()).collect();
-        let hits = tracer.closest_hits(&rays)?;
-        let mut traced = hits.into_iter();
         let n_rays = setup.directions.len();
         let weight_per_ray = std::f64::consts::PI / n_rays as f64;
+        // Per sampled vertex: its merged group.
+        let groups: Vec<(Vec<u32>, Vec<f16>)> = vertices
+            .par_iter()
+            .map_init(
+                || (TraceScratch::default(), Vec::new(), MergeScratch::default()),
+                |(trace, records, merge), &v| {
+                    setup.trace_vertex_with(tracer, v as usize, trace, records);
+                    let (mut targets, mut weights) = (Vec::new(), Vec::new());
+                    merge_vertex(records, &scene.triangles, weight_per_ray, merge, &mut targets, &mut weights);
+                    (targets, weights)
+                },
+            )
+            .collect();
+        let rays = (vertices.len() * n_rays) as u64;
         let mut out = NoiseCheck {
             vertices,
             offsets: vec![0],
             rays_per_vertex: n_rays as u32,
-            rays: rays.len() as u64,
+            rays,
+            scene_vertices: scene.vertex_count(),
             ..Default::default()
         };
-        let (mut scratch, mut records) = (MergeScratch::default(), Vec::with_capacity(n_rays));
-        for vertex_rays in per_vertex {
-            records.clear();
-            for r in vertex_rays {
-                records.push(match r {
-                    Ok(rec) => rec,
-                    Err(_) => match traced.next().flatten() {
-                        None => HitRecord { tri: HIT_MISS, u: 0.0, v: 0.0, t: f32::INFINITY },
-                        Some(h) => {
-                            HitRecord { tri: if h.front { h.tri } else { h.tri | HIT_BACK }, u: h.u, v: h.v, t: h.t }
-                        }
-                    },
-                });
-            }
-            merge_vertex(&records, &scene.triangles, weight_per_ray, &mut scratch, &mut out.targets, &mut out.weights);
+        for (targets, weights) in groups {
+            out.targets.extend(targets);
+            out.weights.extend(weights);
             out.offsets.push(out.targets.len() as u32);
         }
-        out.scene_vertices = scene.vertex_count();
         if params.check_neighbours > 0 {
             let at: Vec<Vec3> = out.vertices.iter().map(|&v| scene.positions[v as usize]).collect();
             out.kernel = kernel_weights(&at, params.check_neighbours as usize);
         }
         out.ms = start.elapsed().as_secs_f64() * 1e3;
-        Ok(out)
+        out
     }
 
     /// True when no vertex is sampled.
@@ -231,17 +214,11 @@ impl NoiseCheck {
     }
 
     /// Per sampled vertex: half the squared difference of its two
-    /// estimates and its independent-ray variance (channels summed), for
-    /// radiosity moments `b` ([`super::noise::radiosity_moments`]) and the
-    /// independent-ray variance of every vertex `var_iid`; `None` without
-    /// a check or when the check was shot at another ray count than `links`'.
-    fn sample_terms(
-        &self,
-        links: &Links,
-        b: &[[Vec4; 2]],
-        var_iid: &[Vec3],
-        rays_per_vertex: u32,
-    ) -> Option<Vec<(f64, f64)>> {
+    /// estimates and its independent-ray variance ([`iid_variance`]),
+    /// channels summed, for radiosity moments `b`
+    /// ([`super::noise::radiosity_moments`]); `None` without a check or
+    /// when the check was shot at another ray count than `links`'.
+    fn sample_terms(&self, links: &Links, b: &[[Vec4; 2]], rays_per_vertex: u32) -> Option<Vec<(f64, f64)>> {
         if self.is_empty() || self.rays_per_vertex != rays_per_vertex {
             return None;
         }
@@ -250,26 +227,31 @@ impl NoiseCheck {
                 .par_iter()
                 .enumerate()
                 .map(|(i, &v)| {
-                    let (e, _) = vertex_moments(links, b, v as usize);
+                    let (e, m2) = vertex_moments(links, b, v as usize);
                     let r = self.offsets[i] as usize..self.offsets[i + 1] as usize;
                     let e2: Vec3 = self.targets[r.clone()]
                         .iter()
                         .zip(&self.weights[r])
                         .map(|(&t, w)| b[t as usize][0].truncate() * w.to_f32())
                         .sum();
-                    (0.5 * (e - e2).length_squared() as f64, var_iid[v as usize].element_sum() as f64)
+                    let iid = iid_variance(e, m2, rays_per_vertex).element_sum();
+                    (0.5 * (e - e2).length_squared() as f64, iid as f64)
                 })
                 .collect(),
         )
     }
 
-    /// The measured ratio of actual to independent-ray variance over the
-    /// whole sample (module doc); `None` as [`Self::ratios`], or when the
-    /// sample has no variance at all.
-    pub fn ratio(&self, links: &Links, b: &[[Vec4; 2]], var_iid: &[Vec3], rays_per_vertex: u32) -> Option<f32> {
-        let terms = self.sample_terms(links, b, var_iid, rays_per_vertex)?;
+    /// The ratio over the whole sample: summed actual over summed
+    /// independent-ray variance; `None` when the sample has none.
+    fn whole_sample(terms: &[(f64, f64)]) -> Option<f32> {
         let (actual, iid) = terms.iter().fold((0.0, 0.0), |a, t| (a.0 + t.0, a.1 + t.1));
         (iid > 0.0 && actual.is_finite()).then(|| (actual / iid) as f32)
+    }
+
+    /// The measured ratio of actual to independent-ray variance over the
+    /// whole sample (module doc); `None` as [`Self::ratios`].
+    pub fn ratio(&self, links: &Links, b: &[[Vec4; 2]], rays_per_vertex: u32) -> Option<f32> {
+        Self::whole_sample(&self.sample_terms(links, b, rays_per_vertex)?)
     }
 
     /// The measured ratio at every vertex: that of the sampled vertex of
@@ -277,13 +259,9 @@ impl NoiseCheck {
     /// sample's where the kernel sees no variance); `None` without a check,
     /// when it was shot at another ray count than `links`', or when the
     /// sample has no variance at all.
-    pub fn ratios(&self, links: &Links, b: &[[Vec4; 2]], var_iid: &[Vec3], rays_per_vertex: u32) -> Option<Vec<f32>> {
-        let terms = self.sample_terms(links, b, var_iid, rays_per_vertex)?;
-        let (actual, iid) = terms.iter().fold((0.0, 0.0), |a, t| (a.0 + t.0, a.1 + t.1));
-        if !(iid > 0.0 && actual.is_finite()) {
-            return None;
-        }
-        let global = (actual / iid) as f32;
+    pub fn ratios(&self, links: &Links, b: &[[Vec4; 2]], rays_per_vertex: u32) -> Option<Vec<f32>> {
+        let terms = self.sample_terms(links, b, rays_per_vertex)?;
+        let global = Self::whole_sample(&terms)?;
         let (n, m) = (self.scene_vertices, self.vertices.len());
         if self.kernel.is_empty() {
             return Some(vec![global; n]);

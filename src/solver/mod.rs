@@ -302,8 +302,7 @@ impl Solver {
             .expect("a CPU tracer cannot fail");
         let near_light =
             NearLight::compute(&scene, &links.near, &accel, &params.light).expect("a CPU tracer cannot fail");
-        let noise_check = NoiseCheck::compute(&scene, &accel, &params.links, &params.smoothing.noise)
-            .expect("a CPU tracer cannot fail");
+        let noise_check = NoiseCheck::compute(&scene, &accel, &params.links, &params.smoothing.noise);
         Solver {
             scene,
             params,
@@ -384,7 +383,7 @@ impl Solver {
         let sky_refine = crate::sky::SkyRefinement::compute(&scene, &tracer, &links.sky, &params.links, &params.sky)?;
         let near_light = NearLight::compute(&scene, &links.near, &tracer, &params.light)?;
         // On the CPU: the GPU tracer shoots whole vertices' ray sets only.
-        let noise_check = NoiseCheck::compute(&scene, &kd, &params.links, &params.smoothing.noise)?;
+        let noise_check = NoiseCheck::compute(&scene, &kd, &params.links, &params.smoothing.noise);
         let gpu_links = GpuLinks::new(tracer.dev.clone(), &links, &scene.albedo)?;
         let gpu = GpuState { tracer, links: gpu_links, shares };
         Ok(Solver {

@@ -271,20 +271,37 @@ impl Solver {
     /// ([`crate::exchange::noise_check`]; the model's without a check),
     /// averaged over the feature ring ([`crate::exchange::smooth`]).
     pub fn noise_variance(&self, e_source: &[Vec3], e_raw: &[Vec3]) -> Vec<Vec3> {
-        let Some(outside) = self.outside_links() else {
-            return self.gathered_noise_variance(e_source, e_raw);
-        };
-        let gathered: Vec<Vec3> = e_raw.iter().zip(&outside).map(|(e, m)| *e - *m).collect();
-        self.gathered_noise_variance(e_source, &gathered)
+        self.gathered_noise_variance(e_source, &self.gathered_part(e_raw))
+    }
+
+    /// `e_raw` = [`Solution::e_indirect_raw`] without what was not
+    /// gathered over the links ([`Solver::outside_links`]), W/m^2.
+    fn gathered_part<'a>(&self, e_raw: &'a [Vec3]) -> std::borrow::Cow<'a, [Vec3]> {
+        match self.outside_links() {
+            Some(outside) => e_raw.iter().zip(&outside).map(|(e, m)| *e - *m).collect(),
+            None => e_raw.into(),
+        }
+    }
+
+    /// Radiosity and its square per vertex for the noise estimate
+    /// ([`exchange::noise::radiosity_moments`]), from the bounces' source
+    /// and the gathered `E_i`.
+    fn radiosity_moments(&self, e_source: &[Vec3], e_gathered: &[Vec3]) -> Vec<[glam::Vec4; 2]> {
+        let s = &self.scene;
+        exchange::noise::radiosity_moments(
+            &s.albedo,
+            &self.emitter_links.carried_emission(&s.emission),
+            e_source,
+            e_gathered,
+        )
     }
 
     fn gathered_noise_variance(&self, e_source: &[Vec3], e_raw: &[Vec3]) -> Vec<Vec3> {
         let s = &self.scene;
-        let emission = self.emitter_links.carried_emission(&s.emission);
-        let b = exchange::noise::radiosity_moments(&s.albedo, &emission, e_source, e_raw);
+        let b = self.radiosity_moments(e_source, e_raw);
         let rays = self.params.links.rays_per_vertex;
         let mut var = exchange::noise::variance_iid(&self.links, &b, rays);
-        match self.noise_check.ratios(&self.links, &b, &var, rays) {
+        match self.noise_check.ratios(&self.links, &b, rays) {
             Some(r) => var.iter_mut().zip(&r).for_each(|(v, r)| *v *= *r),
             None => {
                 let ratio = self.params.smoothing.noise.ratio(rays);
@@ -303,15 +320,8 @@ impl Solver {
     /// ([`crate::exchange::NoiseParams::ratio`]) without a check.
     /// [`Solver::noise_variance`] applies the local ratios around each vertex.
     pub fn noise_ratio(&self, e_source: &[Vec3], e_raw: &[Vec3]) -> f32 {
-        let gathered: Vec<Vec3> = match self.outside_links() {
-            Some(outside) => e_raw.iter().zip(&outside).map(|(e, m)| *e - *m).collect(),
-            None => e_raw.to_vec(),
-        };
-        let s = &self.scene;
         let rays = self.params.links.rays_per_vertex;
-        let emission = self.emitter_links.carried_emission(&s.emission);
-        let b = exchange::noise::radiosity_moments(&s.albedo, &emission, e_source, &gathered);
-        let var = exchange::noise::variance_iid(&self.links, &b, rays);
-        self.noise_check.ratio(&self.links, &b, &var, rays).unwrap_or_else(|| self.params.smoothing.noise.ratio(rays))
+        let b = self.radiosity_moments(e_source, &self.gathered_part(e_raw));
+        self.noise_check.ratio(&self.links, &b, rays).unwrap_or_else(|| self.params.smoothing.noise.ratio(rays))
     }
 }
