@@ -118,23 +118,15 @@ pub fn stand_ins(links: &Links, rays_per_vertex: u32, params: &HiddenParams) -> 
         .flatten_iter()
         .collect();
     found.par_sort_unstable_by(|a, b| a.0.cmp(&b.0).then(b.1.total_cmp(&a.1)).then(a.2.cmp(&b.2)));
-    let mut out: Vec<StandIn> = Vec::new();
-    for (h, w, v) in found {
-        match out.last_mut() {
-            Some((last, list)) if *last == h as usize => {
-                if list.len() < params.linkers as usize {
-                    list.push((v as usize, w))
-                }
-            }
-            _ => out.push((h as usize, vec![(v as usize, w)])),
-        }
-    }
-    // Shares: the link weights over their sum.
-    for (_, list) in &mut out {
-        let sum: f32 = list.iter().map(|l| l.1).sum();
-        list.iter_mut().for_each(|l| l.1 /= sum);
-    }
-    out
+    // Per hidden vertex the strongest linkers, each with its share of their link weights.
+    found
+        .chunk_by(|a, b| a.0 == b.0)
+        .map(|links_in| {
+            let strongest = &links_in[..links_in.len().min(params.linkers as usize)];
+            let sum: f32 = strongest.iter().map(|l| l.1).sum();
+            (links_in[0].0 as usize, strongest.iter().map(|&(_, w, v)| (v as usize, w / sum)).collect())
+        })
+        .collect()
 }
 
 /// A hidden vertex and its linkers, each with its share (its link weight
