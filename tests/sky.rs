@@ -90,19 +90,11 @@ fn open_box_bottom_sees_the_opening_form_factor() {
     let l = Vec3::splat(2.0);
     let h = 1.0f32;
     let (solver, sol) = common::solve(&scene_of("open box", vec![open_box(h, 10)], Sky::uniform(l), 1024));
-    let s = &solver.scene;
     let (mut n, mut sum_err, mut worst, mut sum_f) = (0, 0f64, 0f64, 0f64);
-    for v in 0..s.vertex_count() {
-        let p = s.positions[v];
-        // Bottom vertices away from the walls (the border ones are nudged).
-        if p.y != 0.0 || p.x.abs() > 0.95 || p.z.abs() > 0.95 {
-            continue;
-        }
-        let f = opening_form_factor(p.x as f64, p.z as f64, h as f64);
-        let got = sol.e_sky[v].x as f64 / (PI as f64 * l.x as f64);
-        sum_err += got - f;
+    for (f, d) in bottom_form_factors(&solver, &sol, l, h) {
+        sum_err += d;
         sum_f += f;
-        worst = worst.max((got - f).abs());
+        worst = worst.max(d.abs());
         n += 1;
     }
     let mean_err = sum_err / n as f64;
@@ -113,6 +105,30 @@ fn open_box_bottom_sees_the_opening_form_factor() {
     assert!(n >= 64);
     assert!(mean_err.abs() < 3e-3 * (sum_f / n as f64), "mean error of F {mean_err}");
     assert!(worst < 0.02, "worst per-vertex error of F {worst}");
+}
+
+/// The open box's bottom vertices away from the walls (the border ones are
+/// nudged): each one's analytic form factor `F` of the opening and the
+/// error of the solver's `E_sky / (pi L)` against it, for a uniform sky of
+/// radiance `l` over a box of height `h`.
+fn bottom_form_factors(
+    solver: &linkgi::solver::Solver,
+    sol: &linkgi::solver::Solution,
+    l: Vec3,
+    h: f32,
+) -> Vec<(f64, f64)> {
+    let s = &solver.scene;
+    (0..s.vertex_count())
+        .filter(|&v| {
+            let p = s.positions[v];
+            p.y == 0.0 && p.x.abs() <= 0.95 && p.z.abs() <= 0.95
+        })
+        .map(|v| {
+            let p = s.positions[v];
+            let f = opening_form_factor(p.x as f64, p.z as f64, h as f64);
+            (f, sol.e_sky[v].x as f64 / (PI as f64 * l.x as f64) - f)
+        })
+        .collect()
 }
 
 /// Sky refinement ([`linkgi::sky::refine`]) on the open box, unsmoothed, at
@@ -131,15 +147,8 @@ fn sky_refinement_sharpens_the_opening_without_bias() {
         params.smoothing_angle_deg = 0.0;
         params.sky.sub = sub;
         let (solver, sol) = common::solve_with(scene.clone(), params);
-        let s = &solver.scene;
         let (mut n, mut sum, mut sum2, mut sum_f) = (0, 0f64, 0f64, 0f64);
-        for v in 0..s.vertex_count() {
-            let p = s.positions[v];
-            if p.y != 0.0 || p.x.abs() > 0.95 || p.z.abs() > 0.95 {
-                continue;
-            }
-            let f = opening_form_factor(p.x as f64, p.z as f64, h as f64);
-            let d = sol.e_sky[v].x as f64 / (PI as f64 * l.x as f64) - f;
+        for (f, d) in bottom_form_factors(&solver, &sol, l, h) {
             (n, sum, sum2, sum_f) = (n + 1, sum + d, sum2 + d * d, sum_f + f);
         }
         let (mean_f, bias, rms) = (sum_f / n as f64, sum / n as f64, (sum2 / n as f64).sqrt());
