@@ -75,18 +75,17 @@ fn main() {
         let s2 = solver_for(2);
         let sol2 = s2.solve();
         // The gathered part only (emitter links and near-hit corrections are not smoothed).
-        let gathered = |sv: &Solver, sol: &linkgi::solver::Solution| -> Vec<Vec3> {
-            let sc = &sv.scene;
-            let e_src = sv.light_links.bounce_source(&sc.lights, nv);
-            let near = sv.near_light.correction(sc, &sv.links.near, &sc.lights, &e_src, n);
-            let em = sv.emitter_links.irradiance(&sc.emission, nv);
-            (0..nv).map(|v| sol.e_indirect_raw[v] - near[v] - em[v]).collect()
+        let gathered = |sol: &linkgi::solver::Solution| -> Vec<Vec3> {
+            (0..nv).map(|v| sol.e_indirect_raw[v] - sol.e_emitter[v] - sol.e_near[v]).collect()
         };
-        let (g1, g2) = (gathered(&s1, &sol), gathered(&s2, &sol2));
-        let ratio = s1.params.smoothing.noise.ratio(n);
-        let iid: Vec<Vec3> = s1.noise_variance(&sol.e_source, &sol.e_indirect_raw).iter().map(|x| *x / ratio).collect();
-        let iid2: Vec<Vec3> =
-            s2.noise_variance(&sol2.e_source, &sol2.e_indirect_raw).iter().map(|x| *x / ratio).collect();
+        let (g1, g2) = (gathered(&sol), gathered(&sol2));
+        // Independent-ray variance (no stratification ratio).
+        let iid_of = |sv: &Solver, sol: &linkgi::solver::Solution, g: &[Vec3]| -> Vec<Vec3> {
+            let emission = sv.emitter_links.carried_emission(&sv.scene.emission);
+            let b = exchange::noise::radiosity_moments(&sv.scene.albedo, &emission, &sol.e_source, g);
+            exchange::noise::variance_iid(&sv.links, &b, n)
+        };
+        let (iid, iid2) = (iid_of(&s1, &sol, &g1), iid_of(&s2, &sol2, &g2));
         let actual: f64 = g1.iter().zip(&g2).map(|(a, b)| (*a - *b).length_squared() as f64 / 2.0).sum();
         let est: f64 = iid.iter().zip(&iid2).map(|(a, b)| (a.element_sum() + b.element_sum()) as f64 / 2.0).sum();
         let raw = &sol.e_indirect_raw;
