@@ -136,6 +136,17 @@ pub fn run(args: SolveArgs) -> Result<()> {
                 mb(r.bytes())
             );
         }
+        let p = &solver.sky_portals;
+        if !p.is_empty() {
+            println!(
+                "sky portals      {} portal(s), {} rays ({} a vertex and portal) in {:.1} ms, {:.2} MB",
+                p.portals.len(),
+                p.rays,
+                p.side * p.side,
+                p.ms,
+                mb(p.bytes())
+            );
+        }
     }
     let check = &solver.noise_check;
     if !check.is_empty() && solution.smoothed {

@@ -11,7 +11,8 @@
 //! |---|---|
 //! | light moved / added / removed | light links of the lights at a new position or direction + gather |
 //! | light intensity changed | gather (its light links are kept) |
-//! | emission of a mesh, the sky (set, changed, turned, removed) | gather (sky light from the kept miss masks, no rays) |
+//! | emission of a mesh, the sky (set, changed, turned, removed) | gather (sky light from the kept miss masks and portal samples, no rays) |
+//! | the sky's portals (moved, added, removed) | the portals' rays and the sky's refined cells + gather |
 //! | mesh deformed (new positions; static meshes must not move) | CPU: BVH refit + selective re-shooting of links and light links ([`Solver::deform`]) + gather; GPU: everything |
 //! | settings: rays or seed | kd-tree + links + light links + gather |
 //! | settings: bounces or smoothing | gather |
@@ -120,6 +121,8 @@ pub struct Counters {
     /// Emitter links traced again because a surface started emitting
     /// ([`Solver::update_emitters`]); other emission edits are gather-only.
     pub emitter_link_updates: u64,
+    /// Sky portal samples traced because the sky's portals changed ([`Solver::update_portals`]).
+    pub portal_updates: u64,
     pub gathers: u64,
     /// Results published (the version of the newest result).
     pub published: u64,
@@ -221,6 +224,7 @@ fn publish(shared: &Shared, s: &Solver, c: &mut Counters, t0: Instant, preview: 
     total.link_builds += c.link_builds;
     total.light_link_updates += c.light_link_updates;
     total.emitter_link_updates += c.emitter_link_updates;
+    total.portal_updates += c.portal_updates;
     total.gathers += 1;
     total.published = version;
     total.previews += preview as u64;
@@ -551,6 +555,9 @@ impl Worker {
                 c.emitter_link_updates += 1;
             }
             s.scene.sky = scene.sky.clone();
+            if s.update_portals() {
+                c.portal_updates += 1;
+            }
             if dirty.lights && c.light_link_updates == 0 {
                 s.scene.lights = scene.lights.clone();
                 if light_preview {

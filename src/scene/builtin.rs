@@ -318,7 +318,7 @@ fn cabinet(scene: &str) -> MeshDesc {
 }
 
 /// `colorlamp`'s room with a window: a 2 x 1.25 m opening in the +x wall
-/// (y in [0.75, 2], z in [-1, 1]) onto a gradient sky, the cabinet, and
+/// (y in [0.75, 2], z in [-1, 1], a sky portal over it) onto a gradient sky, the cabinet, and
 /// the floor lamp with its shade glowing (exitance (30, 17, 4) W/m^2 on
 /// both sides) instead of a point light.
 fn window() -> SceneDesc {
@@ -347,8 +347,15 @@ fn window() -> SceneDesc {
         ],
         vec![],
     );
-    s.sky =
-        Some(crate::sky::Sky::gradient(Vec3::new(4.0, 5.2, 7.2), Vec3::new(4.4, 4.4, 4.2), Vec3::new(1.0, 0.9, 0.7)));
+    let mut sky =
+        crate::sky::Sky::gradient(Vec3::new(4.0, 5.2, 7.2), Vec3::new(4.4, 4.4, 4.2), Vec3::new(1.0, 0.9, 0.7));
+    // A portal over the opening: the room's rays toward it find the sky (`crate::sky::portal`).
+    sky.portals.push(crate::sky::Portal {
+        corner: Vec3::new(2.0, 0.75, -1.0),
+        edge_u: Vec3::new(0.0, 1.25, 0.0),
+        edge_v: Vec3::new(0.0, 0.0, 2.0),
+    });
+    s.sky = Some(sky);
     // Light walls and a source that is itself a surface: three bounces
     // leave E_i 11% short (`linkgi error window`), auto bounces 1%.
     s.settings.bounces = crate::scene::Bounces::Auto;

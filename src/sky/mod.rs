@@ -15,7 +15,9 @@
 //! the sun in as a directional light and keep the image for the sky.
 //!
 //! Where a vertex sees the sky through a small opening its estimate is
-//! noisy; the solver smooths it with the noise-aware filter of `E_i`, with
+//! noisy: sky portals over the openings ([`portal`]) send rays toward
+//! them, and cells of the ray grid on an edge of the sky get more rays
+//! ([`refine`]). What noise is left the solver smooths with the noise-aware filter of `E_i`, with
 //! the variance of its own samples ([`crate::exchange::SmoothParams::sky`]).
 //!
 //! `E_sky` is direct light: reported and exported on its own and added to
@@ -25,10 +27,12 @@
 //! see it, like any direct light.
 
 pub mod envmap;
+pub mod portal;
 pub mod refine;
 pub mod visibility;
 
 pub use envmap::EnvMap;
+pub use portal::{Portal, PortalParams, PortalSamples};
 pub use refine::{SkyRefineParams, SkyRefinement};
 pub use visibility::SkyVisibility;
 
@@ -72,22 +76,35 @@ pub struct Sky {
     pub rotate_deg: f32,
     /// Multiplier of the model's radiance (unitless, >= 0).
     pub intensity: f32,
+    /// Openings through which the scene sees this sky ([`portal`]); none:
+    /// the link rays alone find it.
+    pub portals: Vec<Portal>,
 }
 
 impl Sky {
     /// A uniform sky of `radiance`, W/(m^2 sr).
     pub fn uniform(radiance: Vec3) -> Sky {
-        Sky { model: SkyModel::Uniform { radiance }, rotate_deg: 0.0, intensity: 1.0 }
+        Sky { model: SkyModel::Uniform { radiance }, rotate_deg: 0.0, intensity: 1.0, portals: Vec::new() }
     }
 
     /// A gradient sky (see [`SkyModel::Gradient`]).
     pub fn gradient(zenith: Vec3, horizon: Vec3, ground: Vec3) -> Sky {
-        Sky { model: SkyModel::Gradient { zenith, horizon, ground }, rotate_deg: 0.0, intensity: 1.0 }
+        Sky {
+            model: SkyModel::Gradient { zenith, horizon, ground },
+            rotate_deg: 0.0,
+            intensity: 1.0,
+            portals: Vec::new(),
+        }
     }
 
     /// An image sky.
     pub fn image(path: PathBuf, map: EnvMap) -> Sky {
-        Sky { model: SkyModel::Image { path, map: Arc::new(map) }, rotate_deg: 0.0, intensity: 1.0 }
+        Sky {
+            model: SkyModel::Image { path, map: Arc::new(map) },
+            rotate_deg: 0.0,
+            intensity: 1.0,
+            portals: Vec::new(),
+        }
     }
 
     /// Checks values: finite, non-negative radiance and intensity, finite rotation.
@@ -109,6 +126,9 @@ impl Sky {
         }
         if !self.rotate_deg.is_finite() {
             return Err(format!("sky rotate_deg {} is not finite", self.rotate_deg));
+        }
+        for (i, p) in self.portals.iter().enumerate() {
+            p.validate().map_err(|m| format!("sky portal {i}: {m}"))?;
         }
         Ok(())
     }
@@ -144,8 +164,10 @@ impl Sky {
         }
     }
 
-    /// A description for messages and panels; every parameter but an
-    /// image's pixels is in it (the rasterizer keys its baked sky map on it).
+    /// A description for messages and panels; every parameter of the
+    /// radiance but an image's pixels is in it (the rasterizer keys its
+    /// baked sky map on it, the reference cache its sky); not the portals,
+    /// which change how the sky is sampled, not what it is.
     pub fn describe(&self) -> String {
         let m = match &self.model {
             SkyModel::Uniform { radiance } => format!("uniform {radiance}"),

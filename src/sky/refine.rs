@@ -38,6 +38,7 @@
 //! like [`super::visibility`]. Deviation from the paper: the paper has no
 //! sky.
 
+use super::portal::{through_any, Portal};
 use super::visibility::{RayFrames, SkyVisibility};
 use super::Sky;
 use crate::kdtree::Ray;
@@ -55,6 +56,8 @@ pub struct SkyRefineParams {
     /// Sub-cells a side of a refined cell: `sub * sub` fresh rays replace
     /// its one ray (at most [`MAX_SUB`]); 0 turns refinement off.
     pub sub: u32,
+    /// Rays from each vertex toward each of the sky's portals ([`super::portal`]).
+    pub portal: super::PortalParams,
 }
 
 /// The largest [`SkyRefineParams::sub`]: a refined cell's rays fit one u32 mask.
@@ -62,7 +65,7 @@ pub const MAX_SUB: u32 = 5;
 
 impl Default for SkyRefineParams {
     fn default() -> Self {
-        Self { sub: 3 }
+        Self { sub: 3, portal: super::PortalParams::default() }
     }
 }
 
@@ -155,6 +158,7 @@ impl SkyRefinement {
         scene: &PreparedScene,
         tracer: &dyn Tracer,
         vis: &SkyVisibility,
+        portals: &[Portal],
         link: &LinkParams,
         params: &SkyRefineParams,
     ) -> crate::Result<SkyRefinement> {
@@ -166,7 +170,17 @@ impl SkyRefinement {
         }
         let setup = RaySetup::new(scene, link);
         let grid = Grid::new(setup.directions.k);
-        let cells: Vec<Vec<u32>> = (0..n).into_par_iter().map(|v| grid.refined(vis.vertex(v))).collect();
+        let frames = RayFrames {
+            normals: &setup.normals,
+            rotations: &setup.rotations,
+            sets: &setup.sets,
+            directions: &setup.directions,
+            positions: &scene.positions,
+            portals,
+        };
+        // Misses through a portal are the portal's: an edge between them and hits needs no refining.
+        let cells: Vec<Vec<u32>> =
+            (0..n).into_par_iter().map(|v| grid.refined(&frames.effective_mask(v, vis.vertex(v)))).collect();
         let mut offsets = Vec::with_capacity(n + 1);
         offsets.push(0u32);
         for c in &cells {
@@ -285,7 +299,8 @@ impl SkyRefinement {
         (0..n)
             .into_par_iter()
             .map(|v| {
-                let mask = vis.vertex(v);
+                // Misses through a portal are its samples' to count: here they are hits.
+                let mask = frames.effective_mask(v, vis.vertex(v));
                 if mask.iter().all(|&m| m == 0) {
                     return (Vec3::ZERO, Vec3::ZERO);
                 }
@@ -309,7 +324,11 @@ impl SkyRefinement {
                         for j in 0..sub * sub {
                             if m >> j & 1 == 1 {
                                 let u = sub_point(k, sub, x, y, j, set, seed);
-                                let l = radiance(world_direction(frame, cosine_hemisphere(u).normalize()));
+                                let d = world_direction(frame, cosine_hemisphere(u).normalize());
+                                if through_any(frames.portals, frames.positions[v], d) {
+                                    continue;
+                                }
+                                let l = radiance(d);
                                 s1 += l;
                                 s2 += l * l;
                             }
@@ -391,7 +410,14 @@ mod tests {
         one[(r / 64) as usize] |= 1 << (r % 64);
         let directions = crate::sampling::DirectionSet::new(k, 1);
         let (normals, rotations, sets) = (vec![Vec3::Y], vec![0.0f32], vec![0u32]);
-        let frames = RayFrames { normals: &normals, rotations: &rotations, sets: &sets, directions: &directions };
+        let frames = RayFrames {
+            normals: &normals,
+            rotations: &rotations,
+            sets: &sets,
+            directions: &directions,
+            positions: &[Vec3::ZERO],
+            portals: &[],
+        };
         let sky = Sky::uniform(l);
         let scale = std::f32::consts::PI / (k * k) as f32;
         for (mask, want_e, want_var) in

@@ -51,6 +51,35 @@ pub struct RayFrames<'a> {
     pub sets: &'a [u32],
     /// The local direction sets, in ray order.
     pub directions: &'a crate::sampling::DirectionSet,
+    /// Vertex positions (where the portals are seen from).
+    pub positions: &'a [Vec3],
+    /// Sky portals with samples ([`super::portal`]): the directions through
+    /// them are theirs, so a link ray that left through one counts as a hit.
+    pub portals: &'a [super::Portal],
+}
+
+impl RayFrames<'_> {
+    /// Vertex `v`'s miss mask `mask` without the rays that left through a
+    /// portal (borrowed as it is when there are no portals).
+    pub fn effective_mask<'m>(&self, v: usize, mask: &'m [u64]) -> std::borrow::Cow<'m, [u64]> {
+        if self.portals.is_empty() || mask.iter().all(|&m| m == 0) {
+            return std::borrow::Cow::Borrowed(mask);
+        }
+        let frame = vertex_frame(self.normals[v], self.rotations[v]);
+        let set = self.directions.set(self.sets[v]);
+        let mut out = mask.to_vec();
+        for (w, word) in out.iter_mut().enumerate() {
+            let mut b = *word;
+            while b != 0 {
+                let k = w * 64 + b.trailing_zeros() as usize;
+                b &= b - 1;
+                if super::portal::through_any(self.portals, self.positions[v], world_direction(frame, set[k])) {
+                    *word &= !(1u64 << (k % 64));
+                }
+            }
+        }
+        std::borrow::Cow::Owned(out)
+    }
 }
 
 impl SkyVisibility {
@@ -116,7 +145,8 @@ impl SkyVisibility {
 
     /// Sky irradiance `E_sky` of each of `n` vertices under `sky`, W/m^2:
     /// `pi / n_rays * sum_{missed} L(w_k)` with the directions of `frames`
-    /// (zero everywhere without visibility or sky).
+    /// (zero everywhere without visibility or sky), leaving the directions
+    /// through `frames.portals` to their samples.
     pub fn irradiance(&self, sky: Option<&Sky>, frames: &RayFrames, n: usize) -> Vec<Vec3> {
         self.irradiance_and_moment(sky, frames, n).into_iter().map(|(e, _)| e).collect()
     }
@@ -134,7 +164,7 @@ impl SkyVisibility {
         (0..n)
             .into_par_iter()
             .map(|v| {
-                let mask = self.vertex(v);
+                let mask = frames.effective_mask(v, self.vertex(v));
                 if mask.iter().all(|&m| m == 0) {
                     return (Vec3::ZERO, Vec3::ZERO);
                 }

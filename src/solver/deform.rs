@@ -138,10 +138,9 @@ impl Solver {
         self.emitter_links = crate::exchange::EmitterLinks::compute(&self.scene, &self.accel, &params.emitter)
             .expect("a CPU tracer cannot fail");
         stats.emitter_links_ms = self.emitter_links.ms;
-        // The sky's refined cells follow the new links' misses: all traced anew.
-        self.sky_refine =
-            crate::sky::SkyRefinement::compute(&self.scene, &self.accel, &self.links.sky, &params.links, &params.sky)
-                .expect("a CPU tracer cannot fail");
+        // The sky's refined cells follow the new links' misses, and the portals' rays the new positions: all traced anew.
+        (self.sky_refine, self.sky_portals) =
+            super::sky_rays(&self.scene, &self.accel, &self.links.sky, &params).expect("a CPU tracer cannot fail");
         // The noise check's rays: a few hundred vertices, traced anew.
         self.noise_check =
             crate::exchange::NoiseCheck::compute(&self.scene, &self.accel, &params.links, &params.smoothing.noise);

@@ -180,6 +180,9 @@ pub struct SolveStats {
     /// Rays of the sky's refined cells and their time, ms.
     pub sky_rays: u64,
     pub sky_ms: f64,
+    /// Shadow rays toward the sky's portals and their time, ms.
+    pub portal_rays: u64,
+    pub portal_ms: f64,
     /// Rays of the noise check ([`crate::exchange::noise_check`]) and their time, ms.
     pub noise_check_rays: u64,
     pub noise_check_ms: f64,
@@ -261,6 +264,8 @@ pub struct Solver {
     pub near_light: NearLight,
     /// The sky's refined cells ([`crate::sky::refine`]).
     pub sky_refine: crate::sky::SkyRefinement,
+    /// Every vertex's rays toward the sky's portals ([`crate::sky::portal`]).
+    pub sky_portals: crate::sky::PortalSamples,
     /// A second estimate at a sample of vertices, which calibrates the noise estimate ([`crate::exchange::noise_check`]).
     pub noise_check: NoiseCheck,
     /// Present when links, light links and bounces run on a GPU.
@@ -273,6 +278,28 @@ pub struct Solver {
     /// the first solve that needs them (two passes over the links:
     /// 278 ms on conference) and kept; [`Solver::links_changed`] drops them.
     stand_ins_cache: StandInsCache,
+}
+
+/// The portals of `scene`'s sky that get rays with `params` (none without
+/// a sky or with portal rays off).
+pub(crate) fn portals_of<'a>(scene: &'a PreparedScene, params: &SolveParams) -> &'a [crate::sky::Portal] {
+    match &scene.sky {
+        Some(s) if params.sky.portal.side() > 0 => &s.portals,
+        _ => &[],
+    }
+}
+
+/// The sky's refined cells and portal samples for links whose misses are `vis`.
+pub(crate) fn sky_rays(
+    scene: &PreparedScene,
+    tracer: &dyn crate::trace::Tracer,
+    vis: &crate::sky::SkyVisibility,
+    params: &SolveParams,
+) -> crate::Result<(crate::sky::SkyRefinement, crate::sky::PortalSamples)> {
+    let portals = portals_of(scene, params);
+    let refine = crate::sky::SkyRefinement::compute(scene, tracer, vis, portals, &params.links, &params.sky)?;
+    let samples = crate::sky::PortalSamples::compute(scene, tracer, portals, &params.links, &params.sky.portal)?;
+    Ok((refine, samples))
 }
 
 /// Hidden vertices and their linkers, with the parameters they were found with.
@@ -298,8 +325,8 @@ impl Solver {
         let (links, ray_hits) = links::shoot_links_recording(&scene, &accel, &params.links, record, progress);
         let light_links = LightLinks::compute(&scene, &accel, &params.light);
         let emitter_links = EmitterLinks::compute(&scene, &accel, &params.emitter).expect("a CPU tracer cannot fail");
-        let sky_refine = crate::sky::SkyRefinement::compute(&scene, &accel, &links.sky, &params.links, &params.sky)
-            .expect("a CPU tracer cannot fail");
+        let (sky_refine, sky_portals) =
+            sky_rays(&scene, &accel, &links.sky, &params).expect("a CPU tracer cannot fail");
         let near_light =
             NearLight::compute(&scene, &links.near, &accel, &params.light).expect("a CPU tracer cannot fail");
         let noise_check = NoiseCheck::compute(&scene, &accel, &params.links, &params.smoothing.noise);
@@ -312,6 +339,7 @@ impl Solver {
             emitter_links,
             near_light,
             sky_refine,
+            sky_portals,
             noise_check,
             gpu: None,
             compute: Compute::Cpu,
@@ -380,7 +408,7 @@ impl Solver {
         let tracer = logical.swap_remove(0).tracer;
         let light_links = LightLinks::compute_with(&scene, &tracer, &params.light)?;
         let emitter_links = EmitterLinks::compute(&scene, &tracer, &params.emitter)?;
-        let sky_refine = crate::sky::SkyRefinement::compute(&scene, &tracer, &links.sky, &params.links, &params.sky)?;
+        let (sky_refine, sky_portals) = sky_rays(&scene, &tracer, &links.sky, &params)?;
         let near_light = NearLight::compute(&scene, &links.near, &tracer, &params.light)?;
         // On the CPU: the GPU tracer shoots whole vertices' ray sets only.
         let noise_check = NoiseCheck::compute(&scene, &kd, &params.links, &params.smoothing.noise);
@@ -395,6 +423,7 @@ impl Solver {
             emitter_links,
             near_light,
             sky_refine,
+            sky_portals,
             noise_check,
             gpu: Some(gpu),
             compute: compute.clone(),
@@ -469,6 +498,25 @@ impl Solver {
         true
     }
 
+    /// Brings the sky's portal samples (and the refined cells, which
+    /// leave the portals' directions to them) up to date with the scene's
+    /// sky, so the result equals a fresh solve's: traces them when the
+    /// portals changed since they were traced. Returns true if it traced.
+    pub fn update_portals(&mut self) -> bool {
+        if portals_of(&self.scene, &self.params) == self.sky_portals.portals.as_slice() {
+            return false;
+        }
+        let traced = match &self.gpu {
+            Some(g) => sky_rays(&self.scene, &g.tracer, &self.links.sky, &self.params).or_else(|err| {
+                eprintln!("warning: {err}; tracing sky portals on the CPU");
+                sky_rays(&self.scene, &self.accel, &self.links.sky, &self.params)
+            }),
+            None => sky_rays(&self.scene, &self.accel, &self.links.sky, &self.params),
+        };
+        (self.sky_refine, self.sky_portals) = traced.expect("a CPU tracer cannot fail");
+        true
+    }
+
     /// Bytes of the per-ray state kept for selective updates ([`Solver::ray_hits`]).
     pub fn ray_state_bytes(&self) -> u64 {
         self.ray_hits.as_ref().map_or(0, |h| h.bytes())
@@ -510,6 +558,8 @@ impl Solver {
             emitter_links_ms: self.emitter_links.ms,
             sky_rays: self.sky_refine.rays,
             sky_ms: self.sky_refine.ms,
+            portal_rays: self.sky_portals.rays,
+            portal_ms: self.sky_portals.ms,
             noise_check_rays: self.noise_check.rays,
             noise_check_ms: self.noise_check.ms,
             near_hits: self.links.near.hits.len() as u64,

@@ -127,31 +127,45 @@ impl Solver {
         self.gather_cpu(&b0, &self.stand_ins(), params)
     }
 
-    /// Irradiance from the scene's sky at every vertex ([`crate::sky::SkyVisibility::irradiance`]), W/m^2.
+    /// Irradiance from the scene's sky at every vertex, W/m^2: the link
+    /// rays' misses ([`crate::sky::SkyVisibility`], refined cells
+    /// [`crate::sky::refine`]) for the directions outside the portals and
+    /// the portals' own rays ([`crate::sky::portal`]) for those through
+    /// them, smoothed with their noise.
     pub fn e_sky(&self) -> Vec<Vec3> {
         let s = &self.scene;
         let n = s.vertex_count();
-        if s.sky.is_none() || self.links.sky.is_empty() {
+        let Some(sky) = s.sky.as_ref() else { return vec![Vec3::ZERO; n] };
+        if self.links.sky.is_empty() && self.sky_portals.is_empty() {
             return vec![Vec3::ZERO; n];
         }
         let p = &self.params.links;
         let k = (p.rays_per_vertex as f64).sqrt().round() as u32;
         let (rotations, sets) = crate::sampling::vertex_rotations_and_sets(&s.rings, p.seed);
         let directions = crate::sampling::DirectionSet::new(k, p.seed);
+        // Portals the samples were traced for: their directions are left to them.
         let frames = crate::sky::visibility::RayFrames {
             normals: &s.normals,
             rotations: &rotations,
             sets: &sets,
             directions: &directions,
+            positions: &s.positions,
+            portals: &self.sky_portals.portals,
         };
         let (angle, sp) = (self.params.smoothing_angle_deg, &self.params.smoothing);
         let smooth = sp.sky && sp.mode == SmoothMode::Adaptive && angle > 0.0;
+        // The portals' part: stratified over the opening, left unsmoothed (see below).
+        let portal_e = self.sky_portals.irradiance(sky, &s.positions, &s.normals, p.seed);
+        let add_portals = |mut e: Vec<Vec3>| {
+            e.iter_mut().zip(&portal_e).for_each(|(e, pe)| *e += *pe);
+            e
+        };
         let (e, var): (Vec<Vec3>, Vec<Vec3>) = if self.sky_refine.is_empty() {
             // One ray a cell: the variance of independent rays, pooled, times the stratification ratio.
             let (e, m2): (Vec<Vec3>, Vec<Vec3>) =
-                self.links.sky.irradiance_and_moment(s.sky.as_ref(), &frames, n).into_iter().unzip();
+                self.links.sky.irradiance_and_moment(Some(sky), &frames, n).into_iter().unzip();
             if !smooth {
-                return e;
+                return add_portals(e);
             }
             let mut var = exchange::smooth::pooled_variance(&e, &m2, p.rays_per_vertex, &s.rings, &s.normals, angle);
             let ratio = sp.noise.ratio(p.rays_per_vertex);
@@ -160,13 +174,13 @@ impl Solver {
         } else {
             // Refined cells: their own variance, pooled over the ring.
             let (e, var): (Vec<Vec3>, Vec<Vec3>) =
-                self.sky_refine.irradiance(&self.links.sky, s.sky.as_ref(), &frames, p.seed, n).into_iter().unzip();
+                self.sky_refine.irradiance(&self.links.sky, Some(sky), &frames, p.seed, n).into_iter().unzip();
             if !smooth {
-                return e;
+                return add_portals(e);
             }
             (e, exchange::smooth(&var, &s.rings, &s.normals, angle))
         };
-        exchange::smooth_adaptive(&e, &var, &s.rings, &s.normals, angle, sp.passes)
+        add_portals(exchange::smooth_adaptive(&e, &var, &s.rings, &s.normals, angle, sp.passes))
     }
 
     /// Hidden vertices and their linkers ([`exchange::hidden::stand_ins`]),
