@@ -157,6 +157,7 @@ pub fn scene_json(scene: &PreparedScene, stats: &SolveStats) -> serde_json::Valu
             "model": sky_model_json(&k.model),
             "rotate_deg": k.rotate_deg,
             "intensity": k.intensity,
+            "portals": k.portals.iter().map(|p| p.corners().map(|c| c.to_array())).collect::<Vec<_>>(),
         })
     });
     json!({

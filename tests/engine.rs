@@ -287,7 +287,9 @@ fn deformation_preview_then_selective_full_result() {
 /// gather-only updates: no structure, link or light-link work, and each
 /// result equals a fresh solve of the edited scene. A mesh that starts
 /// emitting (the lamp's metal with its shade) needs its emitter links
-/// traced, once; brightening it again is gather-only.
+/// traced, once; brightening it again is gather-only. Taking the sky's
+/// portal away traces the sky's rays once (the link rays then cover the
+/// window's directions too).
 #[test]
 fn emission_and_sky_edits_are_gather_only() {
     use linkgi::solver::Solver;
@@ -326,6 +328,18 @@ fn emission_and_sky_edits_are_gather_only() {
     let got = e.latest().unwrap();
     let want = fresh(&edited);
     assert_eq!((got.e_sky.clone(), got.e_indirect.clone()), (want.e_sky, want.e_indirect));
+    assert_eq!(e.counters().portal_updates, c0.portal_updates, "the same portal: no rays");
+    // The window's portal taken away: the link rays find the sky alone again (rays, once).
+    let mut open = edited.sky.clone().unwrap();
+    assert_eq!(open.portals.len(), 1);
+    open.portals.clear();
+    e.send(Change::SetSky(Some(open.clone())));
+    edited.sky = Some(open);
+    assert!(e.wait_idle(WAIT));
+    let got = e.latest().unwrap();
+    let want = fresh(&edited);
+    assert_eq!((got.e_sky.clone(), got.e_indirect.clone()), (want.e_sky, want.e_indirect));
+    assert_eq!(e.counters().portal_updates, c0.portal_updates + 1);
     e.send(Change::SetSky(None));
     assert!(e.wait_idle(WAIT));
     let dark = e.latest().unwrap();
@@ -333,8 +347,9 @@ fn emission_and_sky_edits_are_gather_only() {
     let c = e.counters();
     assert_eq!(
         (c.kd_builds, c.link_builds, c.light_link_updates, c.emitter_link_updates, c.gathers),
-        (c0.kd_builds, c0.link_builds, c0.light_link_updates, c0.emitter_link_updates + 1, c0.gathers + 4)
+        (c0.kd_builds, c0.link_builds, c0.light_link_updates, c0.emitter_link_updates + 1, c0.gathers + 5)
     );
+    assert_eq!(c.portal_updates, c0.portal_updates + 1);
     // Bad edits fail and keep the last result.
     e.send(Change::SetEmission { mesh: 99, emission: Vec3::ONE });
     e.send(Change::SetEmission { mesh: 0, emission: Vec3::NAN });

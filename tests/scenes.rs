@@ -42,9 +42,19 @@ fn written_scene_reads_back() {
     let mut sky = linkgi::sky::Sky::gradient(glam::Vec3::ONE, glam::Vec3::splat(0.5), glam::Vec3::ZERO);
     sky.rotate_deg = 30.0;
     sky.intensity = 2.0;
+    sky.portals.push(
+        linkgi::sky::Portal::from_corners([
+            glam::Vec3::new(0.0, 2.0, 0.0),
+            glam::Vec3::new(1.0, 2.0, 0.0),
+            glam::Vec3::new(1.0, 2.0, 0.5),
+            glam::Vec3::new(0.0, 2.0, 0.5),
+        ])
+        .unwrap(),
+    );
     desc.sky = Some(sky);
     let path = scene::file::write_scene(&desc, &dir).unwrap();
     let back = scene::load(path.to_str().unwrap()).unwrap();
+    assert_eq!(back.sky, desc.sky, "the sky with its portal");
     same_geometry(&prep::prepare(&back).unwrap(), &prep::prepare(&desc).unwrap());
 }
 

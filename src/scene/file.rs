@@ -14,7 +14,7 @@
 
 use super::deform::{Deform, DeformKind};
 use super::{gltf, obj, Backend, Bounces, Camera, Light, SceneDesc, Settings, TracerKind, Transform};
-use crate::sky::{EnvMap, Sky, SkyModel};
+use crate::sky::{EnvMap, Portal, Sky, SkyModel};
 use crate::{Error, Result};
 use glam::Vec3;
 use serde::{Deserialize, Serialize};
@@ -39,6 +39,9 @@ pub struct SceneFile {
 /// (+ `ground`, default black: the gradient sky) and `image` (EXR or
 /// Radiance HDR, equirectangular, relative to the scene file); radiance in
 /// W/(m^2 sr). `rotate_deg` turns it about +y, `intensity` scales it.
+/// `portals`: openings through which the scene sees the sky (each four
+/// corners of a parallelogram in order around it, metres), which get rays
+/// of their own ([`crate::sky::portal`]).
 #[derive(Debug, Default, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct SkyFile {
@@ -56,6 +59,8 @@ pub struct SkyFile {
     pub rotate_deg: Option<f32>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub intensity: Option<f32>,
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub portals: Vec<[[f32; 3]; 4]>,
 }
 
 #[derive(Debug, Default, Serialize, Deserialize)]
@@ -287,6 +292,11 @@ fn sky_from(path: &Path, dir: &Path, s: &SkyFile) -> Result<Sky> {
     };
     sky.rotate_deg = s.rotate_deg.unwrap_or(0.0);
     sky.intensity = s.intensity.unwrap_or(1.0);
+    for (i, corners) in s.portals.iter().enumerate() {
+        let portal = Portal::from_corners(corners.map(Vec3::from_array))
+            .map_err(|m| scene_err(path, format!("[sky] portals[{i}]: {m}")))?;
+        sky.portals.push(portal);
+    }
     sky.validate().map_err(|m| scene_err(path, format!("[sky]: {m}")))?;
     Ok(sky)
 }
@@ -295,6 +305,7 @@ fn sky_to_file(s: &Sky) -> SkyFile {
     let mut f = SkyFile {
         rotate_deg: (s.rotate_deg != 0.0).then_some(s.rotate_deg),
         intensity: (s.intensity != 1.0).then_some(s.intensity),
+        portals: s.portals.iter().map(|p| p.corners().map(|c| c.to_array())).collect(),
         ..Default::default()
     };
     match &s.model {
