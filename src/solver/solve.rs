@@ -283,7 +283,7 @@ impl Solver {
     /// direct light and the near-hit correction in it are taken out): the
     /// independent-ray variance times the noise check's local ratio
     /// ([`crate::exchange::noise_check`]; the model's without a check),
-    /// averaged over the feature ring ([`crate::exchange::smooth`]).
+    /// averaged over the feature ring ([`crate::exchange::smooth()`]).
     pub fn noise_variance(&self, e_source: &[Vec3], e_raw: &[Vec3]) -> Vec<Vec3> {
         self.gathered_noise_variance(e_source, &self.gathered_part(e_raw))
     }
