@@ -51,10 +51,12 @@
 //! A triangle with the vertex as a corner lies in a plane through the
 //! vertex and subtends nothing; on a curved emitter the vertex's own
 //! triangles tilt a little above its tangent plane, and the thin band of
-//! directions under them (which the vertex links send on to the far side)
-//! carries no emitter light here: in the emissive furnace (2562-vertex
-//! sphere) `E` comes out 0.17% low, where the vertex links alone were
-//! exact to 1e-4 (`tests/emission.rs`, bound 2%).
+//! directions under them (which the vertex links record as self links)
+//! gets the vertex's own emission times the band's share, by Lambert's
+//! formula on the band ([`crate::solver::Solver::e_emitter`]). Without it
+//! the emissive furnace (2562-vertex sphere) read `E` 0.17% low and the
+//! inside of `window`'s lamp shade 0.3-0.6% low; with it the furnace is
+//! exact to rounding (`tests/emission.rs`).
 //!
 //! Cost: one evaluation of Lambert's formula per vertex and emitter
 //! triangle, and at most `samples + 1` shadow rays per vertex. Above

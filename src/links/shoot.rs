@@ -25,7 +25,7 @@ use crate::kdtree::Hit;
 use crate::sampling::{vertex_frame, vertex_rotations_and_sets, world_direction, DirectionSet};
 use crate::scene::prep::PreparedScene;
 use crate::trace::CpuTracer;
-use glam::Vec3;
+use glam::{DVec3, Vec3};
 use rayon::prelude::*;
 use std::time::Instant;
 
@@ -74,6 +74,58 @@ impl Wedge {
         self.edge_a.cross(dp).dot(self.normal) >= 0.0 && dp.cross(self.edge_b).dot(self.normal) >= 0.0
     }
 
+    /// The wedge of triangle `t` at its corner `v`.
+    pub fn of(scene: &PreparedScene, v: usize, t: u32) -> Wedge {
+        let tri = scene.triangles[t as usize];
+        let corner = tri.iter().position(|&i| i as usize == v).expect("incident") as u32;
+        let p = |k: u32| scene.positions[tri[((corner + k) % 3) as usize] as usize];
+        let (edge_a, edge_b) = (p(1) - p(0), p(2) - p(0));
+        let normal = edge_a.cross(edge_b).normalize_or_zero();
+        Wedge { normal, edge_a, edge_b, tri: t, corner }
+    }
+
+    /// The cosine-weighted share (unitless, of the hemisphere about unit
+    /// `n`) of the directions that dive under this wedge
+    /// ([`Wedge::dives_under`]): the spherical triangle `(a, b, -normal)`
+    /// (`a`, `b` the edge directions), clipped to `n . d >= 0`, by
+    /// Lambert's formula `1/(2 pi) |sum_k gamma_k n . c_k|` (as
+    /// [`crate::exchange::emitter_links`]). In f64: the share is small
+    /// beside the terms that cancel in the sum.
+    pub fn dive_share(&self, n: Vec3) -> f32 {
+        let (a, b, t) = (self.edge_a.as_dvec3(), self.edge_b.as_dvec3(), self.normal.as_dvec3());
+        let n = n.as_dvec3();
+        if a.length_squared() == 0.0 || b.length_squared() == 0.0 || t.length_squared() == 0.0 {
+            return 0.0;
+        }
+        // Sutherland-Hodgman against the plane n . d = 0; an arc P -> Q
+        // meets it at normalize(|n.Q| P + |n.P| Q).
+        let poly = [a.normalize(), b.normalize(), -t];
+        let mut clipped: Vec<DVec3> = Vec::with_capacity(4);
+        for k in 0..3 {
+            let (p, q) = (poly[k], poly[(k + 1) % 3]);
+            let (sp, sq) = (n.dot(p), n.dot(q));
+            if sp >= 0.0 {
+                clipped.push(p);
+            }
+            if (sp >= 0.0) != (sq >= 0.0) {
+                clipped.push((p * sq.abs() + q * sp.abs()).normalize());
+            }
+        }
+        if clipped.len() < 3 {
+            return 0.0;
+        }
+        let mut sum = 0.0;
+        for k in 0..clipped.len() {
+            let (p, q) = (clipped[k], clipped[(k + 1) % clipped.len()]);
+            let c = p.cross(q);
+            let len = c.length();
+            if len > 0.0 {
+                sum += p.dot(q).clamp(-1.0, 1.0).acos() * n.dot(c / len);
+            }
+        }
+        (sum.abs() / (2.0 * std::f64::consts::PI)) as f32
+    }
+
     /// The hit record of a ray that dives under this wedge: the vertex's corner, `t = 0`.
     pub fn self_hit(&self) -> HitRecord {
         let (u, v) = match self.corner {
@@ -107,14 +159,7 @@ impl RaySetup {
         let origins = (0..scene.vertex_count()).map(|v| ray_origin(scene, v, params.nudge)).collect();
         let mut wedges = Vec::with_capacity(scene.vertex_triangles.items.len());
         for v in 0..scene.vertex_count() {
-            for &t in scene.vertex_triangles.row(v) {
-                let tri = scene.triangles[t as usize];
-                let corner = tri.iter().position(|&i| i as usize == v).expect("incident") as u32;
-                let p = |k: u32| scene.positions[tri[((corner + k) % 3) as usize] as usize];
-                let (edge_a, edge_b) = (p(1) - p(0), p(2) - p(0));
-                let normal = edge_a.cross(edge_b).normalize_or_zero();
-                wedges.push(Wedge { normal, edge_a, edge_b, tri: t, corner });
-            }
+            wedges.extend(scene.vertex_triangles.row(v).iter().map(|&t| Wedge::of(scene, v, t)));
         }
         let (rotations, sets) = vertex_rotations_and_sets(&scene.rings, params.seed);
         RaySetup {
@@ -191,6 +236,15 @@ const TO_TRACE: u32 = HIT_BACK - 1;
 pub struct TraceScratch {
     dirs: Vec<Vec3>,
     hits: Vec<Option<Hit>>,
+}
+
+/// The cosine-weighted share of vertex `v`'s hemisphere (about its
+/// normal) whose directions dive under one of its own triangles: the band
+/// its self links cover (see the module doc), summed over its wedges
+/// ([`Wedge::dive_share`]; 0 on flat and convex vertices).
+pub fn dive_share(scene: &PreparedScene, v: usize) -> f32 {
+    let n = scene.normals[v];
+    scene.vertex_triangles.row(v).iter().map(|&t| Wedge::of(scene, v, t).dive_share(n)).sum()
 }
 
 /// The ray origin of vertex `v` (see the module doc).
