@@ -97,17 +97,19 @@ impl Wedge {
         if a.length_squared() == 0.0 || b.length_squared() == 0.0 || t.length_squared() == 0.0 {
             return 0.0;
         }
-        // Sutherland-Hodgman against the plane n . d = 0; an arc P -> Q
-        // meets it at normalize(|n.Q| P + |n.P| Q).
+        // Sutherland-Hodgman against the plane n . d = 0 (a corner within
+        // 1e-9 of it counts as under: a flat vertex's band is empty, not
+        // rounding); an arc P -> Q meets it at normalize(|n.Q| P + |n.P| Q).
         let poly = [a.normalize(), b.normalize(), -t];
+        let above = |s: f64| s > 1e-9;
         let mut clipped: Vec<DVec3> = Vec::with_capacity(4);
         for k in 0..3 {
             let (p, q) = (poly[k], poly[(k + 1) % 3]);
             let (sp, sq) = (n.dot(p), n.dot(q));
-            if sp >= 0.0 {
+            if above(sp) {
                 clipped.push(p);
             }
-            if (sp >= 0.0) != (sq >= 0.0) {
+            if above(sp) != above(sq) {
                 clipped.push((p * sq.abs() + q * sp.abs()).normalize());
             }
         }
