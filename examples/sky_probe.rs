@@ -68,55 +68,7 @@ fn main() {
         &ReferenceParams { samples_per_vertex: samples, ..Default::default() },
         &reference::cache::default_dir(),
     );
-    let mut total = sol.total();
-    if let Ok(scale) = std::env::var("CLOSURE") {
-        // Prototype: near-field reciprocity closure (see the session notes).
-        let scale: f32 = scale.parse().unwrap();
-        let s = &solver.scene;
-        let n = rays as f32;
-        let other: Vec<Vec3> = (0..total.len()).map(|v| sol.e_sky[v] + sol.e_indirect_raw[v]).collect();
-        let mut changed = 0;
-        for v in 0..total.len() {
-            let near = solver.links.near.of(v);
-            if near.is_empty() {
-                continue;
-            }
-            let frac = near.len() as f32 / n;
-            let power: f32 = std::env::var("FACING").ok().and_then(|x| x.parse().ok()).unwrap_or(0.0);
-            let (mut a, mut sum) = (Vec3::ZERO, Vec3::ZERO);
-            for h in near {
-                let t = s.triangles[h.tri as usize];
-                let (p0, p1, p2) = (s.positions[t[0] as usize], s.positions[t[1] as usize], s.positions[t[2] as usize]);
-                let nh = (p1 - p0).cross(p2 - p0).normalize_or_zero();
-                let facing = (-nh.dot(s.normals[v])).abs().max(0.0);
-                let hp = p0 * (1.0 - h.u - h.v) + p1 * h.u + p2 * h.v;
-                let t2 = (hp - s.positions[v]).length_squared();
-                let f = match std::env::var("DISK").ok().and_then(|x| x.parse::<f32>().ok()) {
-                    Some(c) => {
-                        let r2 = (c * s.mean_edge_length(v)).powi(2);
-                        scale * facing.powf(power.max(1.0)) * r2 / (r2 + t2)
-                    }
-                    None => (frac * scale * if power > 0.0 { facing.powf(power) } else { 1.0 }).min(1.0),
-                };
-                let beta = [1.0 - h.u - h.v, h.u, h.v];
-                let mut rho_h = Vec3::ZERO;
-                for c in 0..3 {
-                    let cv = t[c] as usize;
-                    rho_h += s.albedo[cv] * beta[c];
-                    sum += s.albedo[cv] * other[cv] * beta[c] * f;
-                }
-                a += rho_h * f;
-            }
-            let a = a / n;
-            let sum = sum / n;
-            let rho = s.albedo[v];
-            let e_x = sol.e_direct[v] + other[v];
-            let de = (a * rho * e_x - sum) / (Vec3::ONE - a * rho);
-            total[v] += de;
-            changed += 1;
-        }
-        eprintln!("closure changed {changed} vertices");
-    }
+    let total = sol.total();
     let rt = r.total();
     for m in &solver.scene.meshes {
         let rg = m.vertices.start as usize..m.vertices.end as usize;

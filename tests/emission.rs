@@ -140,6 +140,9 @@ fn the_dive_band_by_lambert_matches_dense_sampling() {
         Bounces::Fixed(1),
     ))
     .unwrap();
-    let flat = (0..plane.vertex_count()).filter(|&v| !plane.boundary[v]).map(|v| linkgi::links::shoot::dive_share(&plane, v)).fold(0f32, f32::max);
+    let flat = (0..plane.vertex_count())
+        .filter(|&v| !plane.boundary[v])
+        .map(|v| linkgi::links::shoot::dive_share(&plane, v))
+        .fold(0f32, f32::max);
     assert!(flat < 1e-6, "a flat surface's vertex dives under nothing ({flat})");
 }

@@ -209,10 +209,19 @@ struct Sample {
     density: f32,
 }
 
-/// Sample `j` of vertex `v` toward portal `p` of `portals`, seen from `x`
-/// with unit normal `n`, or `None` when it counts 0 whatever the scene
-/// (behind `x`, or a direction of an earlier portal).
-fn sample(portals: &[Portal], p: usize, side: u32, j: u32, v: usize, x: Vec3, n: Vec3, seed: u64) -> Option<Sample> {
+/// A vertex the samples start from: its index, position and unit normal.
+#[derive(Clone, Copy, Debug)]
+struct Receiver {
+    v: usize,
+    x: Vec3,
+    n: Vec3,
+}
+
+/// Sample `j` of receiver `r` toward portal `p` of `portals` (a `side x
+/// side` grid), or `None` when it counts 0 whatever the scene (behind the
+/// receiver, or a direction of an earlier portal).
+fn sample(portals: &[Portal], p: usize, side: u32, j: u32, r: Receiver, seed: u64) -> Option<Sample> {
+    let Receiver { v, x, n } = r;
     // The seed hashed on its own first: seeds differing in low bits must not share jitters.
     let h =
         splitmix64(splitmix64(seed ^ 0x5be0_cd19_137e_2179) ^ ((v as u64) << 20) ^ ((p as u64) << 8) ^ u64::from(j));
@@ -265,7 +274,7 @@ impl PortalSamples {
                     let (x, nv, setup) = (scene.positions[v], scene.normals[v], &setup);
                     (0..np).flat_map(move |p| {
                         (0..m).filter_map(move |j| {
-                            let dir = sample(portals, p, side, j, v, x, nv, link.seed)?.dir;
+                            let dir = sample(portals, p, side, j, Receiver { v, x, n: nv }, link.seed)?.dir;
                             if setup.wedges(v).iter().any(|w| w.dives_under(dir)) {
                                 return None;
                             }
@@ -342,7 +351,9 @@ impl PortalSamples {
                 for p in 0..np {
                     let mask = self.masks[v * np + p];
                     for j in (0..m).filter(|j| mask >> j & 1 == 1) {
-                        if let Some(smp) = sample(&self.portals, p, side, j, v, positions[v], normals[v], seed) {
+                        if let Some(smp) =
+                            sample(&self.portals, p, side, j, Receiver { v, x: positions[v], n: normals[v] }, seed)
+                        {
                             e += radiance(smp.dir) * (smp.cos_x / smp.density);
                         }
                     }
@@ -403,14 +414,17 @@ mod tests {
         let side = 4;
         let (mut sum, mut crossed) = (0.0f32, 0);
         for j in 0..side * side {
-            let smp = sample(&[p], 0, side, j, 7, x, n, 3).unwrap();
+            let smp = sample(&[p], 0, side, j, Receiver { v: 7, x, n }, 3).unwrap();
             sum += smp.cos_x / (smp.density * (side * side) as f32);
             crossed += p.crossed_by(x, smp.dir) as u32;
         }
         let want = p.area() / 202.0f32.powi(2); // the portal is at x = 2
         assert!((sum / want - 1.0).abs() < 1e-3, "{sum} against {want}");
         assert_eq!(crossed, side * side);
-        assert!((0..side * side).all(|j| sample(&[p, p], 1, side, j, 7, x, n, 3).is_none()));
-        assert!((0..side * side).all(|j| sample(&[p], 0, side, j, 7, x, -n, 3).is_none()), "behind the receiver");
+        assert!((0..side * side).all(|j| sample(&[p, p], 1, side, j, Receiver { v: 7, x, n }, 3).is_none()));
+        assert!(
+            (0..side * side).all(|j| sample(&[p], 0, side, j, Receiver { v: 7, x, n: -n }, 3).is_none()),
+            "behind the receiver"
+        );
     }
 }
