@@ -166,8 +166,9 @@ pub fn through_any(portals: &[Portal], p: Vec3, d: Vec3) -> bool {
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct PortalParams {
     /// Samples per vertex and portal, `side^2` (rounded down to a square,
-    /// at most 64); 0 turns portals off (the link rays alone then
-    /// integrate every direction). 64: see the module doc's figures.
+    /// at most [`MAX_SIDE`]^2); 0 turns portals off (the link rays alone
+    /// then integrate every direction). [`PortalParams::for_link_rays`]
+    /// scales it with the link rays; 64 by default.
     pub rays: u32,
 }
 
@@ -177,10 +178,20 @@ impl Default for PortalParams {
     }
 }
 
+/// The largest side of a portal's sample grid (256 samples).
+pub const MAX_SIDE: u32 = 16;
+
 impl PortalParams {
     /// Cells a side of the sample grid.
     pub fn side(&self) -> u32 {
-        ((self.rays.min(64) as f64).sqrt().floor() as u32).min(8)
+        ((self.rays.min(MAX_SIDE * MAX_SIDE) as f64).sqrt().floor() as u32).min(MAX_SIDE)
+    }
+
+    /// A quarter of `link_rays` a vertex and portal, between 64 and 256,
+    /// so the portals' noise keeps falling with the link rays' (see the
+    /// module doc's figures).
+    pub fn for_link_rays(link_rays: u32) -> PortalParams {
+        PortalParams { rays: (link_rays / 4).clamp(64, MAX_SIDE * MAX_SIDE) }
     }
 }
 
@@ -191,9 +202,11 @@ pub struct PortalSamples {
     pub portals: Vec<Portal>,
     /// Cells a side of each portal's sample grid.
     pub side: u32,
-    /// Bit `j` of `masks[v * portals.len() + p]`: sample `j` of vertex `v`
-    /// toward portal `p` left the scene.
+    /// Bit `j % 64` of `masks[(v * portals.len() + p) * words + j / 64]`:
+    /// sample `j` of vertex `v` toward portal `p` left the scene.
     pub masks: Vec<u64>,
+    /// Mask words a vertex and portal, `ceil(side^2 / 64)`.
+    pub words: usize,
     /// Shadow rays traced.
     pub rays: u64,
     /// Time spent, ms.
@@ -261,7 +274,8 @@ impl PortalSamples {
         }
         let setup = RaySetup::new(scene, link);
         let (n, np, m) = (scene.vertex_count(), portals.len(), side * side);
-        let mut masks = vec![0u64; n * np];
+        let words = (m as usize).div_ceil(64);
+        let mut masks = vec![0u64; n * np * words];
         let mut rays = 0u64;
         let per_vertex = np * m as usize;
         let batch_vertices = ((1usize << 20) / per_vertex).max(1);
@@ -280,7 +294,7 @@ impl PortalSamples {
                             }
                             let ray =
                                 Ray { origin: setup.origins[v], dir, tmin: 0.0, tmax: f32::INFINITY, skip: v as u32 };
-                            Some((v * np + p, j, ray))
+                            Some(((v * np + p) * words + j as usize / 64, j % 64, ray))
                         })
                     })
                 })
@@ -294,7 +308,7 @@ impl PortalSamples {
                 }
             }
         }
-        Ok(PortalSamples { portals: portals.to_vec(), side, masks, rays, ms: start.elapsed().as_secs_f64() * 1e3 })
+        Ok(PortalSamples { portals: portals.to_vec(), side, masks, words, rays, ms: start.elapsed().as_secs_f64() * 1e3 })
     }
 
     /// True when there are no portal samples.
@@ -307,16 +321,23 @@ impl PortalSamples {
         std::mem::size_of_val(self.masks.as_slice()) as u64
     }
 
-    /// Checks the structure against `n` vertices: one mask per vertex and
-    /// portal, no bit beyond `side^2` samples, valid portals.
+    /// Checks the structure against `n` vertices: one mask (of `words`
+    /// words) per vertex and portal, no bit beyond `side^2` samples, valid
+    /// portals.
     pub fn validate(&self, n: usize) -> Result<(), String> {
         if self.is_empty() {
             return if self.masks.is_empty() { Ok(()) } else { Err("masks without portals".into()) };
         }
-        if self.side == 0 || self.side > 8 || self.masks.len() != n * self.portals.len() {
+        let m = (self.side * self.side) as usize;
+        if self.side == 0
+            || self.side > MAX_SIDE
+            || self.words != m.div_ceil(64)
+            || self.masks.len() != n * self.portals.len() * self.words
+        {
             return Err(format!(
-                "{} masks for {n} vertices, {} portals, side {}",
+                "{} masks of {} words for {n} vertices, {} portals, side {}",
                 self.masks.len(),
+                self.words,
                 self.portals.len(),
                 self.side
             ));
@@ -324,8 +345,8 @@ impl PortalSamples {
         for p in &self.portals {
             p.validate()?;
         }
-        let m = self.side * self.side;
-        if m < 64 && self.masks.iter().any(|&b| b >> m != 0) {
+        let last = m - 64 * (self.words - 1); // bits used in each mask's last word
+        if last < 64 && self.masks.chunks(self.words).any(|w| w[self.words - 1] >> last != 0) {
             return Err(format!("mask bits beyond {m} samples"));
         }
         Ok(())
@@ -349,8 +370,9 @@ impl PortalSamples {
             .map(|v| {
                 let mut e = Vec3::ZERO;
                 for p in 0..np {
-                    let mask = self.masks[v * np + p];
-                    for j in (0..m).filter(|j| mask >> j & 1 == 1) {
+                    let base = (v * np + p) * self.words;
+                    let mask = &self.masks[base..base + self.words];
+                    for j in (0..m).filter(|&j| mask[(j / 64) as usize] >> (j % 64) & 1 == 1) {
                         if let Some(smp) =
                             sample(&self.portals, p, side, j, Receiver { v, x: positions[v], n: normals[v] }, seed)
                         {

@@ -150,6 +150,8 @@ impl SolveParams {
         p.emitter.seed = s.seed;
         // Emitters' direct light as many rays as the links (at least 64): its noise falls with theirs.
         p.emitter.samples = s.rays_per_vertex.max(64);
+        // Sky portals' rays likewise scale with the links'.
+        p.sky.portal = crate::sky::PortalParams::for_link_rays(s.rays_per_vertex);
         p.tracer = s.tracer;
         p.gather.bounces = s.bounces;
         p.smoothing_angle_deg = s.smoothing_angle_deg;
