@@ -1,7 +1,7 @@
 //! Error of the link solver against the reference on a scene, per mesh and
 //! per quantity (E_sky, E_i, total): `cargo run --release --example sky_probe -- window 256 1024 [seed]`.
 //! Overrides: `EMITTER_SAMPLES=n` (emitter-link rays), `SKY_SUB=s` (sky refinement), `NOISE_SCALE=x`
-//! (the smoothing's noise calibration), `NOISE_CHECK=m` (its check's vertices), `NOISE_K=k` (neighbours of its local ratio), `LINKERS=k` (a hidden vertex's stand-ins), `NEAR=c` (near hits' length factor), `SMOOTH_SKY=0|1`, `PORTAL_RAYS=m` (rays a vertex and portal), `DUMP=file.csv` (per-vertex values).
+//! (the smoothing's noise calibration), `NOISE_CHECK=m` (its check's vertices), `NOISE_K=k` (neighbours of its local ratio), `LINKERS=k` (a hidden vertex's stand-ins), `NEAR=c` (near hits' length factor), `SMOOTH_SKY=0|1`, `PORTAL_RAYS=m` (rays a vertex and portal), `NEAR_EMITTER=m` (points a near hit and emitter group), `DUMP=file.csv` (per-vertex values).
 use glam::Vec3;
 use linkgi::accuracy::metrics::error_stats;
 use linkgi::reference::{self, ReferenceParams};
@@ -39,6 +39,9 @@ fn main() {
     }
     if let Ok(x) = std::env::var("SMOOTH_SKY") {
         sp.smoothing.sky = x == "1";
+    }
+    if let Ok(x) = std::env::var("NEAR_EMITTER") {
+        sp.near_emitter.samples = x.parse().unwrap();
     }
     if let Ok(x) = std::env::var("PORTAL_RAYS") {
         sp.sky.portal.rays = x.parse().unwrap();

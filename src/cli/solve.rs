@@ -195,11 +195,14 @@ pub fn run(args: SolveArgs) -> Result<()> {
     );
     if s.near_hits > 0 {
         println!(
-            "near hits        {} ({:.1}% of the rays; exact direct light at them: {} shadow rays, {:.1} ms)",
+            "near hits        {} ({:.1}% of the rays; exact direct light at them: {} shadow rays, {:.1} ms; \
+             emitters' light at them: {} shadow rays, {:.1} ms)",
             s.near_hits,
             100.0 * s.near_hits as f64 / s.links.rays.max(1) as f64,
             s.near_rays,
-            s.near_ms
+            s.near_ms,
+            s.near_emitter_rays,
+            s.near_emitter_ms
         );
     }
     println!(

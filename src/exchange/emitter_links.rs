@@ -122,9 +122,9 @@ pub struct EmitterLinks {
 
 /// One emissive triangle.
 #[derive(Clone, Copy, Debug)]
-struct Emitter {
-    corners: [Vec3; 3],
-    group: u32,
+pub(crate) struct Emitter {
+    pub(crate) corners: [Vec3; 3],
+    pub(crate) group: u32,
 }
 
 /// A triangle a vertex sends rays to, and what its rays found.
@@ -204,6 +204,12 @@ impl EmitterLinks {
         Ok(out)
     }
 
+    /// Vertex `v`'s `(group, F_vg)` entries.
+    pub fn of(&self, v: usize) -> impl Iterator<Item = (u32, f32)> + '_ {
+        let r = self.offsets[v] as usize..self.offsets[v + 1] as usize;
+        self.groups[r.clone()].iter().copied().zip(self.factors[r].iter().copied())
+    }
+
     /// True if some vertex has an emitter factor.
     pub fn is_active(&self) -> bool {
         !self.group_vertex.is_empty()
@@ -264,7 +270,7 @@ impl EmitterLinks {
 }
 
 /// Every emissive triangle with its group, and each group's vertex.
-fn emitters(scene: &PreparedScene) -> (Vec<Emitter>, Vec<u32>) {
+pub(crate) fn emitters(scene: &PreparedScene) -> (Vec<Emitter>, Vec<u32>) {
     let mut keys: Vec<(usize, [u32; 3])> = Vec::new();
     let mut group_vertex = Vec::new();
     let mut out = Vec::new();

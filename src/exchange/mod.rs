@@ -2,7 +2,7 @@
 //! at the vertices and one-ring oversampled as the bounce source
 //! ([`light_links`]), emissive surfaces' direct light by next-event
 //! estimation ([`emitter_links`]), exact direct light at the hit points of
-//! short link rays ([`near_field`]), bounces gathered over the vertex links ([`mod@gather`]),
+//! short link rays ([`near_field`], and the emitters' there: [`near_emitters`]), bounces gathered over the vertex links ([`mod@gather`]),
 //! hidden vertices' radiosity replaced as link targets by their visible
 //! neighbours' ([`hidden`]), a noise estimate of every vertex's `E_i` from
 //! its links ([`noise`]), calibrated on the scene by a second estimate at a
@@ -17,6 +17,7 @@ pub mod emitter_links;
 pub mod gather;
 pub mod hidden;
 pub mod light_links;
+pub mod near_emitters;
 pub mod near_field;
 pub mod noise;
 pub mod noise_check;
@@ -26,6 +27,7 @@ pub use emitter_links::{EmitterLinkParams, EmitterLinks};
 pub use gather::{gather, GatherParams, GatherResult};
 pub use hidden::HiddenParams;
 pub use light_links::{BounceSource, LightLinkParams, LightLinks};
+pub use near_emitters::{NearEmitterParams, NearEmitters};
 pub use near_field::NearLight;
 pub use noise::NoiseParams;
 pub use noise_check::NoiseCheck;

@@ -308,7 +308,14 @@ impl PortalSamples {
                 }
             }
         }
-        Ok(PortalSamples { portals: portals.to_vec(), side, masks, words, rays, ms: start.elapsed().as_secs_f64() * 1e3 })
+        Ok(PortalSamples {
+            portals: portals.to_vec(),
+            side,
+            masks,
+            words,
+            rays,
+            ms: start.elapsed().as_secs_f64() * 1e3,
+        })
     }
 
     /// True when there are no portal samples.

@@ -138,6 +138,8 @@ impl Solver {
         self.emitter_links = crate::exchange::EmitterLinks::compute(&self.scene, &self.accel, &params.emitter)
             .expect("a CPU tracer cannot fail");
         stats.emitter_links_ms = self.emitter_links.ms;
+        // The emitters' light at the new near hits.
+        self.refresh_near_emitters();
         // The sky's refined cells follow the new links' misses, and the portals' rays the new positions: all traced anew.
         (self.sky_refine, self.sky_portals) =
             super::sky_rays(&self.scene, &self.accel, &self.links.sky, &params).expect("a CPU tracer cannot fail");

@@ -111,6 +111,8 @@ pub struct SolveParams {
     pub light: LightLinkParams,
     /// Next-event estimation toward emissive surfaces ([`crate::exchange::emitter_links`]).
     pub emitter: EmitterLinkParams,
+    /// The emitters' light at near hits ([`crate::exchange::near_emitters`]).
+    pub near_emitter: crate::exchange::NearEmitterParams,
     pub gather: GatherParams,
     /// Correction of hidden vertices as link targets ([`crate::exchange::hidden`]).
     pub hidden: HiddenParams,
@@ -132,6 +134,7 @@ impl Default for SolveParams {
             links: LinkParams::default(),
             light: LightLinkParams::default(),
             emitter: EmitterLinkParams::default(),
+            near_emitter: Default::default(),
             gather: GatherParams::default(),
             hidden: HiddenParams::default(),
             sky: Default::default(),
@@ -148,6 +151,7 @@ impl SolveParams {
         p.links.rays_per_vertex = s.rays_per_vertex;
         p.links.seed = s.seed;
         p.emitter.seed = s.seed;
+        p.near_emitter.seed = s.seed;
         // Emitters' direct light as many rays as the links (at least 64): its noise falls with theirs.
         p.emitter.samples = s.rays_per_vertex.max(64);
         // Sky portals' rays likewise scale with the links'.
@@ -185,6 +189,9 @@ pub struct SolveStats {
     /// Shadow rays toward the sky's portals and their time, ms.
     pub portal_rays: u64,
     pub portal_ms: f64,
+    /// Shadow rays from near hits toward emitters and their time, ms.
+    pub near_emitter_rays: u64,
+    pub near_emitter_ms: f64,
     /// Rays of the noise check ([`crate::exchange::noise_check`]) and their time, ms.
     pub noise_check_rays: u64,
     pub noise_check_ms: f64,
@@ -264,6 +271,8 @@ pub struct Solver {
     pub emitter_links: EmitterLinks,
     /// The lights' direct light at the links' near hits.
     pub near_light: NearLight,
+    /// The emitters' direct light at the links' near hits.
+    pub near_emitters: crate::exchange::NearEmitters,
     /// The sky's refined cells ([`crate::sky::refine`]).
     pub sky_refine: crate::sky::SkyRefinement,
     /// Every vertex's rays toward the sky's portals ([`crate::sky::portal`]).
@@ -304,6 +313,24 @@ pub(crate) fn sky_rays(
     Ok((refine, samples))
 }
 
+/// The emitters' light at the near hits of `links`, traced with `tracer`.
+pub(crate) fn near_emitters(
+    scene: &PreparedScene,
+    links: &Links,
+    emitter_links: &EmitterLinks,
+    tracer: &dyn crate::trace::Tracer,
+    params: &SolveParams,
+) -> crate::Result<crate::exchange::NearEmitters> {
+    crate::exchange::NearEmitters::compute(
+        scene,
+        &links.near,
+        emitter_links,
+        tracer,
+        &params.near_emitter,
+        params.links.rays_per_vertex,
+    )
+}
+
 /// Hidden vertices and their linkers, with the parameters they were found with.
 type StandInsCache = std::sync::Mutex<Option<(HiddenParams, Arc<Vec<crate::exchange::hidden::StandIn>>)>>;
 
@@ -331,6 +358,8 @@ impl Solver {
             sky_rays(&scene, &accel, &links.sky, &params).expect("a CPU tracer cannot fail");
         let near_light =
             NearLight::compute(&scene, &links.near, &accel, &params.light).expect("a CPU tracer cannot fail");
+        let near_emitters =
+            near_emitters(&scene, &links, &emitter_links, &accel, &params).expect("a CPU tracer cannot fail");
         let noise_check = NoiseCheck::compute(&scene, &accel, &params.links, &params.smoothing.noise);
         Solver {
             scene,
@@ -340,6 +369,7 @@ impl Solver {
             light_links,
             emitter_links,
             near_light,
+            near_emitters,
             sky_refine,
             sky_portals,
             noise_check,
@@ -412,6 +442,7 @@ impl Solver {
         let emitter_links = EmitterLinks::compute(&scene, &tracer, &params.emitter)?;
         let (sky_refine, sky_portals) = sky_rays(&scene, &tracer, &links.sky, &params)?;
         let near_light = NearLight::compute(&scene, &links.near, &tracer, &params.light)?;
+        let near_emitters = near_emitters(&scene, &links, &emitter_links, &tracer, &params)?;
         // On the CPU: the GPU tracer shoots whole vertices' ray sets only.
         let noise_check = NoiseCheck::compute(&scene, &kd, &params.links, &params.smoothing.noise);
         let gpu_links = GpuLinks::new(tracer.dev.clone(), &links, &scene.albedo)?;
@@ -424,6 +455,7 @@ impl Solver {
             light_links,
             emitter_links,
             near_light,
+            near_emitters,
             sky_refine,
             sky_portals,
             noise_check,
@@ -497,7 +529,23 @@ impl Solver {
             None => EmitterLinks::compute(&self.scene, &self.accel, &self.params.emitter),
         };
         self.emitter_links = traced.expect("a CPU tracer cannot fail");
+        self.refresh_near_emitters();
         true
+    }
+
+    /// Traces the emitters' light at the near hits again (after the emitter
+    /// links or the links changed).
+    pub(crate) fn refresh_near_emitters(&mut self) {
+        let traced = match &self.gpu {
+            Some(g) => {
+                near_emitters(&self.scene, &self.links, &self.emitter_links, &g.tracer, &self.params).or_else(|err| {
+                    eprintln!("warning: {err}; tracing near-hit emitter light on the CPU");
+                    near_emitters(&self.scene, &self.links, &self.emitter_links, &self.accel, &self.params)
+                })
+            }
+            None => near_emitters(&self.scene, &self.links, &self.emitter_links, &self.accel, &self.params),
+        };
+        self.near_emitters = traced.expect("a CPU tracer cannot fail");
     }
 
     /// Brings the sky's portal samples (and the refined cells, which
@@ -565,6 +613,8 @@ impl Solver {
             noise_check_rays: self.noise_check.rays,
             noise_check_ms: self.noise_check.ms,
             near_hits: self.links.near.hits.len() as u64,
+            near_emitter_rays: self.near_emitters.shadow_rays,
+            near_emitter_ms: self.near_emitters.ms,
             near_rays: self.near_light.shadow_rays,
             near_ms: self.near_light.ms,
             bounces: solution.gather.bounces,

@@ -20,6 +20,10 @@ pub fn solve_with(scene: prep::PreparedScene, params: SolveParams) -> (Solver, S
     let rays = solver.params.links.rays_per_vertex as usize;
     solver.sky_refine.validate(solver.scene.vertex_count(), rays).expect("sky refinement valid");
     solver.sky_portals.validate(solver.scene.vertex_count()).expect("sky portal samples valid");
+    solver
+        .near_emitters
+        .validate(solver.scene.vertex_count(), solver.emitter_links.group_vertex.len())
+        .expect("near-hit emitter coefficients valid");
     solver.noise_check.validate(solver.scene.vertex_count()).expect("noise check valid");
     let sol = solver.solve();
     for v in sol.e_direct.iter().chain(&sol.e_indirect).chain(&sol.e_indirect_raw) {

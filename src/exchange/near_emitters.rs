@@ -1,0 +1,300 @@
+//! Exact emitter light at near hits: the emitters' counterpart of
+//! [`super::near_field`]. A link ray of vertex `x` that meets a triangle
+//! close by ([`crate::links::near`]) brings, in its first bounce, the
+//! emitters' direct light interpolated from the triangle's corners,
+//! `sum_c beta_c rho_c E_em(c)`; where an object stands close to a large
+//! triangle the corners lie out in the light while the hit point is in the
+//! object's shadow, or the other way round (`window`: the wall behind the
+//! cabinet's top edge, lit by the lamp above the gap and dark inside it,
+//! within one 25 cm triangle). Here the hit point's own emitter light is
+//! estimated and replaces the interpolated one:
+//!
+//! ```text
+//! D_em(x) = 1/n * sum over near hits k of [ rho(h_k) E_em(h_k) - sum_c beta_c rho_c E_em(c) ]
+//! E_em(h) = sum_g M_g f_g(h),  f_g(h) = A_g / (pi m) * sum_j V_j cos_h cos_e / r^2
+//! ```
+//!
+//! with `m` points `y_j` drawn uniformly on group `g`'s triangles (area
+//! `A_g`, m^2), `r = |y_j - h|` (m), `cos_h` at the hit's triangle,
+//! `|cos_e|` at the emitter (two-sided) and `V_j` a shadow ray from the hit
+//! point: an unbiased estimate per hit, whose noise averages over the
+//! vertex's near hits (`window` at 1024 rays, 14% of the rays near: 4
+//! points a hit read the same as 16). `D_em = sum_g M_g C_xg` is kept as
+//! one coefficient per vertex and group (RGB: it holds the albedos), so an
+//! emission edit traces nothing; it is added to `E_i` and to the bounces'
+//! source like the point lights' near-field correction. Measured on
+//! `window` (16384-path reference, total relative RMSE): see
+//! [`NearEmitterParams::samples`].
+
+use super::emitter_links::{emitters, Emitter};
+use super::EmitterLinks;
+use crate::kdtree::traverse::{Ray, NO_SKIP};
+use crate::links::NearHits;
+use crate::sampling::splitmix64;
+use crate::scene::prep::PreparedScene;
+use crate::trace::Tracer;
+use glam::Vec3;
+use rayon::prelude::*;
+use std::time::Instant;
+
+/// How the emitters' light at near hits is sampled.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct NearEmitterParams {
+    /// Points per near hit and emitter group (0: off). `window`, 1024 rays,
+    /// total relative RMSE against 16384 paths: 1.545% without, 1.43% with
+    /// 4 points (1.43% with 8 and 16, measured as a post-pass).
+    pub samples: u32,
+    /// Shadow rays start `eps * l` off the hit's triangle (l: its longest edge).
+    pub eps: f32,
+    pub seed: u64,
+}
+
+impl Default for NearEmitterParams {
+    fn default() -> Self {
+        Self { samples: 4, eps: 1e-4, seed: 1 }
+    }
+}
+
+/// Per vertex and emitter group the coefficient `C_xg` of `D_em(x) = sum_g M_g C_xg`.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct NearEmitters {
+    /// Vertex `v`'s entries are `offsets[v]..offsets[v + 1]` (empty: none anywhere).
+    pub offsets: Vec<u32>,
+    pub groups: Vec<u32>,
+    /// Unitless per channel (W/m^2 of irradiance per W/m^2 of exitance); of either sign.
+    pub coefficients: Vec<Vec3>,
+    pub shadow_rays: u64,
+    pub ms: f64,
+}
+
+/// Each group's triangles with the cumulative share of its area, and its area.
+struct Group {
+    triangles: Vec<[Vec3; 3]>,
+    cdf: Vec<f32>,
+    area: f32,
+}
+
+fn groups(emitters: &[Emitter], count: usize) -> Vec<Group> {
+    let mut out: Vec<Group> = (0..count).map(|_| Group { triangles: Vec::new(), cdf: Vec::new(), area: 0.0 }).collect();
+    for e in emitters {
+        let g = &mut out[e.group as usize];
+        let c = e.corners;
+        g.area += (c[1] - c[0]).cross(c[2] - c[0]).length() / 2.0;
+        g.triangles.push(c);
+        g.cdf.push(g.area);
+    }
+    for g in &mut out {
+        let a = g.area.max(f32::MIN_POSITIVE);
+        g.cdf.iter_mut().for_each(|c| *c /= a);
+    }
+    out
+}
+
+/// A point drawn uniformly on `group` from the hash `h`.
+fn point_on(group: &Group, h: u64) -> ([Vec3; 3], Vec3) {
+    let unit = |x: u64| (x >> 40) as f32 / (1u64 << 24) as f32;
+    let pick = unit(h);
+    let i = group.cdf.partition_point(|&c| c < pick).min(group.triangles.len() - 1);
+    let h2 = splitmix64(h);
+    let (mut a, mut b) = (unit(h2), unit(splitmix64(h2)));
+    if a + b > 1.0 {
+        (a, b) = (1.0 - a, 1.0 - b);
+    }
+    let c = group.triangles[i];
+    (c, c[0] + (c[1] - c[0]) * a + (c[2] - c[0]) * b)
+}
+
+/// One near hit's samples: per group, the weights `cos_h |cos_e| / r^2`
+/// of its points (shadow rays in `rays`, in order) and their scale `A_g / (pi m)`.
+struct HitSamples {
+    rays: Vec<Ray>,
+    /// (group, scale, weights of its rays in order)
+    parts: Vec<(u32, f32, Vec<f32>)>,
+}
+
+impl NearEmitters {
+    /// The coefficients of every vertex with near hits in `near`, with the
+    /// emitter groups of `links` (none when it has none), traced with `tracer`.
+    pub fn compute(
+        scene: &PreparedScene,
+        near: &NearHits,
+        links: &EmitterLinks,
+        tracer: &dyn Tracer,
+        params: &NearEmitterParams,
+        rays_per_vertex: u32,
+    ) -> crate::Result<NearEmitters> {
+        let start = Instant::now();
+        let n = scene.vertex_count();
+        if near.is_empty() || !links.is_active() || params.samples == 0 {
+            return Ok(NearEmitters::default());
+        }
+        let (tris, _) = emitters(scene);
+        let groups = groups(&tris, links.group_vertex.len());
+        let inv = 1.0 / rays_per_vertex.max(1) as f32;
+        let mut out = NearEmitters { offsets: vec![0; n + 1], ..Default::default() };
+        let mut rows: Vec<Vec<(u32, Vec3)>> = Vec::with_capacity(n);
+        // Batches of vertices, so the shadow rays of the whole scene are never held at once.
+        let mut v0 = 0usize;
+        while v0 < n {
+            let mut v1 = v0;
+            while v1 < n && (near.offsets[v1] - near.offsets[v0]) < 1 << 16 {
+                v1 += 1;
+            }
+            let v1 = v1.max(v0 + 1);
+            let samples: Vec<Vec<HitSamples>> = (v0..v1)
+                .into_par_iter()
+                .map(|v| {
+                    near.of(v).iter().enumerate().map(|(i, h)| hit_samples(scene, h, &groups, params, v, i)).collect()
+                })
+                .collect();
+            let rays: Vec<Ray> = samples.iter().flatten().flat_map(|s| s.rays.iter().copied()).collect();
+            out.shadow_rays += rays.len() as u64;
+            let visible = tracer.visible(&rays)?;
+            let mut at = 0usize;
+            for (k, per_hit) in samples.iter().enumerate() {
+                let v = v0 + k;
+                let mut row: Vec<(u32, Vec3)> = Vec::new();
+                let mut add = |g: u32, c: Vec3| match row.iter_mut().find(|e| e.0 == g) {
+                    Some(e) => e.1 += c,
+                    None => row.push((g, c)),
+                };
+                for (h, s) in near.of(v).iter().zip(per_hit) {
+                    let tri = scene.triangles[h.tri as usize];
+                    let beta = [1.0 - h.u - h.v, h.u, h.v];
+                    let rho: Vec3 = (0..3).map(|c| scene.albedo[tri[c] as usize] * beta[c]).sum();
+                    for (g, scale, weights) in &s.parts {
+                        let seen: f32 = weights
+                            .iter()
+                            .zip(&visible[at..at + weights.len()])
+                            .filter(|(_, &v)| v)
+                            .map(|(w, _)| *w)
+                            .sum();
+                        at += weights.len();
+                        add(*g, rho * (scale * seen * inv));
+                    }
+                    // Minus what the corners bring (their emitter links' factors).
+                    for c in 0..3 {
+                        let cv = tri[c] as usize;
+                        for (g, f) in links.of(cv) {
+                            add(g, -scene.albedo[cv] * (beta[c] * f * inv));
+                        }
+                    }
+                }
+                row.sort_by_key(|e| e.0);
+                rows.push(row);
+            }
+            v0 = v1;
+        }
+        for (v, row) in rows.into_iter().enumerate() {
+            out.groups.extend(row.iter().map(|e| e.0));
+            out.coefficients.extend(row.iter().map(|e| e.1));
+            out.offsets[v + 1] = out.groups.len() as u32;
+        }
+        out.ms = start.elapsed().as_secs_f64() * 1e3;
+        Ok(out)
+    }
+
+    /// True when no vertex has a coefficient.
+    pub fn is_empty(&self) -> bool {
+        self.groups.is_empty()
+    }
+
+    /// `D_em` of every vertex, W/m^2, with `emission` the current exitance
+    /// per vertex and `group_vertex` each group's vertex ([`EmitterLinks::group_vertex`]).
+    pub fn correction(&self, emission: &[Vec3], group_vertex: &[u32], n: usize) -> Vec<Vec3> {
+        if self.is_empty() {
+            return vec![Vec3::ZERO; n];
+        }
+        let m: Vec<Vec3> = group_vertex.iter().map(|&v| emission[v as usize]).collect();
+        (0..n)
+            .into_par_iter()
+            .map(|v| {
+                let r = self.offsets[v] as usize..self.offsets[v + 1] as usize;
+                self.groups[r.clone()].iter().zip(&self.coefficients[r]).map(|(&g, c)| m[g as usize] * *c).sum()
+            })
+            .collect()
+    }
+
+    /// Checks the structure against `n` vertices and `groups` emitter
+    /// groups: CSR offsets, groups in range and ascending per vertex,
+    /// finite coefficients.
+    pub fn validate(&self, n: usize, groups: usize) -> Result<(), String> {
+        if self.offsets.is_empty() && self.groups.is_empty() && self.coefficients.is_empty() {
+            return Ok(());
+        }
+        if self.offsets.len() != n + 1
+            || self.offsets[0] != 0
+            || self.offsets.windows(2).any(|w| w[0] > w[1])
+            || *self.offsets.last().unwrap() as usize != self.groups.len()
+            || self.groups.len() != self.coefficients.len()
+        {
+            return Err(format!(
+                "{} offsets, {} groups, {} coefficients for {n} vertices",
+                self.offsets.len(),
+                self.groups.len(),
+                self.coefficients.len()
+            ));
+        }
+        for v in 0..n {
+            let row = &self.groups[self.offsets[v] as usize..self.offsets[v + 1] as usize];
+            if row.iter().any(|&g| g as usize >= groups) || row.windows(2).any(|w| w[0] >= w[1]) {
+                return Err(format!("vertex {v}: groups out of range or order"));
+            }
+        }
+        if let Some(c) = self.coefficients.iter().find(|c| !c.is_finite()) {
+            return Err(format!("coefficient {c}"));
+        }
+        Ok(())
+    }
+}
+
+/// The points and shadow rays of near hit `h` (vertex `v`'s `i`-th: the
+/// points hash from those, so a vertex's samples do not depend on how many
+/// near hits the vertices before it have) toward every group.
+fn hit_samples(
+    scene: &PreparedScene,
+    h: &crate::links::NearHit,
+    groups: &[Group],
+    params: &NearEmitterParams,
+    v: usize,
+    i: usize,
+) -> HitSamples {
+    let [a, b, c] = scene.triangles[h.tri as usize].map(|i| scene.positions[i as usize]);
+    let p = a * (1.0 - h.u - h.v) + b * h.u + c * h.v;
+    let normal = (b - a).cross(c - a).normalize_or_zero();
+    let l = (b - a).length().max((c - b).length()).max((a - c).length()).max(f32::MIN_POSITIVE);
+    let eps = params.eps * l;
+    let origin = p + normal * eps;
+    let mut out = HitSamples { rays: Vec::new(), parts: Vec::new() };
+    let m = params.samples;
+    for (g, group) in groups.iter().enumerate() {
+        if group.triangles.is_empty() {
+            continue;
+        }
+        let mut weights = Vec::new();
+        for j in 0..m {
+            let key = splitmix64(splitmix64(params.seed ^ 0x2545_f491_4f6c_dd1d) ^ v as u64) ^ ((i as u64) << 16);
+            let hash = splitmix64(key ^ ((g as u64) << 8) ^ u64::from(j));
+            let (tri, y) = point_on(group, hash);
+            let en = (tri[1] - tri[0]).cross(tri[2] - tri[0]).normalize_or_zero();
+            let d = y - origin;
+            let r2 = d.length_squared();
+            let dist = r2.sqrt();
+            if !(dist > 2.0 * eps) {
+                continue;
+            }
+            let dir = d / dist;
+            let w = normal.dot(dir).max(0.0) * en.dot(dir).abs() / r2;
+            if !(w > 0.0 && w.is_finite()) {
+                continue;
+            }
+            weights.push(w);
+            out.rays.push(Ray { origin, dir, tmin: 0.0, tmax: dist - eps.max(1e-4 * dist), skip: NO_SKIP });
+        }
+        let scale = group.area / (std::f32::consts::PI * m as f32);
+        if !weights.is_empty() {
+            out.parts.push((g as u32, scale, weights));
+        }
+    }
+    out
+}
