@@ -15,7 +15,10 @@ fn main() {
     let samples: u32 = args.get(3).and_then(|s| s.parse().ok()).unwrap_or(1024);
     let mut desc = scene::load(name).unwrap();
     desc.settings.rays_per_vertex = rays;
-    desc.settings.bounces = Bounces::Auto;
+    desc.settings.bounces = match std::env::var("BOUNCES") {
+        Ok(b) => Bounces::Fixed(b.parse().unwrap()),
+        Err(_) => Bounces::Auto,
+    };
     desc.settings.seed = args.get(4).and_then(|s| s.parse().ok()).unwrap_or(1);
     let s = prep::prepare(&desc).unwrap();
     let mut sp = SolveParams::from_settings(&desc.settings);
