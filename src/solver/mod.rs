@@ -21,6 +21,8 @@ use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 mod deform;
+mod retrace;
+use retrace::{near_emitters, sky_rays};
 mod solve;
 pub use deform::{DeformStats, Preview, PREVIEW_RAYS};
 pub use solve::Sources;
@@ -291,46 +293,6 @@ pub struct Solver {
     stand_ins_cache: StandInsCache,
 }
 
-/// The portals of `scene`'s sky that get rays with `params` (none without
-/// a sky or with portal rays off).
-pub(crate) fn portals_of<'a>(scene: &'a PreparedScene, params: &SolveParams) -> &'a [crate::sky::Portal] {
-    match &scene.sky {
-        Some(s) if params.sky.portal.side() > 0 => &s.portals,
-        _ => &[],
-    }
-}
-
-/// The sky's refined cells and portal samples for links whose misses are `vis`.
-pub(crate) fn sky_rays(
-    scene: &PreparedScene,
-    tracer: &dyn crate::trace::Tracer,
-    vis: &crate::sky::SkyVisibility,
-    params: &SolveParams,
-) -> crate::Result<(crate::sky::SkyRefinement, crate::sky::PortalSamples)> {
-    let portals = portals_of(scene, params);
-    let refine = crate::sky::SkyRefinement::compute(scene, tracer, vis, portals, &params.links, &params.sky)?;
-    let samples = crate::sky::PortalSamples::compute(scene, tracer, portals, &params.links, &params.sky.portal)?;
-    Ok((refine, samples))
-}
-
-/// The emitters' light at the near hits of `links`, traced with `tracer`.
-pub(crate) fn near_emitters(
-    scene: &PreparedScene,
-    links: &Links,
-    emitter_links: &EmitterLinks,
-    tracer: &dyn crate::trace::Tracer,
-    params: &SolveParams,
-) -> crate::Result<crate::exchange::NearEmitters> {
-    crate::exchange::NearEmitters::compute(
-        scene,
-        &links.near,
-        emitter_links,
-        tracer,
-        &params.near_emitter,
-        params.links.rays_per_vertex,
-    )
-}
-
 /// Hidden vertices and their linkers, with the parameters they were found with.
 type StandInsCache = std::sync::Mutex<Option<(HiddenParams, Arc<Vec<crate::exchange::hidden::StandIn>>)>>;
 
@@ -509,62 +471,6 @@ impl Solver {
         }
         update(&mut self.light_links, &self.scene, &self.accel).expect("the CPU tracer cannot fail");
         near(&mut self.near_light, &self.scene, &self.accel).expect("the CPU tracer cannot fail");
-    }
-
-    /// Traces the emitter links again if some vertex emits that they do
-    /// not cover (a surface started emitting after they were built, so a
-    /// solve equals a fresh one); other emission edits need no rays.
-    /// Returns whether it traced.
-    pub fn update_emitters(&mut self) -> bool {
-        let e = &self.emitter_links;
-        let uncovered = self.scene.emission.iter().zip(&e.covered).any(|(m, &c)| *m != Vec3::ZERO && !c);
-        if !uncovered || e.fallback.is_some() || self.params.emitter.samples == 0 {
-            return false;
-        }
-        let traced = match &self.gpu {
-            Some(g) => EmitterLinks::compute(&self.scene, &g.tracer, &self.params.emitter).or_else(|err| {
-                eprintln!("warning: {err}; tracing emitter links on the CPU");
-                EmitterLinks::compute(&self.scene, &self.accel, &self.params.emitter)
-            }),
-            None => EmitterLinks::compute(&self.scene, &self.accel, &self.params.emitter),
-        };
-        self.emitter_links = traced.expect("a CPU tracer cannot fail");
-        self.refresh_near_emitters();
-        true
-    }
-
-    /// Traces the emitters' light at the near hits again (after the emitter
-    /// links or the links changed).
-    pub(crate) fn refresh_near_emitters(&mut self) {
-        let traced = match &self.gpu {
-            Some(g) => {
-                near_emitters(&self.scene, &self.links, &self.emitter_links, &g.tracer, &self.params).or_else(|err| {
-                    eprintln!("warning: {err}; tracing near-hit emitter light on the CPU");
-                    near_emitters(&self.scene, &self.links, &self.emitter_links, &self.accel, &self.params)
-                })
-            }
-            None => near_emitters(&self.scene, &self.links, &self.emitter_links, &self.accel, &self.params),
-        };
-        self.near_emitters = traced.expect("a CPU tracer cannot fail");
-    }
-
-    /// Brings the sky's portal samples (and the refined cells, which
-    /// leave the portals' directions to them) up to date with the scene's
-    /// sky, so the result equals a fresh solve's: traces them when the
-    /// portals changed since they were traced. Returns true if it traced.
-    pub fn update_portals(&mut self) -> bool {
-        if portals_of(&self.scene, &self.params) == self.sky_portals.portals.as_slice() {
-            return false;
-        }
-        let traced = match &self.gpu {
-            Some(g) => sky_rays(&self.scene, &g.tracer, &self.links.sky, &self.params).or_else(|err| {
-                eprintln!("warning: {err}; tracing sky portals on the CPU");
-                sky_rays(&self.scene, &self.accel, &self.links.sky, &self.params)
-            }),
-            None => sky_rays(&self.scene, &self.accel, &self.links.sky, &self.params),
-        };
-        (self.sky_refine, self.sky_portals) = traced.expect("a CPU tracer cannot fail");
-        true
     }
 
     /// Bytes of the per-ray state kept for selective updates ([`Solver::ray_hits`]).
