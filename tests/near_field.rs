@@ -43,6 +43,28 @@ fn solver(desc: &SceneDesc, near_factor: f32) -> Solver {
     s
 }
 
+/// The plate's underside vertices (facing down, below 6 mm), at least 9.
+fn plate_underside(s: &Solver) -> Vec<usize> {
+    let under: Vec<usize> = (0..s.scene.vertex_count())
+        .filter(|&v| s.scene.normals[v].y < -0.99 && s.scene.positions[v].y < 0.006)
+        .collect();
+    assert!(under.len() >= 9, "{} underside vertices", under.len());
+    under
+}
+
+/// The mean red `E_i` over the plate's underside in the reference (1024
+/// paths), in `with` and in `without` (two solutions of `s`'s scene).
+fn underside_means(s: &Solver, with: &linkgi::solver::Solution, without: &linkgi::solver::Solution) -> (f64, f64, f64) {
+    let r = reference::compute_cached(
+        &s.scene,
+        &ReferenceParams { samples_per_vertex: 1024, ..Default::default() },
+        &reference::cache::default_dir(),
+    );
+    let under = plate_underside(s);
+    let mean = |e: &[Vec3]| under.iter().map(|&v| e[v].x as f64).sum::<f64>() / under.len() as f64;
+    (mean(&r.e_indirect), mean(&with.e_indirect), mean(&without.e_indirect))
+}
+
 /// The plate's underside (vertices facing down): the vertex links alone
 /// interpolate the floor's lit corners into the shadow under the plate and
 /// bring 1.8x the light the reference finds (0.80 against 0.44 W/m^2);
@@ -58,18 +80,10 @@ fn plate_underside_agrees_with_the_reference() {
     let with = solver(&desc, 1.0);
     let without = solver(&desc, 0.0);
     assert!(!with.links.near.is_empty() && without.links.near.is_empty());
-    let r = reference::compute_cached(
-        &with.scene,
-        &ReferenceParams { samples_per_vertex: 1024, ..Default::default() },
-        &reference::cache::default_dir(),
-    );
     let (a, b) = (with.solve(), without.solve());
-    let under: Vec<usize> = (0..with.scene.vertex_count())
-        .filter(|&v| with.scene.normals[v].y < -0.99 && with.scene.positions[v].y < 0.006)
-        .collect();
-    assert!(under.len() >= 9, "{} underside vertices", under.len());
+    let (m_ref, m_with, m_without) = underside_means(&with, &a, &b);
+    let under = plate_underside(&with);
     let mean = |e: &[Vec3]| under.iter().map(|&v| e[v].x as f64).sum::<f64>() / under.len() as f64;
-    let (m_ref, m_with, m_without) = (mean(&r.e_indirect), mean(&a.e_indirect), mean(&b.e_indirect));
     eprintln!(
         "underside mean E_i: reference {m_ref:.4}, near hits {m_with:.4}, links alone {m_without:.4}; {} near hits",
         with.links.near.hits.len()
@@ -109,17 +123,7 @@ fn plate_underside_under_an_emitter_agrees_with_the_reference() {
     let ((with, a), (without, b)) = (solve(4), solve(0));
     assert!(!with.near_emitters.is_empty() && without.near_emitters.is_empty());
     assert!(with.near_emitters.shadow_rays > 0);
-    let r = reference::compute_cached(
-        &with.scene,
-        &ReferenceParams { samples_per_vertex: 1024, ..Default::default() },
-        &reference::cache::default_dir(),
-    );
-    let under: Vec<usize> = (0..with.scene.vertex_count())
-        .filter(|&v| with.scene.normals[v].y < -0.99 && with.scene.positions[v].y < 0.006)
-        .collect();
-    assert!(under.len() >= 9, "{} underside vertices", under.len());
-    let mean = |e: &[Vec3]| under.iter().map(|&v| e[v].x as f64).sum::<f64>() / under.len() as f64;
-    let (m_ref, m_with, m_without) = (mean(&r.e_indirect), mean(&a.e_indirect), mean(&b.e_indirect));
+    let (m_ref, m_with, m_without) = underside_means(&with, &a, &b);
     eprintln!("underside mean E_i under the panel: reference {m_ref:.4}, with {m_with:.4}, without {m_without:.4}");
     assert!((m_with - m_ref).abs() < 0.25 * m_ref, "with the emitters' near field: {m_with} vs {m_ref}");
     assert!((m_without - m_ref).abs() > 2.0 * (m_with - m_ref).abs(), "without {m_without} vs {m_ref}");

@@ -44,7 +44,7 @@ pub struct NearEmitterParams {
     /// total relative RMSE against 16384 paths: 1.545% without, 1.45% with
     /// 4 points (`linkgi error window`; a post-pass prototype read 1.43%
     /// with 4, 8 and 16 points alike); 1.25M shadow rays, 0.2 s beside the
-    /// emitter links' 2.2M. At 64 and 256 rays: 4.61 -> 4.63%, 2.33 -> 2.27%.
+    /// emitter links' 2.2M. At 64 and 256 rays: 4.61 -> 4.60%, 2.33 -> 2.27%.
     pub samples: u32,
     /// Shadow rays start `eps * l` off the hit's triangle (l: its longest edge).
     pub eps: f32,
@@ -261,21 +261,18 @@ fn hit_samples(
     v: usize,
     i: usize,
 ) -> HitSamples {
-    let [a, b, c] = scene.triangles[h.tri as usize].map(|i| scene.positions[i as usize]);
-    let p = a * (1.0 - h.u - h.v) + b * h.u + c * h.v;
-    let normal = (b - a).cross(c - a).normalize_or_zero();
-    let l = (b - a).length().max((c - b).length()).max((a - c).length()).max(f32::MIN_POSITIVE);
+    let (p, normal, l) = super::near_field::hit_frame(scene, h);
     let eps = params.eps * l;
     let origin = p + normal * eps;
     let mut out = HitSamples { rays: Vec::new(), parts: Vec::new() };
     let m = params.samples;
+    let key = splitmix64(splitmix64(params.seed ^ 0x2545_f491_4f6c_dd1d) ^ v as u64) ^ ((i as u64) << 16);
     for (g, group) in groups.iter().enumerate() {
         if group.triangles.is_empty() {
             continue;
         }
         let mut weights = Vec::new();
         for j in 0..m {
-            let key = splitmix64(splitmix64(params.seed ^ 0x2545_f491_4f6c_dd1d) ^ v as u64) ^ ((i as u64) << 16);
             let hash = splitmix64(key ^ ((g as u64) << 8) ^ u64::from(j));
             let (tri, y) = point_on(group, hash);
             let en = (tri[1] - tri[0]).cross(tri[2] - tri[0]).normalize_or_zero();

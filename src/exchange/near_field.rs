@@ -162,13 +162,21 @@ fn column(
     column_at(scene, &near.hits, light, tracer, params)
 }
 
-/// The geometry term of `light` at near hit `h` and its shadow ray (none
-/// where `G = 0` or where the light sits on the surface).
-fn shadow_ray(scene: &PreparedScene, h: &NearHit, light: &Light, params: &LightLinkParams) -> (f32, Option<Ray>) {
+/// Near hit `h`'s point on its flat triangle, the triangle's unit
+/// geometric normal and its longest edge (m, at least `f32::MIN_POSITIVE`):
+/// where shadow rays from the hit start ([`super::near_emitters`] too).
+pub(crate) fn hit_frame(scene: &PreparedScene, h: &NearHit) -> (Vec3, Vec3, f32) {
     let [a, b, c] = scene.triangles[h.tri as usize].map(|i| scene.positions[i as usize]);
     let p = a * (1.0 - h.u - h.v) + b * h.u + c * h.v;
     let normal = (b - a).cross(c - a).normalize_or_zero();
     let l = (b - a).length().max((c - b).length()).max((a - c).length()).max(f32::MIN_POSITIVE);
+    (p, normal, l)
+}
+
+/// The geometry term of `light` at near hit `h` and its shadow ray (none
+/// where `G = 0` or where the light sits on the surface).
+fn shadow_ray(scene: &PreparedScene, h: &NearHit, light: &Light, params: &LightLinkParams) -> (f32, Option<Ray>) {
+    let (p, normal, l) = hit_frame(scene, h);
     let g = geometry(light, p, normal, (params.min_distance * l).max(f32::MIN_POSITIVE.sqrt()));
     if !(g > 0.0) {
         return (0.0, None);

@@ -258,13 +258,14 @@ fn sample(portals: &[Portal], p: usize, side: u32, j: u32, r: Receiver, seed: u6
 
 impl PortalSamples {
     /// Traces every vertex's samples toward `portals` with `tracer`, from
-    /// the link rays' origins and normals (`link`'s seed); empty without
+    /// the link rays' origins (`setup`; the links' `seed`); empty without
     /// portals or with `params.rays` below 1.
     pub fn compute(
         scene: &PreparedScene,
         tracer: &dyn Tracer,
+        setup: &RaySetup,
         portals: &[Portal],
-        link: &crate::links::LinkParams,
+        seed: u64,
         params: &PortalParams,
     ) -> crate::Result<PortalSamples> {
         let start = Instant::now();
@@ -272,7 +273,6 @@ impl PortalSamples {
         if portals.is_empty() || side == 0 {
             return Ok(PortalSamples::default());
         }
-        let setup = RaySetup::new(scene, link);
         let (n, np, m) = (scene.vertex_count(), portals.len(), side * side);
         let words = (m as usize).div_ceil(64);
         let mut masks = vec![0u64; n * np * words];
@@ -285,10 +285,10 @@ impl PortalSamples {
             let batch: Vec<(usize, u32, Ray)> = (v0..v1)
                 .into_par_iter()
                 .flat_map_iter(|v| {
-                    let (x, nv, setup) = (scene.positions[v], scene.normals[v], &setup);
+                    let (x, nv) = (scene.positions[v], scene.normals[v]);
                     (0..np).flat_map(move |p| {
                         (0..m).filter_map(move |j| {
-                            let dir = sample(portals, p, side, j, Receiver { v, x, n: nv }, link.seed)?.dir;
+                            let dir = sample(portals, p, side, j, Receiver { v, x, n: nv }, seed)?.dir;
                             if setup.wedges(v).iter().any(|w| w.dives_under(dir)) {
                                 return None;
                             }

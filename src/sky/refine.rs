@@ -42,7 +42,7 @@ use super::portal::{through_any, Portal};
 use super::visibility::{RayFrames, SkyVisibility};
 use super::Sky;
 use crate::kdtree::Ray;
-use crate::links::{LinkParams, RaySetup};
+use crate::links::RaySetup;
 use crate::sampling::{block_order, cosine_hemisphere, splitmix64, vertex_frame, world_direction};
 use crate::scene::prep::PreparedScene;
 use crate::trace::Tracer;
@@ -153,13 +153,14 @@ impl Grid {
 
 impl SkyRefinement {
     /// Traces the fresh rays of every vertex that saw the sky (`vis`, from
-    /// links shot with `link`) with `tracer`; none without a sky.
+    /// links shot from `setup` with `seed`) with `tracer`; none without a sky.
     pub fn compute(
         scene: &PreparedScene,
         tracer: &dyn Tracer,
+        setup: &RaySetup,
         vis: &SkyVisibility,
         portals: &[Portal],
-        link: &LinkParams,
+        seed: u64,
         params: &SkyRefineParams,
     ) -> crate::Result<SkyRefinement> {
         let start = Instant::now();
@@ -168,7 +169,6 @@ impl SkyRefinement {
         if sub == 0 || vis.is_empty() || scene.sky.is_none() {
             return Ok(SkyRefinement::default());
         }
-        let setup = RaySetup::new(scene, link);
         let grid = Grid::new(setup.directions.k);
         let frames = RayFrames {
             normals: &setup.normals,
@@ -210,7 +210,7 @@ impl SkyRefinement {
                     range.flat_map(move |slot| {
                         let (x, y) = grid.cell_of[cells[slot] as usize];
                         (0..sub * sub).map(move |j| {
-                            let u = sub_point(grid.k, sub, x, y, j, set, link.seed);
+                            let u = sub_point(grid.k, sub, x, y, j, set, seed);
                             let dir = world_direction(frame, cosine_hemisphere(u).normalize());
                             let under = setup.wedges(v).iter().any(|w| w.dives_under(dir));
                             let ray =

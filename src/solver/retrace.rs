@@ -85,9 +85,14 @@ pub(crate) fn sky_rays(
     vis: &crate::sky::SkyVisibility,
     params: &SolveParams,
 ) -> crate::Result<(crate::sky::SkyRefinement, crate::sky::PortalSamples)> {
-    let portals = portals_of(scene, params);
-    let refine = crate::sky::SkyRefinement::compute(scene, tracer, vis, portals, &params.links, &params.sky)?;
-    let samples = crate::sky::PortalSamples::compute(scene, tracer, portals, &params.links, &params.sky.portal)?;
+    if scene.sky.is_none() {
+        return Ok(Default::default());
+    }
+    // One ray setup (origins, frames, wedges) for both.
+    let setup = crate::links::RaySetup::new(scene, &params.links);
+    let (portals, seed) = (portals_of(scene, params), params.links.seed);
+    let refine = crate::sky::SkyRefinement::compute(scene, tracer, &setup, vis, portals, seed, &params.sky)?;
+    let samples = crate::sky::PortalSamples::compute(scene, tracer, &setup, portals, seed, &params.sky.portal)?;
     Ok((refine, samples))
 }
 
