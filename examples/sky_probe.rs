@@ -1,7 +1,7 @@
 //! Error of the link solver against the reference on a scene, per mesh and
 //! per quantity (E_sky, E_i, total): `cargo run --release --example sky_probe -- window 256 1024 [seed]`.
 //! Overrides: `EMITTER_SAMPLES=n` (emitter-link rays), `SKY_SUB=s` (sky refinement), `NOISE_SCALE=x`
-//! (the smoothing's noise calibration), `NOISE_CHECK=m` (its check's vertices), `NOISE_K=k` (neighbours of its local ratio), `LINKERS=k` (a hidden vertex's stand-ins), `NEAR=c` (near hits' length factor), `SMOOTH_SKY=0|1`, `PORTAL_RAYS=m` (rays a vertex and portal), `NEAR_EMITTER=m` (points a near hit and emitter group), `DUMP=file.csv` (per-vertex values).
+//! (the smoothing's noise calibration), `NOISE_CHECK=m` (its check's vertices), `NOISE_K=k` (neighbours of its local ratio), `LINKERS=k` (a hidden vertex's stand-ins), `NEAR=c` (near hits' length factor), `SMOOTH_SKY=0|1`, `PORTAL_RAYS=m` (rays a vertex and portal), `NEAR_EMITTER=m` (points a near hit and emitter group), `NEAR_SKY=m`, `NEAR_SKY_PORTAL=m` (near hits' sky directions and portal points), `DUMP=file.csv` (per-vertex values).
 use glam::Vec3;
 use linkgi::accuracy::metrics::error_stats;
 use linkgi::reference::{self, ReferenceParams};
@@ -20,6 +20,16 @@ fn main() {
         Err(_) => Bounces::Auto,
     };
     desc.settings.seed = args.get(4).and_then(|s| s.parse().ok()).unwrap_or(1);
+    if std::env::var("SKY_OFF").is_ok() {
+        desc.sky = None;
+    }
+    if std::env::var("EMIT_OFF").is_ok() {
+        for m in &mut desc.meshes {
+            for mat in &mut m.materials {
+                mat.emission = Vec3::ZERO;
+            }
+        }
+    }
     let s = prep::prepare(&desc).unwrap();
     let mut sp = SolveParams::from_settings(&desc.settings);
     if let Ok(n) = std::env::var("EMITTER_SAMPLES") {
@@ -46,6 +56,12 @@ fn main() {
     if let Ok(x) = std::env::var("NEAR_EMITTER") {
         sp.near_emitter.samples = x.parse().unwrap();
     }
+    if let Ok(x) = std::env::var("NEAR_SKY") {
+        sp.near_sky.samples = x.parse().unwrap();
+    }
+    if let Ok(x) = std::env::var("NEAR_SKY_PORTAL") {
+        sp.near_sky.portal_samples = x.parse().unwrap();
+    }
     if let Ok(x) = std::env::var("PORTAL_RAYS") {
         sp.sky.portal.rays = x.parse().unwrap();
     }
@@ -54,6 +70,13 @@ fn main() {
     }
     let solver = Solver::new(s, sp, &|_, _| {});
     eprintln!("emitter links: {} rays, {:.1} ms", solver.emitter_links.shadow_rays, solver.emitter_links.ms);
+    eprintln!(
+        "near sky: {} rays, {} kept, {:.1} ms; near hits {}",
+        solver.near_sky.shadow_rays,
+        solver.near_sky.dirs.len(),
+        solver.near_sky.ms,
+        solver.links.near.hits.len()
+    );
     eprintln!(
         "sky refinement: {} rays ({:.2} a link ray), {:.1} ms",
         solver.sky_refine.rays,
@@ -71,7 +94,11 @@ fn main() {
     );
     let r = reference::compute_cached(
         &solver.scene,
-        &ReferenceParams { samples_per_vertex: samples, ..Default::default() },
+        &ReferenceParams {
+            samples_per_vertex: samples,
+            max_depth: std::env::var("REF_DEPTH").map(|d| d.parse().unwrap()).unwrap_or(64),
+            ..Default::default()
+        },
         &reference::cache::default_dir(),
     );
     let total = sol.total();
@@ -122,5 +149,11 @@ fn main() {
     let exact_sky: Vec<Vec3> = (0..total.len()).map(|v| sol.e_direct[v] + r.e_sky[v] + sol.e_indirect[v]).collect();
     println!("all, reference sky: {:?}", error_stats(&exact_sky, &rt, &r.e_total_stderr));
     println!("all, E_i only: {:?}", error_stats(&sol.e_indirect, &r.e_indirect, &r.e_indirect_stderr));
+    println!("all, E_em vs reference E_i: {:?}", error_stats(&sol.e_emitter, &r.e_indirect, &r.e_indirect_stderr));
+    for m in &solver.scene.meshes {
+        let rg = m.vertices.start as usize..m.vertices.end as usize;
+        let pick = |v: &[Vec3]| v[rg.clone()].to_vec();
+        println!("{:24} E_em vs ref E_i {:?}", m.name, error_stats(&pick(&sol.e_emitter), &pick(&r.e_indirect), &pick(&r.e_indirect_stderr)));
+    }
     println!("all, unsmoothed: {:?}", error_stats(&raw, &rt, &r.e_total_stderr));
 }

@@ -2,7 +2,7 @@
 //! at the vertices and one-ring oversampled as the bounce source
 //! ([`light_links`]), emissive surfaces' direct light by next-event
 //! estimation ([`emitter_links`]), exact direct light at the hit points of
-//! short link rays ([`near_field`], and the emitters' there: [`near_emitters`]), bounces gathered over the vertex links ([`mod@gather`]),
+//! short link rays ([`near_field`], and the emitters' and sky's there: [`near_emitters`], [`near_sky`]), bounces gathered over the vertex links ([`mod@gather`]),
 //! hidden vertices' radiosity replaced as link targets by their visible
 //! neighbours' ([`hidden`]), a noise estimate of every vertex's `E_i` from
 //! its links ([`noise`]), calibrated on the scene by a second estimate at a
@@ -19,6 +19,7 @@ pub mod hidden;
 pub mod light_links;
 pub mod near_emitters;
 pub mod near_field;
+pub mod near_sky;
 pub mod noise;
 pub mod noise_check;
 pub mod smooth;
@@ -29,6 +30,7 @@ pub use hidden::HiddenParams;
 pub use light_links::{BounceSource, LightLinkParams, LightLinks};
 pub use near_emitters::{NearEmitterParams, NearEmitters};
 pub use near_field::NearLight;
+pub use near_sky::{NearSky, NearSkyParams};
 pub use noise::NoiseParams;
 pub use noise_check::NoiseCheck;
 pub use smooth::{smooth, smooth_adaptive, SmoothMode, SmoothParams};

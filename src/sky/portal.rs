@@ -216,10 +216,10 @@ pub struct PortalSamples {
 /// One portal sample: its unit direction, `cos_x` at the receiver and the
 /// density per steradian of one point drawn on its portal, `t^2 / (A cos_p)`.
 #[derive(Clone, Copy, Debug)]
-struct Sample {
-    dir: Vec3,
-    cos_x: f32,
-    density: f32,
+pub(crate) struct Sample {
+    pub dir: Vec3,
+    pub cos_x: f32,
+    pub density: f32,
 }
 
 /// A vertex the samples start from: its index, position and unit normal.
@@ -238,6 +238,14 @@ fn sample(portals: &[Portal], p: usize, side: u32, j: u32, r: Receiver, seed: u6
     // The seed hashed on its own first: seeds differing in low bits must not share jitters.
     let h =
         splitmix64(splitmix64(seed ^ 0x5be0_cd19_137e_2179) ^ ((v as u64) << 20) ^ ((p as u64) << 8) ^ u64::from(j));
+    sample_jittered(portals, p, side, j, x, n, h)
+}
+
+/// Sample `j` of the point `x` (unit normal `n`) toward portal `p` of
+/// `portals`, jittered in its cell of the `side x side` grid by the hash
+/// `h`; `None` when it counts 0 whatever the scene. Its part of `E` is
+/// `L(dir) * cos_x / density / side^2`.
+pub(crate) fn sample_jittered(portals: &[Portal], p: usize, side: u32, j: u32, x: Vec3, n: Vec3, h: u64) -> Option<Sample> {
     let jitter = Vec2::new((h as u32) as f32, (h >> 32) as u32 as f32) * (1.0 / 4294967296.0);
     let cell = Vec2::new((j % side) as f32, (j / side) as f32);
     let portal = &portals[p];

@@ -140,9 +140,9 @@ impl Solver {
         stats.emitter_links_ms = self.emitter_links.ms;
         // The emitters' light at the new near hits.
         self.refresh_near_emitters();
-        // The sky's refined cells follow the new links' misses, and the portals' rays the new positions: all traced anew.
-        (self.sky_refine, self.sky_portals) =
-            super::sky_rays(&self.scene, &self.accel, &self.links.sky, &params).expect("a CPU tracer cannot fail");
+        // The sky's refined cells follow the new links' misses, the portals' rays the new positions, the near hits' sky rays the new hits: all traced anew.
+        (self.sky_refine, self.sky_portals, self.near_sky) =
+            super::sky_rays(&self.scene, &self.accel, &self.links, &params).expect("a CPU tracer cannot fail");
         // The noise check's rays: a few hundred vertices, traced anew.
         self.noise_check =
             crate::exchange::NoiseCheck::compute(&self.scene, &self.accel, &params.links, &params.smoothing.noise);

@@ -115,6 +115,8 @@ pub struct SolveParams {
     pub emitter: EmitterLinkParams,
     /// The emitters' light at near hits ([`crate::exchange::near_emitters`]).
     pub near_emitter: crate::exchange::NearEmitterParams,
+    /// The sky's light at near hits ([`crate::exchange::near_sky`]).
+    pub near_sky: crate::exchange::NearSkyParams,
     pub gather: GatherParams,
     /// Correction of hidden vertices as link targets ([`crate::exchange::hidden`]).
     pub hidden: HiddenParams,
@@ -137,6 +139,7 @@ impl Default for SolveParams {
             light: LightLinkParams::default(),
             emitter: EmitterLinkParams::default(),
             near_emitter: Default::default(),
+            near_sky: Default::default(),
             gather: GatherParams::default(),
             hidden: HiddenParams::default(),
             sky: Default::default(),
@@ -154,6 +157,7 @@ impl SolveParams {
         p.links.seed = s.seed;
         p.emitter.seed = s.seed;
         p.near_emitter.seed = s.seed;
+        p.near_sky.seed = s.seed;
         // Emitters' direct light as many rays as the links (at least 64): its noise falls with theirs.
         p.emitter.samples = s.rays_per_vertex.max(64);
         // Sky portals' rays likewise scale with the links'.
@@ -194,6 +198,9 @@ pub struct SolveStats {
     /// Shadow rays from near hits toward emitters and their time, ms.
     pub near_emitter_rays: u64,
     pub near_emitter_ms: f64,
+    /// Shadow rays from near hits toward the sky and their time, ms.
+    pub near_sky_rays: u64,
+    pub near_sky_ms: f64,
     /// Rays of the noise check ([`crate::exchange::noise_check`]) and their time, ms.
     pub noise_check_rays: u64,
     pub noise_check_ms: f64,
@@ -279,6 +286,8 @@ pub struct Solver {
     pub sky_refine: crate::sky::SkyRefinement,
     /// Every vertex's rays toward the sky's portals ([`crate::sky::portal`]).
     pub sky_portals: crate::sky::PortalSamples,
+    /// The sky's light at the links' near hits ([`crate::exchange::near_sky`]).
+    pub near_sky: crate::exchange::NearSky,
     /// A second estimate at a sample of vertices, which calibrates the noise estimate ([`crate::exchange::noise_check`]).
     pub noise_check: NoiseCheck,
     /// Present when links, light links and bounces run on a GPU.
@@ -316,8 +325,8 @@ impl Solver {
         let (links, ray_hits) = links::shoot_links_recording(&scene, &accel, &params.links, record, progress);
         let light_links = LightLinks::compute(&scene, &accel, &params.light);
         let emitter_links = EmitterLinks::compute(&scene, &accel, &params.emitter).expect("a CPU tracer cannot fail");
-        let (sky_refine, sky_portals) =
-            sky_rays(&scene, &accel, &links.sky, &params).expect("a CPU tracer cannot fail");
+        let (sky_refine, sky_portals, near_sky) =
+            sky_rays(&scene, &accel, &links, &params).expect("a CPU tracer cannot fail");
         let near_light =
             NearLight::compute(&scene, &links.near, &accel, &params.light).expect("a CPU tracer cannot fail");
         let near_emitters =
@@ -334,6 +343,7 @@ impl Solver {
             near_emitters,
             sky_refine,
             sky_portals,
+            near_sky,
             noise_check,
             gpu: None,
             compute: Compute::Cpu,
@@ -402,7 +412,7 @@ impl Solver {
         let tracer = logical.swap_remove(0).tracer;
         let light_links = LightLinks::compute_with(&scene, &tracer, &params.light)?;
         let emitter_links = EmitterLinks::compute(&scene, &tracer, &params.emitter)?;
-        let (sky_refine, sky_portals) = sky_rays(&scene, &tracer, &links.sky, &params)?;
+        let (sky_refine, sky_portals, near_sky) = sky_rays(&scene, &tracer, &links, &params)?;
         let near_light = NearLight::compute(&scene, &links.near, &tracer, &params.light)?;
         let near_emitters = near_emitters(&scene, &links, &emitter_links, &tracer, &params)?;
         // On the CPU: the GPU tracer shoots whole vertices' ray sets only.
@@ -420,6 +430,7 @@ impl Solver {
             near_emitters,
             sky_refine,
             sky_portals,
+            near_sky,
             noise_check,
             gpu: Some(gpu),
             compute: compute.clone(),
@@ -521,6 +532,8 @@ impl Solver {
             near_hits: self.links.near.hits.len() as u64,
             near_emitter_rays: self.near_emitters.shadow_rays,
             near_emitter_ms: self.near_emitters.ms,
+            near_sky_rays: self.near_sky.shadow_rays,
+            near_sky_ms: self.near_sky.ms,
             near_rays: self.near_light.shadow_rays,
             near_ms: self.near_light.ms,
             bounces: solution.gather.bounces,

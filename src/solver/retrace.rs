@@ -1,8 +1,8 @@
 //! Tracing parts of a built [`Solver`] again after an edit that changes
 //! what they see, so every solve still equals a fresh one: the emitter
 //! links when a surface starts emitting, the emitters' light at near hits
-//! with them, and the sky's portal samples (and refined cells) when the
-//! portals change. Also the builders the constructors share for those
+//! with them, and the sky's portal samples, refined cells and near-hit
+//! samples when the portals change or a sky appears. Also the builders the constructors share for those
 //! parts ([`sky_rays`], [`near_emitters`]).
 
 use super::{SolveParams, Solver};
@@ -50,21 +50,25 @@ impl Solver {
     }
 
     /// Brings the sky's portal samples (and the refined cells, which
-    /// leave the portals' directions to them) up to date with the scene's
-    /// sky, so the result equals a fresh solve's: traces them when the
-    /// portals changed since they were traced. Returns true if it traced.
+    /// leave the portals' directions to them, and the near hits' sky
+    /// samples) up to date with the scene's sky, so the result equals a
+    /// fresh solve's: traces them when the portals changed since they were
+    /// traced, or when a sky is set where none was traced. Returns true if it traced.
     pub fn update_portals(&mut self) -> bool {
-        if portals_of(&self.scene, &self.params) == self.sky_portals.portals.as_slice() {
+        let same_portals = portals_of(&self.scene, &self.params) == self.sky_portals.portals.as_slice();
+        // A sky where there was none at the last trace: its rays were never traced.
+        let untraced = self.scene.sky.is_some() && !self.near_sky.traced;
+        if same_portals && !untraced {
             return false;
         }
         let traced = match &self.gpu {
-            Some(g) => sky_rays(&self.scene, &g.tracer, &self.links.sky, &self.params).or_else(|err| {
+            Some(g) => sky_rays(&self.scene, &g.tracer, &self.links, &self.params).or_else(|err| {
                 eprintln!("warning: {err}; tracing sky portals on the CPU");
-                sky_rays(&self.scene, &self.accel, &self.links.sky, &self.params)
+                sky_rays(&self.scene, &self.accel, &self.links, &self.params)
             }),
-            None => sky_rays(&self.scene, &self.accel, &self.links.sky, &self.params),
+            None => sky_rays(&self.scene, &self.accel, &self.links, &self.params),
         };
-        (self.sky_refine, self.sky_portals) = traced.expect("a CPU tracer cannot fail");
+        (self.sky_refine, self.sky_portals, self.near_sky) = traced.expect("a CPU tracer cannot fail");
         true
     }
 }
@@ -78,22 +82,32 @@ pub(crate) fn portals_of<'a>(scene: &'a PreparedScene, params: &SolveParams) -> 
     }
 }
 
-/// The sky's refined cells and portal samples for links whose misses are `vis`.
+/// The sky's rays beside the links': refined cells, portal samples and the
+/// near hits' sky samples for `links` (none without a sky).
 pub(crate) fn sky_rays(
     scene: &PreparedScene,
     tracer: &dyn crate::trace::Tracer,
-    vis: &crate::sky::SkyVisibility,
+    links: &Links,
     params: &SolveParams,
-) -> crate::Result<(crate::sky::SkyRefinement, crate::sky::PortalSamples)> {
+) -> crate::Result<(crate::sky::SkyRefinement, crate::sky::PortalSamples, crate::exchange::NearSky)> {
     if scene.sky.is_none() {
         return Ok(Default::default());
     }
+    let vis = &links.sky;
     // One ray setup (origins, frames, wedges) for both.
     let setup = crate::links::RaySetup::new(scene, &params.links);
     let (portals, seed) = (portals_of(scene, params), params.links.seed);
     let refine = crate::sky::SkyRefinement::compute(scene, tracer, &setup, vis, portals, seed, &params.sky)?;
     let samples = crate::sky::PortalSamples::compute(scene, tracer, &setup, portals, seed, &params.sky.portal)?;
-    Ok((refine, samples))
+    let near = crate::exchange::NearSky::compute(
+        scene,
+        &links.near,
+        portals,
+        tracer,
+        &params.near_sky,
+        params.links.rays_per_vertex,
+    )?;
+    Ok((refine, samples, near))
 }
 
 /// The emitters' light at the near hits of `links`, traced with `tracer`.

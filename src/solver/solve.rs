@@ -124,14 +124,28 @@ impl Solver {
 
     /// The first bounce's correction at near hits, W/m^2: the lights'
     /// ([`crate::exchange::near_field`], `e_src` the lights' bounce source)
-    /// plus the emitters' ([`crate::exchange::near_emitters`]).
-    fn near_correction(&self, e_src: &[Vec3]) -> Vec<Vec3> {
+    /// plus the emitters' ([`crate::exchange::near_emitters`]) and the
+    /// sky's ([`crate::exchange::near_sky`], `e_sky` the vertices' sky
+    /// light; computed here when `None` and needed).
+    fn near_correction(&self, e_src: &[Vec3], e_sky: Option<&[Vec3]>) -> Vec<Vec3> {
         let s = &self.scene;
         let rays = self.params.links.rays_per_vertex;
         let mut d = self.near_light.correction(s, &self.links.near, &s.lights, e_src, rays);
         if !self.near_emitters.is_empty() {
             let em = self.near_emitters.correction(&s.emission, &self.emitter_links.group_vertex, s.vertex_count());
             d.iter_mut().zip(&em).for_each(|(d, e)| *d += *e);
+        }
+        if !self.near_sky.is_empty() && s.sky.is_some() {
+            let owned;
+            let e_sky = match e_sky {
+                Some(e) => e,
+                None => {
+                    owned = self.e_sky();
+                    &owned
+                }
+            };
+            let k = self.near_sky.correction(s, &self.links.near, s.sky.as_ref(), e_sky, rays);
+            d.iter_mut().zip(&k).for_each(|(d, k)| *d += *k);
         }
         d
     }
@@ -144,7 +158,7 @@ impl Solver {
         let e_sky = self.e_sky();
         let e_emitter = self.e_emitter();
         let mut e_source = self.light_links.bounce_source(&s.lights, n);
-        let e_near = self.near_correction(&e_source);
+        let e_near = self.near_correction(&e_source, Some(&e_sky));
         for (e, ((k, m), d)) in e_source.iter_mut().zip(e_sky.iter().zip(&e_emitter).zip(&e_near)) {
             *e += *k + *m + *d;
         }
@@ -299,7 +313,7 @@ impl Solver {
         let s = &self.scene;
         let n = s.vertex_count();
         let e_src = self.light_links.bounce_source(&s.lights, n);
-        let e_near = self.near_correction(&e_src);
+        let e_near = self.near_correction(&e_src, None);
         let e_emitter = self.e_emitter();
         Some(e_emitter.iter().zip(&e_near).map(|(m, d)| *m + *d).collect())
     }

@@ -1,0 +1,296 @@
+//! Exact sky light at near hits: the sky's counterpart of
+//! [`super::near_field`] and [`super::near_emitters`]. A link ray of
+//! vertex `x` that meets a triangle close by ([`crate::links::near`])
+//! brings, in its first bounce, the sky light interpolated from the
+//! triangle's corners, `sum_c beta_c rho_c E_sky(c)`. Where an object
+//! stands close to a large triangle that is wrong in both directions: the
+//! wall behind `window`'s cabinet is lit by the window above the 5 cm gap
+//! and dark inside it, within one 25 cm triangle (the cabinet's back read
+//! 40% dark in its first bounce), and the floor vertices on the cabinet's
+//! foot line see half a sky, so the floor just in front of it is
+//! interpolated darker than it is (the cabinet's front row 65% dark). Here
+//! the hit point's own sky light is estimated and replaces the
+//! interpolated one:
+//!
+//! ```text
+//! D_sky(x) = 1/n * sum over near hits k of [ rho(h_k) E_sky(h_k) - sum_c beta_c rho_c E_sky(c) ]
+//! E_sky(h) = pi/m_c * sum_{j < m_c} V_j L(w_j)                               (cosine directions)
+//!          + sum_p 1/m_p * sum_{j < m_p} V_j L(w_j) cos_h cos_p A_p / r_j^2   (portal points)
+//! ```
+//!
+//! split as the vertices' `E_sky` is ([`crate::sky::portal`]): `m_c`
+//! cosine-distributed directions about the hit triangle's normal whose
+//! rays leave the scene (`V_j`) and cross no portal, plus `m_p` points on
+//! each portal (jittered on a grid, first portal first). Each is an
+//! unbiased estimate at the hit; their noise averages over the vertex's
+//! near hits. `E_sky(c)` is the corners' `E_sky` as the bounces use it.
+//!
+//! Stored: the directions that reached the sky and their weights
+//! (`rho(h)` and the estimator's factor over `n`), per vertex, so a
+//! changed, turned or rescaled sky is integrated again with one radiance
+//! lookup per stored direction and no ray (the sky edit stays
+//! gather-only). Traced with the sky's other rays ([`crate::solver`]'s
+//! `sky_rays`): when the portals change, when a sky appears, after a
+//! deformation. Units: `E` in W/m^2, `L` in W/(m^2 sr), lengths in
+//! metres, weights W/m^2 per W/(m^2 sr). Measured: see [`NearSkyParams`].
+
+use crate::kdtree::traverse::{Ray, NO_SKIP};
+use crate::links::{NearHit, NearHits};
+use crate::sampling::{basis, cosine_hemisphere, splitmix64};
+use crate::scene::prep::PreparedScene;
+use crate::sky::{portal, Portal, Sky};
+use crate::trace::Tracer;
+use glam::{Vec2, Vec3};
+use rayon::prelude::*;
+use std::time::Instant;
+
+/// How the sky at near hits is sampled.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct NearSkyParams {
+    /// Cosine-distributed directions per near hit (0 with `portal_samples`
+    /// 0: off).
+    pub samples: u32,
+    /// Points per near hit and portal, rounded down to a square grid.
+    pub portal_samples: u32,
+    /// Shadow rays start `eps * l` off the hit's triangle (l: its longest edge).
+    pub eps: f32,
+    pub seed: u64,
+}
+
+impl Default for NearSkyParams {
+    fn default() -> Self {
+        Self { samples: 1, portal_samples: 1, eps: 1e-4, seed: 1 }
+    }
+}
+
+impl NearSkyParams {
+    /// True when no sample is taken.
+    pub fn is_off(&self) -> bool {
+        self.samples == 0 && self.portal_side() == 0
+    }
+
+    /// Cells a side of a portal's grid.
+    pub fn portal_side(&self) -> u32 {
+        ((self.portal_samples.min(portal::MAX_SIDE * portal::MAX_SIDE) as f64).sqrt().floor() as u32)
+            .min(portal::MAX_SIDE)
+    }
+}
+
+/// The directions from every vertex's near hits that reached the sky.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct NearSky {
+    /// True once traced for a sky (with [`Self::portals`]).
+    pub traced: bool,
+    /// The portals the samples were traced for.
+    pub portals: Vec<Portal>,
+    /// Vertex `v`'s directions are `offsets[v]..offsets[v + 1]` (empty: none anywhere).
+    pub offsets: Vec<u32>,
+    /// Unit directions toward the sky.
+    pub dirs: Vec<Vec3>,
+    /// Per direction: `rho(h)` times the estimator's factor over the link
+    /// rays `n` (W/m^2 per W/(m^2 sr), per channel).
+    pub weights: Vec<Vec3>,
+    pub shadow_rays: u64,
+    pub ms: f64,
+}
+
+/// One sample's ray and its weight without the albedo.
+struct Candidate {
+    ray: Ray,
+    weight: f32,
+}
+
+impl NearSky {
+    /// Traces the samples of every near hit of `near` (link rays shot
+    /// `rays_per_vertex` a vertex) toward the sky and through `portals`
+    /// with `tracer`.
+    pub fn compute(
+        scene: &PreparedScene,
+        near: &NearHits,
+        portals: &[Portal],
+        tracer: &dyn Tracer,
+        params: &NearSkyParams,
+        rays_per_vertex: u32,
+    ) -> crate::Result<NearSky> {
+        let start = Instant::now();
+        let n = scene.vertex_count();
+        let mut out = NearSky { traced: true, portals: portals.to_vec(), ..Default::default() };
+        if near.is_empty() || params.is_off() {
+            return Ok(out);
+        }
+        out.offsets = vec![0; n + 1];
+        let inv = 1.0 / rays_per_vertex.max(1) as f32;
+        let mut v0 = 0usize;
+        while v0 < n {
+            let mut v1 = v0;
+            while v1 < n && (near.offsets[v1] - near.offsets[v0]) < 1 << 16 {
+                v1 += 1;
+            }
+            let v1 = v1.max(v0 + 1);
+            // Per vertex: per sample, its ray, its weight with the hit's albedo.
+            let batch: Vec<Vec<(Ray, Vec3)>> = (v0..v1)
+                .into_par_iter()
+                .map(|v| {
+                    near.of(v)
+                        .iter()
+                        .enumerate()
+                        .flat_map(|(i, h)| {
+                            let rho = albedo_at(scene, h) * inv;
+                            candidates(scene, h, portals, params, v, i).into_iter().map(move |c| (c.ray, rho * c.weight))
+                        })
+                        .collect()
+                })
+                .collect();
+            let rays: Vec<Ray> = batch.iter().flatten().map(|c| c.0).collect();
+            out.shadow_rays += rays.len() as u64;
+            let visible = tracer.visible(&rays)?;
+            let mut vis = visible.into_iter();
+            for (k, samples) in batch.into_iter().enumerate() {
+                for (ray, w) in samples {
+                    if vis.next().expect("one answer per ray") {
+                        out.dirs.push(ray.dir);
+                        out.weights.push(w);
+                    }
+                }
+                out.offsets[v0 + k + 1] = out.dirs.len() as u32;
+            }
+            v0 = v1;
+        }
+        out.ms = start.elapsed().as_secs_f64() * 1e3;
+        Ok(out)
+    }
+
+    /// True when it holds nothing to add.
+    pub fn is_empty(&self) -> bool {
+        self.offsets.is_empty()
+    }
+
+    /// Bytes held.
+    pub fn bytes(&self) -> u64 {
+        (std::mem::size_of_val(self.offsets.as_slice())
+            + std::mem::size_of_val(self.dirs.as_slice())
+            + std::mem::size_of_val(self.weights.as_slice())) as u64
+    }
+
+    /// `D_sky` of every vertex (module doc), W/m^2, under `sky` with
+    /// `e_sky` the vertices' sky light as the bounces use it and `near`
+    /// the hits the samples were traced from; zero without a sky or samples.
+    pub fn correction(
+        &self,
+        scene: &PreparedScene,
+        near: &NearHits,
+        sky: Option<&Sky>,
+        e_sky: &[Vec3],
+        rays_per_vertex: u32,
+    ) -> Vec<Vec3> {
+        let n = scene.vertex_count();
+        let Some(sky) = sky else { return vec![Vec3::ZERO; n] };
+        if self.is_empty() || near.offsets.len() != n + 1 || e_sky.len() != n {
+            return vec![Vec3::ZERO; n];
+        }
+        let radiance = sky.radiance_fn();
+        let inv = 1.0 / rays_per_vertex.max(1) as f32;
+        (0..n)
+            .into_par_iter()
+            .map(|v| {
+                let r = self.offsets[v] as usize..self.offsets[v + 1] as usize;
+                let exact: Vec3 = self.dirs[r.clone()].iter().zip(&self.weights[r]).map(|(d, w)| radiance(*d) * *w).sum();
+                let mut interpolated = Vec3::ZERO;
+                for h in near.of(v) {
+                    let tri = scene.triangles[h.tri as usize];
+                    let beta = [1.0 - h.u - h.v, h.u, h.v];
+                    for c in 0..3 {
+                        let cv = tri[c] as usize;
+                        interpolated += scene.albedo[cv] * e_sky[cv] * beta[c];
+                    }
+                }
+                exact - interpolated * inv
+            })
+            .collect()
+    }
+
+    /// Checks the structure against `n` vertices: CSR offsets, unit
+    /// directions, finite non-negative weights, valid portals.
+    pub fn validate(&self, n: usize) -> Result<(), String> {
+        for p in &self.portals {
+            p.validate()?;
+        }
+        if self.is_empty() {
+            return if self.dirs.is_empty() && self.weights.is_empty() {
+                Ok(())
+            } else {
+                Err("directions without offsets".into())
+            };
+        }
+        if self.offsets.len() != n + 1
+            || self.offsets[0] != 0
+            || self.offsets.windows(2).any(|w| w[0] > w[1])
+            || *self.offsets.last().unwrap() as usize != self.dirs.len()
+            || self.dirs.len() != self.weights.len()
+        {
+            return Err(format!(
+                "{} offsets, {} directions, {} weights for {n} vertices",
+                self.offsets.len(),
+                self.dirs.len(),
+                self.weights.len()
+            ));
+        }
+        if let Some(d) = self.dirs.iter().find(|d| !(d.is_finite() && (d.length() - 1.0).abs() < 1e-3)) {
+            return Err(format!("direction {d} is not a unit vector"));
+        }
+        if let Some(w) = self.weights.iter().find(|w| !(w.is_finite() && w.min_element() >= 0.0)) {
+            return Err(format!("weight {w}"));
+        }
+        Ok(())
+    }
+}
+
+/// The albedo at near hit `h`, interpolated from its triangle's corners.
+fn albedo_at(scene: &PreparedScene, h: &NearHit) -> Vec3 {
+    let tri = scene.triangles[h.tri as usize];
+    let beta = [1.0 - h.u - h.v, h.u, h.v];
+    (0..3).map(|c| scene.albedo[tri[c] as usize] * beta[c]).sum()
+}
+
+/// The shadow rays of near hit `h` (vertex `v`'s `i`-th: the samples hash
+/// from those, so a vertex's samples do not depend on the near hits of
+/// other vertices) with their estimator weights (no albedo, no `1/n`).
+fn candidates(
+    scene: &PreparedScene,
+    h: &NearHit,
+    portals: &[Portal],
+    params: &NearSkyParams,
+    v: usize,
+    i: usize,
+) -> Vec<Candidate> {
+    let (p, normal, l) = super::near_field::hit_frame(scene, h);
+    let origin = p + normal * (params.eps * l);
+    let key = splitmix64(splitmix64(params.seed ^ 0x3c6e_f372_fe94_f82b) ^ v as u64) ^ ((i as u64) << 20);
+    let mut out = Vec::new();
+    let ray = |dir: Vec3| Ray { origin, dir, tmin: 0.0, tmax: f32::INFINITY, skip: NO_SKIP };
+    if params.samples > 0 {
+        let (t, b) = basis(normal);
+        let unit = |x: u64| (x >> 40) as f32 / (1u64 << 24) as f32;
+        let w = std::f32::consts::PI / params.samples as f32;
+        for j in 0..params.samples {
+            let hash = splitmix64(key ^ u64::from(j));
+            let local = cosine_hemisphere(Vec2::new(unit(hash), unit(splitmix64(hash))));
+            let dir = (t * local.x + b * local.y + normal * local.z).normalize_or_zero();
+            // A direction through a portal is the portals' samples'.
+            if dir == Vec3::ZERO || local.z <= 0.0 || portal::through_any(portals, origin, dir) {
+                continue;
+            }
+            out.push(Candidate { ray: ray(dir), weight: w });
+        }
+    }
+    let side = params.portal_side();
+    let m = side * side;
+    for pi in 0..portals.len() {
+        for j in 0..m {
+            let hash = splitmix64(key ^ (1 << 12) ^ ((pi as u64) << 8) ^ u64::from(j));
+            let Some(s) = portal::sample_jittered(portals, pi, side, j, origin, normal, hash) else { continue };
+            out.push(Candidate { ray: ray(s.dir), weight: s.cos_x / s.density / m as f32 });
+        }
+    }
+    out
+}
