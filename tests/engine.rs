@@ -283,6 +283,44 @@ fn deformation_preview_then_selective_full_result() {
     }
 }
 
+/// A sky set on a scene built without one: its rays beside the links'
+/// (refined cells, the near hits' sky samples) were never traced, so the
+/// engine traces them once and the result equals a fresh solve with the
+/// sky; a second sky (brighter) is gather-only again.
+#[test]
+fn a_sky_on_a_scene_without_one_traces_its_rays_once() {
+    use linkgi::solver::Solver;
+    let mut desc = builtin::builtin("window").unwrap();
+    desc.settings.rays_per_vertex = 16;
+    // Without its portal, so only the sky's appearing asks for rays.
+    let mut sky0 = desc.sky.take().expect("window has a sky");
+    sky0.portals.clear();
+    let scene = prep::prepare(&desc).unwrap();
+    let params = SolveParams::from_settings(&scene.settings);
+    let mut e = Engine::start(scene.clone(), params, Compute::Cpu, EngineParams::default());
+    assert!(e.wait_idle(WAIT));
+    let c0 = e.counters();
+    let fresh = |scene: &prep::PreparedScene| {
+        let s = Solver::new(scene.clone(), SolveParams::from_settings(&scene.settings), &|_, _| {});
+        s.near_sky.validate(s.scene.vertex_count()).expect("near-hit sky samples valid");
+        assert!(s.near_sky.traced && s.near_sky.shadow_rays > 0);
+        s.solve()
+    };
+    let mut edited = scene.clone();
+    for intensity in [1.0, 2.0] {
+        let mut sky = sky0.clone();
+        sky.intensity = intensity;
+        e.send(Change::SetSky(Some(sky.clone())));
+        edited.sky = Some(sky);
+        assert!(e.wait_idle(WAIT));
+        let got = e.latest().unwrap();
+        let want = fresh(&edited);
+        assert!(got.e_sky.iter().any(|k| k.min_element() > 0.0), "the window lets the sky in");
+        assert_eq!((got.e_sky.clone(), got.e_indirect.clone()), (want.e_sky, want.e_indirect));
+        assert_eq!(e.counters().portal_updates, c0.portal_updates + 1, "traced once, at the first sky");
+    }
+}
+
 /// Emission edits and sky changes (set, turned, brighter, removed) are
 /// gather-only updates: no structure, link or light-link work, and each
 /// result equals a fresh solve of the edited scene. A mesh that starts

@@ -1,6 +1,7 @@
 //! Near hits and the exact direct light at them ([`linkgi::exchange::near_field`]):
 //! a plate just above a floor of two big triangles against the reference
-//! path tracer, light moves against fresh solves, and the documented
+//! path tracer (under a point light, a glowing panel and the sky), light
+//! moves against fresh solves, and the documented
 //! budget.
 
 mod common;
@@ -143,6 +144,47 @@ fn plate_underside_under_an_emitter_agrees_with_the_reference() {
 
 /// Moving the light retraces the near hits' column: the result equals a
 /// fresh solve with the light there; a brighter light traces nothing.
+/// The plate of [`plate_scene`] under a uniform sky instead of the point
+/// light: the floor's corners see the whole sky while the floor under the
+/// plate sees a thin slit of it, so the links alone bring the plate's
+/// underside the open floor's sky light. The sky's light at near hits
+/// ([`linkgi::exchange::near_sky`]) takes it out as the lights' and
+/// emitters' near fields do. Held: within 25% of the reference and at
+/// least 2x closer than without; the samples are valid; a brighter sky
+/// doubles the correction from the stored directions, tracing nothing.
+#[test]
+fn plate_underside_under_the_sky_agrees_with_the_reference() {
+    let mut desc = plate_scene(256);
+    desc.lights.clear();
+    desc.sky = Some(linkgi::sky::Sky::uniform(Vec3::splat(1.0)));
+    let scene = prep::prepare(&desc).expect("scene prepares");
+    let solve = |on: bool| {
+        let mut params = SolveParams::from_settings(&scene.settings);
+        if !on {
+            (params.near_sky.samples, params.near_sky.portal_samples) = (0, 0);
+        }
+        common::solve_with(scene.clone(), params)
+    };
+    let ((with, a), (without, b)) = (solve(true), solve(false));
+    assert!(!with.near_sky.is_empty() && without.near_sky.is_empty());
+    assert!(with.near_sky.shadow_rays > 0 && !with.near_sky.dirs.is_empty());
+    let (m_ref, m_with, m_without) = underside_means(&with, &a, &b);
+    eprintln!("underside mean E_i under the sky: reference {m_ref:.4}, with {m_with:.4}, without {m_without:.4}");
+    assert!((m_with - m_ref).abs() < 0.25 * m_ref, "with the sky's near field: {m_with} vs {m_ref}");
+    assert!((m_without - m_ref).abs() > 2.0 * (m_with - m_ref).abs(), "without {m_without} vs {m_ref}");
+    assert!(a.e_indirect.iter().chain(&a.e_indirect_raw).all(|e| e.min_element() >= 0.0 && e.is_finite()));
+    // Twice the sky: twice the correction, from the same directions.
+    let mut brighter = with;
+    brighter.scene.sky.as_mut().unwrap().intensity = 2.0;
+    let rays = brighter.near_sky.shadow_rays;
+    assert!(!brighter.update_portals(), "the same portals and a traced sky: nothing to trace");
+    let twice = brighter.solve();
+    assert_eq!(brighter.near_sky.shadow_rays, rays);
+    for (x, y) in twice.e_near.iter().zip(&a.e_near) {
+        assert!((*x - 2.0 * *y).abs().max_element() <= 1e-4 * y.abs().max_element().max(1e-6), "{x} vs 2 x {y}");
+    }
+}
+
 #[test]
 fn light_moves_update_the_near_columns() {
     let desc = plate_scene(64);

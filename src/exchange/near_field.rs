@@ -15,7 +15,8 @@
 //!
 //! replaces the interpolated direct light of those rays by the exact one.
 //! `E_src` is the lights' bounce source ([`super::LightLinks::bounce_source`]);
-//! sky and emitter light at hit points stay interpolated. `G_l V_l` is
+//! the sky's and the emitters' light at the hits have their own
+//! corrections ([`super::near_sky`], [`super::near_emitters`]). `G_l V_l` is
 //! stored per light and near hit (a column, like the light links'), so a
 //! new intensity traces nothing and a moved light traces only its column.
 //!

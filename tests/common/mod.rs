@@ -24,6 +24,7 @@ pub fn solve_with(scene: prep::PreparedScene, params: SolveParams) -> (Solver, S
         .near_emitters
         .validate(solver.scene.vertex_count(), solver.emitter_links.group_vertex.len())
         .expect("near-hit emitter coefficients valid");
+    solver.near_sky.validate(solver.scene.vertex_count()).expect("near-hit sky samples valid");
     solver.noise_check.validate(solver.scene.vertex_count()).expect("noise check valid");
     let sol = solver.solve();
     for v in sol.e_direct.iter().chain(&sol.e_indirect).chain(&sol.e_indirect_raw) {
