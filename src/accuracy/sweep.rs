@@ -99,6 +99,7 @@ pub fn sweep(
             let gp = exchange::GatherParams { bounces: b, ..solve_params.gather };
             let t = Instant::now();
             let mut g = solver.gather_corrected(e_source, &gp);
+            src.add_control_variate(&mut g.e_indirect);
             g.ms = t.elapsed().as_secs_f64() * 1e3;
             for smoothing in [angle, 0.0] {
                 let t = Instant::now();

@@ -108,6 +108,10 @@ pub struct EmitterLinks {
     /// Per vertex: its emission is carried by these links (it belongs to a
     /// group), so it is left out of the first radiosity.
     pub covered: Vec<bool>,
+    /// Per vertex: the group of the emitter triangles it is a corner of
+    /// when the links were built, [`NO_GROUP`] for others (empty when
+    /// inactive).
+    pub vertex_group: Vec<u32>,
     /// Vertex `v`'s entries are `offsets[v]..offsets[v + 1]`.
     pub offsets: Vec<u32>,
     /// Group of each entry.
@@ -120,11 +124,16 @@ pub struct EmitterLinks {
     pub fallback: Option<String>,
 }
 
+/// [`EmitterLinks::vertex_group`] of a vertex outside every group.
+pub const NO_GROUP: u32 = u32::MAX;
+
 /// One emissive triangle.
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct Emitter {
     pub(crate) corners: [Vec3; 3],
     pub(crate) group: u32,
+    /// Its index in the scene's triangles.
+    pub(crate) triangle: u32,
 }
 
 /// A triangle a vertex sends rays to, and what its rays found.
@@ -172,6 +181,12 @@ impl EmitterLinks {
             return Ok(out);
         }
         out.group_vertex = group_vertex;
+        out.vertex_group = vec![NO_GROUP; n];
+        for e in &emitters {
+            for &v in &scene.triangles[e.triangle as usize] {
+                out.vertex_group[v as usize] = e.group;
+            }
+        }
         for t in &scene.triangles {
             if scene.emission[t[0] as usize] != Vec3::ZERO {
                 for &v in t {
@@ -265,6 +280,12 @@ impl EmitterLinks {
         if let Some(v) = self.group_vertex.iter().find(|&&v| v as usize >= n) {
             return Err(format!("group vertex {v} of {n}"));
         }
+        if !(self.vertex_group.is_empty() || self.vertex_group.len() == n) {
+            return Err(format!("{} vertex groups for {n} vertices", self.vertex_group.len()));
+        }
+        if let Some(g) = self.vertex_group.iter().find(|&&g| g != NO_GROUP && g as usize >= self.group_vertex.len()) {
+            return Err(format!("vertex group {g} of {}", self.group_vertex.len()));
+        }
         Ok(())
     }
 }
@@ -293,7 +314,7 @@ pub(crate) fn emitters(scene: &PreparedScene) -> (Vec<Emitter>, Vec<u32>) {
                     keys.len() - 1
                 }
             };
-            out.push(Emitter { corners: t.map(|i| scene.positions[i as usize]), group: group as u32 });
+            out.push(Emitter { corners: t.map(|i| scene.positions[i as usize]), group: group as u32, triangle: tri });
         }
     }
     (out, group_vertex)

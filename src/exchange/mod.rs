@@ -1,7 +1,8 @@
 //! Light exchange (docs/DESIGN.md §4): direct light through light links, exact
 //! at the vertices and one-ring oversampled as the bounce source
 //! ([`light_links`]), emissive surfaces' direct light by next-event
-//! estimation ([`emitter_links`]), exact direct light at the hit points of
+//! estimation ([`emitter_links`], which also serve as a control variate of
+//! the light emitters reflect, [`emitter_cv`]), exact direct light at the hit points of
 //! short link rays ([`near_field`], and the emitters' and sky's there: [`near_emitters`], [`near_sky`]), bounces gathered over the vertex links ([`mod@gather`]),
 //! hidden vertices' radiosity replaced as link targets by their visible
 //! neighbours' ([`hidden`]), a noise estimate of every vertex's `E_i` from
@@ -13,6 +14,7 @@
 //! (exitant radiance of a Lambertian vertex) `B = rho / pi * E` in
 //! W/(m^2 sr).
 
+pub mod emitter_cv;
 pub mod emitter_links;
 pub mod gather;
 pub mod hidden;
@@ -24,6 +26,7 @@ pub mod noise;
 pub mod noise_check;
 pub mod smooth;
 
+pub use emitter_cv::EmitterCv;
 pub use emitter_links::{EmitterLinkParams, EmitterLinks};
 pub use gather::{gather, GatherParams, GatherResult};
 pub use hidden::HiddenParams;

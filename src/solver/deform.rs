@@ -138,6 +138,7 @@ impl Solver {
         self.emitter_links = crate::exchange::EmitterLinks::compute(&self.scene, &self.accel, &params.emitter)
             .expect("a CPU tracer cannot fail");
         stats.emitter_links_ms = self.emitter_links.ms;
+        self.emitters_changed();
         // The emitters' light at the new near hits.
         self.refresh_near_emitters();
         // The sky's refined cells follow the new links' misses, the portals' rays the new positions, the near hits' sky rays the new hits: all traced anew.

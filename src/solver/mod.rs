@@ -117,6 +117,9 @@ pub struct SolveParams {
     pub near_emitter: crate::exchange::NearEmitterParams,
     /// The sky's light at near hits ([`crate::exchange::near_sky`]).
     pub near_sky: crate::exchange::NearSkyParams,
+    /// The emitter groups as a control variate of the first bounce
+    /// ([`crate::exchange::emitter_cv`]); default on.
+    pub emitter_cv: bool,
     pub gather: GatherParams,
     /// Correction of hidden vertices as link targets ([`crate::exchange::hidden`]).
     pub hidden: HiddenParams,
@@ -140,6 +143,7 @@ impl Default for SolveParams {
             emitter: EmitterLinkParams::default(),
             near_emitter: Default::default(),
             near_sky: Default::default(),
+            emitter_cv: true,
             gather: GatherParams::default(),
             hidden: HiddenParams::default(),
             sky: Default::default(),
@@ -300,6 +304,9 @@ pub struct Solver {
     /// the first solve that needs them (two passes over the links:
     /// 278 ms on conference) and kept; [`Solver::links_changed`] drops them.
     stand_ins_cache: StandInsCache,
+    /// The emitter groups' control variate for the current links
+    /// ([`Solver::emitter_cv`]); [`Solver::emitters_changed`] drops it.
+    emitter_cv_cache: std::sync::Mutex<Option<Arc<crate::exchange::EmitterCv>>>,
 }
 
 /// Hidden vertices and their linkers, with the parameters they were found with.
@@ -349,6 +356,7 @@ impl Solver {
             compute: Compute::Cpu,
             ray_hits,
             stand_ins_cache: Default::default(),
+            emitter_cv_cache: Default::default(),
         }
     }
 
@@ -436,6 +444,7 @@ impl Solver {
             compute: compute.clone(),
             ray_hits: None,
             stand_ins_cache: Default::default(),
+            emitter_cv_cache: Default::default(),
         })
     }
 

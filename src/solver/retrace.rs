@@ -30,6 +30,7 @@ impl Solver {
             None => EmitterLinks::compute(&self.scene, &self.accel, &self.params.emitter),
         };
         self.emitter_links = traced.expect("a CPU tracer cannot fail");
+        self.emitters_changed();
         self.refresh_near_emitters();
         true
     }

@@ -22,13 +22,24 @@ pub struct Sources {
     pub e_emitter: Vec<Vec3>,
     /// The near-hit correction of the first bounce ([`crate::exchange::near_field`]).
     pub e_near: Vec<Vec3>,
-    /// What the bounces start from: the lights' bounce source plus `e_sky`, `e_emitter` and `e_near`.
+    /// The emitter groups' control variate of the first bounce
+    /// ([`crate::exchange::emitter_cv`]): part of the gathered `E_i`.
+    pub e_cv: Vec<Vec3>,
+    /// What the bounces start from: the lights' bounce source plus `e_sky`, `e_emitter`, `e_near` and `e_cv`.
     pub e_source: Vec<Vec3>,
     /// The emitted exitance the vertex links carry (emitters without emitter links), W/m^2.
     pub emission: Vec<Vec3>,
 }
 
 impl Sources {
+    /// `E_i` gathered over the links (W/m^2) with the first bounce's
+    /// control variate `e_cv` added: what the smoothing smooths.
+    pub fn add_control_variate(&self, e_gathered: &mut [Vec3]) {
+        if !self.e_cv.is_empty() {
+            e_gathered.iter_mut().zip(&self.e_cv).for_each(|(e, d)| *e += *d);
+        }
+    }
+
     /// Completes gathered `E_i` (W/m^2) in place: adds the parts not
     /// gathered over the links, the emitters' direct light and the near-hit
     /// correction, and keeps every channel at least 0.
@@ -72,12 +83,14 @@ impl Solver {
             None => self.gather_cpu(&b0, &stand_ins, &self.params.gather),
         };
         let angle = self.params.smoothing_angle_deg;
+        let mut gathered = gather.e_indirect.clone();
+        src.add_control_variate(&mut gathered);
         let mut e_indirect = if quick {
-            exchange::smooth(&gather.e_indirect, &s.rings, &s.normals, angle)
+            exchange::smooth(&gathered, &s.rings, &s.normals, angle)
         } else {
-            self.smooth_gathered(&src.e_source, &gather.e_indirect, angle)
+            self.smooth_gathered(&src.e_source, &gathered, angle)
         };
-        let mut e_indirect_raw = gather.e_indirect.clone();
+        let mut e_indirect_raw = gathered;
         src.add_outside_links(&mut e_indirect);
         src.add_outside_links(&mut e_indirect_raw);
         Solution {
@@ -162,11 +175,20 @@ impl Solver {
         for (e, ((k, m), d)) in e_source.iter_mut().zip(e_sky.iter().zip(&e_emitter).zip(&e_near)) {
             *e += *k + *m + *d;
         }
+        let cv = self.emitter_cv();
+        let e_cv = if cv.is_empty() {
+            Vec::new()
+        } else {
+            let d = cv.correction(&cv.group_means(&s.albedo, &e_source), n);
+            e_source.iter_mut().zip(&d).for_each(|(e, d)| *e += *d);
+            d
+        };
         Sources {
             e_direct: self.light_links.direct(&s.lights, n),
             e_sky,
             e_emitter,
             e_near,
+            e_cv,
             e_source,
             emission: self.emitter_links.carried_emission(&s.emission).into_owned(),
         }
@@ -259,6 +281,27 @@ impl Solver {
     /// stand-ins); call it after changing `links` in place.
     pub fn links_changed(&mut self) {
         *self.stand_ins_cache.get_mut().unwrap_or_else(|p| p.into_inner()) = None;
+        self.emitters_changed();
+    }
+
+    /// Drops what was derived from the links and emitter links together
+    /// (the control variate's coefficients): call after changing either.
+    pub fn emitters_changed(&mut self) {
+        *self.emitter_cv_cache.get_mut().unwrap_or_else(|p| p.into_inner()) = None;
+    }
+
+    /// The emitter groups' control variate of the first bounce for the
+    /// current links and emitter links ([`exchange::emitter_cv`]), computed
+    /// on first use (one pass over the links) and kept; empty when off
+    /// ([`super::SolveParams::emitter_cv`]) or without emitter groups.
+    pub fn emitter_cv(&self) -> Arc<exchange::EmitterCv> {
+        if !self.params.emitter_cv || !self.emitter_links.is_active() {
+            return Arc::default();
+        }
+        let mut cache = self.emitter_cv_cache.lock().unwrap_or_else(|p| p.into_inner());
+        cache
+            .get_or_insert_with(|| Arc::new(exchange::EmitterCv::compute(&self.scene, &self.links, &self.emitter_links)))
+            .clone()
     }
 
     /// The CPU bounces from radiosity `b0`, W/(m^2 sr).
@@ -356,14 +399,24 @@ impl Solver {
     /// Radiosity and its square per vertex for the noise estimate
     /// ([`exchange::noise::radiosity_moments`]), from the bounces' source
     /// and the gathered `E_i`.
+    /// With emitter groups, a group vertex's radiosity is taken less its
+    /// group's mean, the part the first bounce's control variate removes
+    /// ([`exchange::EmitterCv::adjust_moments`]; the mean of `e_source`,
+    /// which holds the control variate itself: its group mean is noise
+    /// about zero).
     fn radiosity_moments(&self, e_source: &[Vec3], e_gathered: &[Vec3]) -> Vec<[glam::Vec4; 2]> {
         let s = &self.scene;
-        exchange::noise::radiosity_moments(
+        let mut b = exchange::noise::radiosity_moments(
             &s.albedo,
             &self.emitter_links.carried_emission(&s.emission),
             e_source,
             e_gathered,
-        )
+        );
+        let cv = self.emitter_cv();
+        if !cv.is_empty() {
+            cv.adjust_moments(&mut b, &cv.group_means(&s.albedo, e_source));
+        }
+        b
     }
 
     fn gathered_noise_variance(&self, e_source: &[Vec3], e_raw: &[Vec3]) -> Vec<Vec3> {
