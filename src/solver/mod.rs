@@ -245,16 +245,21 @@ pub struct Solution {
     /// W/m^2 (negative where the links brought light that is not there):
     /// part of `e_indirect`, reported apart.
     pub e_near: Vec<Vec3>,
+    /// The emitter groups' control variate of the first bounce
+    /// ([`crate::exchange::emitter_cv`]), W/m^2 (of either sign, zero in
+    /// expectation): part of the gathered `E_i`, smoothed with it; empty
+    /// without emitter groups.
+    pub e_cv: Vec<Vec3>,
     /// The direct irradiance the bounces started from (the light links'
-    /// [`crate::exchange::BounceSource`] plus `e_sky`, `e_emitter` and `e_near`),
+    /// [`crate::exchange::BounceSource`] plus `e_sky`, `e_emitter`, `e_near` and `e_cv`),
     /// W/m^2. Emitters without emitter links add `M_e / pi` to the first
     /// radiosity ([`crate::exchange::gather::source_radiosity`]).
     pub e_source: Vec<Vec3>,
-    /// Indirect irradiance after smoothing (the gathered bounces smoothed,
-    /// plus `e_emitter` and `e_near`, at least 0), W/m^2.
+    /// Indirect irradiance after smoothing (the gathered bounces and
+    /// `e_cv` smoothed, plus `e_emitter` and `e_near`, at least 0), W/m^2.
     pub e_indirect: Vec<Vec3>,
     /// Indirect irradiance before smoothing (the gathered bounces after the
-    /// hidden-vertex correction, plus `e_emitter` and `e_near`, at least 0;
+    /// hidden-vertex correction, plus `e_cv`, `e_emitter` and `e_near`, at least 0;
     /// `gather.e_indirect` is the bounces before the correction), W/m^2.
     pub e_indirect_raw: Vec<Vec3>,
     pub gather: GatherResult,

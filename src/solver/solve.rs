@@ -98,6 +98,7 @@ impl Solver {
             e_sky: src.e_sky,
             e_emitter: src.e_emitter,
             e_near: src.e_near,
+            e_cv: src.e_cv,
             e_source: src.e_source,
             e_indirect_raw,
             e_indirect,
