@@ -104,6 +104,73 @@ fn main() {
         },
         &reference::cache::default_dir(),
     );
+    let mut sol = sol;
+    if let Ok(m) = std::env::var("NEAR_GATHER") {
+        use linkgi::kdtree::traverse::{Ray, NO_SKIP};
+        use linkgi::trace::Tracer;
+        let m: u32 = m.parse().unwrap();
+        let sc = &solver.scene;
+        let n = sc.vertex_count();
+        let pi = std::f32::consts::PI;
+        // G: the gathered bounces (the raw E_i less what is outside the links).
+        let g: Vec<Vec3> = (0..n).map(|v| sol.e_indirect_raw[v] - sol.e_emitter[v] - sol.e_near[v]).collect();
+        let carried = solver.emitter_links.carried_emission(&sc.emission);
+        let b: Vec<Vec3> = (0..n).map(|v| sc.albedo[v] / pi * (sol.e_source[v] + g[v]) + carried[v] / pi).collect();
+        let near = &solver.links.near;
+        let inv = 1.0 / rays as f32;
+        let mut d = vec![Vec3::ZERO; n];
+        let mut traced = 0usize;
+        for v in 0..n {
+            let hits = near.of(v);
+            if hits.is_empty() {
+                continue;
+            }
+            let mut rays_v = Vec::new();
+            let mut owner = Vec::new();
+            for (i, h) in hits.iter().enumerate() {
+                let tri = sc.triangles[h.tri as usize];
+                let [a, bb, c] = tri.map(|x| sc.positions[x as usize]);
+                let w = [1.0 - h.u - h.v, h.u, h.v];
+                let p = a * w[0] + bb * w[1] + c * w[2];
+                let nrm = (bb - a).cross(c - a).normalize();
+                let l = (bb - a).length().max((c - bb).length()).max((a - c).length());
+                let (t, bt) = linkgi::sampling::basis(nrm);
+                for j in 0..m {
+                    let hsh = linkgi::sampling::splitmix64((v as u64) << 24 ^ (i as u64) << 8 ^ j as u64);
+                    let u1 = (hsh >> 40) as f32 / (1u64 << 24) as f32;
+                    let u2 = (linkgi::sampling::splitmix64(hsh) >> 40) as f32 / (1u64 << 24) as f32;
+                    let loc = linkgi::sampling::cosine_hemisphere(glam::Vec2::new(u1, u2));
+                    let dir = (t * loc.x + bt * loc.y + nrm * loc.z).normalize();
+                    rays_v.push(Ray { origin: p + nrm * 1e-4 * l, dir, tmin: 0.0, tmax: f32::INFINITY, skip: NO_SKIP });
+                    owner.push(i);
+                }
+            }
+            traced += rays_v.len();
+            let res = solver.accel.closest_hits(&rays_v).unwrap();
+            let mut est = vec![Vec3::ZERO; hits.len()];
+            for (hit, &i) in res.iter().zip(&owner) {
+                if let Some(hh) = hit {
+                    if hh.front {
+                        let tri = sc.triangles[hh.tri as usize];
+                        let w = hh.barycentrics();
+                        est[i] += (0..3).map(|c| b[tri[c] as usize] * w[c]).sum::<Vec3>() * (pi / m as f32);
+                    }
+                }
+            }
+            for (h, e) in hits.iter().zip(&est) {
+                let tri = sc.triangles[h.tri as usize];
+                let w = [1.0 - h.u - h.v, h.u, h.v];
+                let rho: Vec3 = (0..3).map(|c| sc.albedo[tri[c] as usize] * w[c]).sum();
+                let interp: Vec3 = (0..3).map(|c| sc.albedo[tri[c] as usize] * g[tri[c] as usize] * w[c]).sum();
+                d[v] += (rho * *e - interp) * inv;
+            }
+        }
+        eprintln!("near gather: {traced} rays");
+        for v in 0..n {
+            sol.e_indirect[v] = (sol.e_indirect[v] + d[v]).max(Vec3::ZERO);
+            sol.e_indirect_raw[v] = (sol.e_indirect_raw[v] + d[v]).max(Vec3::ZERO);
+        }
+    }
     let total = sol.total();
     let rt = r.total();
     for m in &solver.scene.meshes {

@@ -132,17 +132,19 @@ fn agree_on_within(name: &str, share: f64) {
     let (cn, gn) = (&cpu.links.near, &gpu.links.near);
     gn.validate(scene.vertex_count(), scene.triangles.len()).expect("GPU near hits valid");
     assert_eq!(cn.is_empty(), gn.is_empty(), "{name}: near hits on one path only");
-    if !cn.is_empty() {
-        let same = (0..scene.vertex_count())
-            .filter(|&v| vertex_same[v])
-            .filter(|&v| {
+    let near_same: Vec<bool> = (0..scene.vertex_count())
+        .map(|v| {
+            cn.is_empty() || {
                 let (a, b) = (cn.of(v), gn.of(v));
                 a.len() == b.len()
                     && a.iter()
                         .zip(b)
                         .all(|(x, y)| x.tri == y.tri && (x.u - y.u).abs() < 1e-4 && (x.v - y.v).abs() < 1e-4)
-            })
-            .count();
+            }
+        })
+        .collect();
+    if !cn.is_empty() {
+        let same = (0..scene.vertex_count()).filter(|&v| vertex_same[v] && near_same[v]).count();
         assert!(same as f64 >= 0.999 * candidates as f64, "{name}: near hits equal at {same}/{candidates} vertices");
     }
 
@@ -153,13 +155,19 @@ fn agree_on_within(name: &str, share: f64) {
     }
 
     // Final E_i (GPU links, GPU visibility, GPU bounces vs all-CPU), before
-    // smoothing, at the vertices whose rays all met the same triangles (a
-    // vertex whose ray met an emitter on one side only differs by that
-    // ray, and smoothing would spread it to its neighbours).
+    // smoothing, at the vertices whose rays all met the same triangles, with
+    // the same near hits, and whose links lead to such vertices only (a
+    // vertex whose ray met an emitter on one side only differs by that ray,
+    // one with a near hit more by that hit's light, 1/n of its first bounce,
+    // and a vertex linked to it by what it reflects; smoothing would spread
+    // it further).
     let (cs, gs) = (cpu.solve(), gpu.solve());
     let mean = common::mean(&cs.e_indirect).max_element().max(1e-30);
+    let same = |v: usize| vertex_same[v] && near_same[v];
+    let unaffected: Vec<bool> =
+        (0..scene.vertex_count()).map(|v| same(v) && cpu.links.group(v).0.iter().all(|&u| same(u as usize))).collect();
     let errs: Vec<f32> = (0..scene.vertex_count())
-        .filter(|&v| vertex_same[v])
+        .filter(|&v| unaffected[v])
         .map(|v| rel(cs.e_indirect_raw[v], gs.e_indirect_raw[v], 1e-2 * mean))
         .collect();
     let worst = errs.iter().cloned().fold(0.0, f32::max);
@@ -198,11 +206,13 @@ fn gpu_agrees_tearoom() {
     agree_on("tearoom");
 }
 /// Emitters and sky light: the GPU's misses give the same sky visibility.
-/// Here a ray that meets the glowing shade on one side only (20 of 617k
-/// rays differ, at 2 vertices) changes its vertex's radiosity a lot, and
-/// the bounces carry that to the vertices that see it (35 of 2407 differ
-/// by up to 1.2%): 98% must agree within 1e-4. The kernels themselves
-/// agree within 1e-5 on the same links (`gpu_gather_with_emission_matches_cpu`).
+/// Here 13 of 617k rays differ (at `t = 0` on the cabinet's foot line):
+/// the floor vertices there get a near hit more or less, whose sky and
+/// emitter light is 1/64 of their first bounce, and the bounces carry that
+/// to every vertex linking to them (a fifth of the scene: 501 of 2407 are
+/// left out of the comparison). Of the others 98% must agree within 1e-4
+/// (measured 1903 / 1906, worst 2.5e-4). The kernels themselves agree
+/// within 1e-5 on the same links (`gpu_gather_with_emission_matches_cpu`).
 #[test]
 fn gpu_agrees_window() {
     agree_on_within("window", 0.98);
