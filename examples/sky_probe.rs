@@ -156,7 +156,11 @@ fn main() {
     for m in &solver.scene.meshes {
         let rg = m.vertices.start as usize..m.vertices.end as usize;
         let pick = |v: &[Vec3]| v[rg.clone()].to_vec();
-        println!("{:24} E_em vs ref E_i {:?}", m.name, error_stats(&pick(&sol.e_emitter), &pick(&r.e_indirect), &pick(&r.e_indirect_stderr)));
+        println!(
+            "{:24} E_em vs ref E_i {:?}",
+            m.name,
+            error_stats(&pick(&sol.e_emitter), &pick(&r.e_indirect), &pick(&r.e_indirect_stderr))
+        );
     }
     println!("all, unsmoothed: {:?}", error_stats(&raw, &rt, &r.e_total_stderr));
 }

@@ -186,7 +186,8 @@ fn the_emitter_control_variate_cuts_the_shades_noise_without_bias() {
     let spread = |x: &linkgi::solver::Solution, y: &linkgi::solver::Solution| {
         shade.iter().map(|&v| (x.e_indirect_raw[v] - y.e_indirect_raw[v]).length_squared() as f64).sum::<f64>()
     };
-    let mean = |x: &linkgi::solver::Solution| shade.iter().map(|&v| x.e_indirect_raw[v].element_sum() as f64).sum::<f64>();
+    let mean =
+        |x: &linkgi::solver::Solution| shade.iter().map(|&v| x.e_indirect_raw[v].element_sum() as f64).sum::<f64>();
     let (with, without) = (spread(&a1, &a2), spread(&b1, &b2));
     let (m_with, m_without) = (mean(&a1) + mean(&a2), mean(&b1) + mean(&b2));
     // The standard error of the summed means, from the seeds' spread without the control variate.

@@ -165,12 +165,21 @@ pub fn run(args: SolveArgs) -> Result<()> {
         let mean = solution.e_emitter.iter().map(|e| e.element_sum() / 3.0).sum::<f32>()
             / solution.e_emitter.len().max(1) as f32;
         match &e.fallback {
-            None if e.is_active() => println!(
-                "emitters         {emitters} vertices emit, {} groups: mean direct E {mean:.3} W/m^2, {} shadow rays in {:.1} ms",
-                e.group_vertex.len(),
-                e.shadow_rays,
-                e.ms
-            ),
+            None if e.is_active() => {
+                println!(
+                    "emitters         {emitters} vertices emit, {} groups: mean direct E {mean:.3} W/m^2, {} shadow rays in {:.1} ms",
+                    e.group_vertex.len(),
+                    e.shadow_rays,
+                    e.ms
+                );
+                if !solution.e_cv.is_empty() {
+                    let mean_abs = solution.e_cv.iter().map(|d| d.abs().element_sum() / 3.0).sum::<f32>()
+                        / solution.e_cv.len().max(1) as f32;
+                    println!(
+                        "                 their control variate of the first bounce: mean |D| {mean_abs:.4} W/m^2"
+                    );
+                }
+            }
             None => println!("emitters         {emitters} vertices emit (their light through the vertex links)"),
             Some(why) => println!("emitters         {emitters} vertices emit; no emitter links: {why}"),
         }
@@ -196,13 +205,15 @@ pub fn run(args: SolveArgs) -> Result<()> {
     if s.near_hits > 0 {
         println!(
             "near hits        {} ({:.1}% of the rays; exact direct light at them: {} shadow rays, {:.1} ms; \
-             emitters' light at them: {} shadow rays, {:.1} ms)",
+             emitters' light at them: {} shadow rays, {:.1} ms; the sky's: {} rays, {:.1} ms)",
             s.near_hits,
             100.0 * s.near_hits as f64 / s.links.rays.max(1) as f64,
             s.near_rays,
             s.near_ms,
             s.near_emitter_rays,
-            s.near_emitter_ms
+            s.near_emitter_ms,
+            s.near_sky_rays,
+            s.near_sky_ms
         );
     }
     println!(

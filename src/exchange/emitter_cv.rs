@@ -176,7 +176,11 @@ impl EmitterCv {
             .into_par_iter()
             .map(|v| {
                 let r = self.offsets[v] as usize..self.offsets[v + 1] as usize;
-                self.entry_groups[r.clone()].iter().zip(&self.coefficients[r]).map(|(&g, &c)| means[g as usize] * c).sum()
+                self.entry_groups[r.clone()]
+                    .iter()
+                    .zip(&self.coefficients[r])
+                    .map(|(&g, &c)| means[g as usize] * c)
+                    .sum()
             })
             .collect()
     }
@@ -218,7 +222,12 @@ impl EmitterCv {
         {
             return Err("offsets, groups and coefficients disagree".into());
         }
-        if self.entry_groups.iter().chain(self.vertex_group.iter().filter(|&&g| g != NO_GROUP)).any(|&g| g as usize >= self.groups) {
+        if self
+            .entry_groups
+            .iter()
+            .chain(self.vertex_group.iter().filter(|&&g| g != NO_GROUP))
+            .any(|&g| g as usize >= self.groups)
+        {
             return Err(format!("a group out of {}", self.groups));
         }
         let mut sums = vec![0f64; self.groups];

@@ -154,7 +154,9 @@ impl NearSky {
                             let rho = albedo_at(scene, h) * inv;
                             // Its rank among the vertex's hits on its triangle.
                             let rank = hits[..i].iter().filter(|o| o.tri == h.tri).count();
-                            candidates(scene, h, portals, params, v, rank).into_iter().map(move |c| (c.ray, rho * c.weight))
+                            candidates(scene, h, portals, params, v, rank)
+                                .into_iter()
+                                .map(move |c| (c.ray, rho * c.weight))
                         })
                         .collect()
                 })
@@ -212,7 +214,8 @@ impl NearSky {
             .into_par_iter()
             .map(|v| {
                 let r = self.offsets[v] as usize..self.offsets[v + 1] as usize;
-                let exact: Vec3 = self.dirs[r.clone()].iter().zip(&self.weights[r]).map(|(d, w)| radiance(*d) * *w).sum();
+                let exact: Vec3 =
+                    self.dirs[r.clone()].iter().zip(&self.weights[r]).map(|(d, w)| radiance(*d) * *w).sum();
                 let mut interpolated = Vec3::ZERO;
                 for h in near.of(v) {
                     let tri = scene.triangles[h.tri as usize];

@@ -245,7 +245,15 @@ fn sample(portals: &[Portal], p: usize, side: u32, j: u32, r: Receiver, seed: u6
 /// `portals`, jittered in its cell of the `side x side` grid by the hash
 /// `h`; `None` when it counts 0 whatever the scene. Its part of `E` is
 /// `L(dir) * cos_x / density / side^2`.
-pub(crate) fn sample_jittered(portals: &[Portal], p: usize, side: u32, j: u32, x: Vec3, n: Vec3, h: u64) -> Option<Sample> {
+pub(crate) fn sample_jittered(
+    portals: &[Portal],
+    p: usize,
+    side: u32,
+    j: u32,
+    x: Vec3,
+    n: Vec3,
+    h: u64,
+) -> Option<Sample> {
     let jitter = Vec2::new((h as u32) as f32, (h >> 32) as u32 as f32) * (1.0 / 4294967296.0);
     let cell = Vec2::new((j % side) as f32, (j / side) as f32);
     let portal = &portals[p];

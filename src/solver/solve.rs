@@ -301,7 +301,9 @@ impl Solver {
         }
         let mut cache = self.emitter_cv_cache.lock().unwrap_or_else(|p| p.into_inner());
         cache
-            .get_or_insert_with(|| Arc::new(exchange::EmitterCv::compute(&self.scene, &self.links, &self.emitter_links)))
+            .get_or_insert_with(|| {
+                Arc::new(exchange::EmitterCv::compute(&self.scene, &self.links, &self.emitter_links))
+            })
             .clone()
     }
 
