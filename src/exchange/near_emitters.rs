@@ -136,13 +136,8 @@ impl NearEmitters {
         let mut out = NearEmitters { offsets: vec![0; n + 1], ..Default::default() };
         let mut rows: Vec<Vec<(u32, Vec3)>> = Vec::with_capacity(n);
         // Batches of vertices, so the shadow rays of the whole scene are never held at once.
-        let mut v0 = 0usize;
-        while v0 < n {
-            let mut v1 = v0;
-            while v1 < n && (near.offsets[v1] - near.offsets[v0]) < 1 << 16 {
-                v1 += 1;
-            }
-            let v1 = v1.max(v0 + 1);
+        for batch_range in near.vertex_batches(n, 1 << 16) {
+            let (v0, v1) = (batch_range.start, batch_range.end);
             let samples: Vec<Vec<HitSamples>> = (v0..v1)
                 .into_par_iter()
                 .map(|v| {
@@ -185,7 +180,6 @@ impl NearEmitters {
                 row.sort_by_key(|e| e.0);
                 rows.push(row);
             }
-            v0 = v1;
         }
         for (v, row) in rows.into_iter().enumerate() {
             out.groups.extend(row.iter().map(|e| e.0));

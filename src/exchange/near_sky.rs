@@ -136,13 +136,8 @@ impl NearSky {
         }
         out.offsets = vec![0; n + 1];
         let inv = 1.0 / rays_per_vertex.max(1) as f32;
-        let mut v0 = 0usize;
-        while v0 < n {
-            let mut v1 = v0;
-            while v1 < n && (near.offsets[v1] - near.offsets[v0]) < 1 << 16 {
-                v1 += 1;
-            }
-            let v1 = v1.max(v0 + 1);
+        for batch_range in near.vertex_batches(n, 1 << 16) {
+            let (v0, v1) = (batch_range.start, batch_range.end);
             // Per vertex: per sample, its ray, its weight with the hit's albedo.
             let batch: Vec<Vec<(Ray, Vec3)>> = (v0..v1)
                 .into_par_iter()
@@ -174,7 +169,6 @@ impl NearSky {
                 }
                 out.offsets[v0 + k + 1] = out.dirs.len() as u32;
             }
-            v0 = v1;
         }
         out.ms = start.elapsed().as_secs_f64() * 1e3;
         Ok(out)

@@ -64,6 +64,25 @@ impl NearHits {
         self.hits.is_empty()
     }
 
+    /// Consecutive ranges of vertices (of `n`) with at most about
+    /// `max_hits` near hits each (a vertex with more gets a range of its
+    /// own): the batches in which their shadow rays are traced, so the rays
+    /// of the whole scene are never held at once.
+    pub fn vertex_batches(&self, n: usize, max_hits: u32) -> Vec<std::ops::Range<usize>> {
+        let mut out = Vec::new();
+        let mut v0 = 0usize;
+        while v0 < n {
+            let mut v1 = v0;
+            while v1 < n && self.offsets[v1] - self.offsets[v0] < max_hits {
+                v1 += 1;
+            }
+            let v1 = v1.max(v0 + 1);
+            out.push(v0..v1);
+            v0 = v1;
+        }
+        out
+    }
+
     /// Vertex `v`'s near hits.
     pub fn of(&self, v: usize) -> &[NearHit] {
         match self.offsets.get(v + 1) {
