@@ -3,7 +3,8 @@
 //! ([`light_links`]), emissive surfaces' direct light by next-event
 //! estimation ([`emitter_links`], which also serve as a control variate of
 //! the light emitters reflect, [`emitter_cv`]), exact direct light at the hit points of
-//! short link rays ([`near_field`], and the emitters' and sky's there: [`near_emitters`], [`near_sky`]), bounces gathered over the vertex links ([`mod@gather`]),
+//! short link rays ([`near_field`], and the emitters' and sky's there: [`near_emitters`], [`near_sky`]; the later bounces' by a final gather
+//! from the hit, [`near_gather`]), bounces gathered over the vertex links ([`mod@gather`]),
 //! hidden vertices' radiosity replaced as link targets by their visible
 //! neighbours' ([`hidden`]), a noise estimate of every vertex's `E_i` from
 //! its links ([`noise`]), calibrated on the scene by a second estimate at a
@@ -21,6 +22,7 @@ pub mod hidden;
 pub mod light_links;
 pub mod near_emitters;
 pub mod near_field;
+pub mod near_gather;
 pub mod near_sky;
 pub mod noise;
 pub mod noise_check;
@@ -33,6 +35,7 @@ pub use hidden::HiddenParams;
 pub use light_links::{BounceSource, LightLinkParams, LightLinks};
 pub use near_emitters::{NearEmitterParams, NearEmitters};
 pub use near_field::NearLight;
+pub use near_gather::{NearGather, NearGatherParams};
 pub use near_sky::{NearSky, NearSkyParams};
 pub use noise::NoiseParams;
 pub use noise_check::NoiseCheck;

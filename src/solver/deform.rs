@@ -144,6 +144,8 @@ impl Solver {
         // The sky's refined cells follow the new links' misses, the portals' rays the new positions, the near hits' sky rays the new hits: all traced anew.
         (self.sky_refine, self.sky_portals, self.near_sky) =
             super::sky_rays(&self.scene, &self.accel, &self.links, &params).expect("a CPU tracer cannot fail");
+        // The final gather from the new near hits, traced anew.
+        self.near_gather = super::near_gather(&self.scene, &self.links, &self.accel, &params).expect("a CPU tracer cannot fail");
         // The noise check's rays: a few hundred vertices, traced anew.
         self.noise_check =
             crate::exchange::NoiseCheck::compute(&self.scene, &self.accel, &params.links, &params.smoothing.noise);

@@ -22,7 +22,7 @@ use std::time::{Duration, Instant};
 
 mod deform;
 mod retrace;
-use retrace::{near_emitters, sky_rays};
+use retrace::{near_emitters, near_gather, sky_rays};
 mod solve;
 pub use deform::{DeformStats, Preview, PREVIEW_RAYS};
 pub use solve::Sources;
@@ -120,6 +120,8 @@ pub struct SolveParams {
     /// The emitter groups as a control variate of the first bounce
     /// ([`crate::exchange::emitter_cv`]); default on.
     pub emitter_cv: bool,
+    /// The later bounces' light at near hits ([`crate::exchange::near_gather`]).
+    pub near_gather: crate::exchange::NearGatherParams,
     pub gather: GatherParams,
     /// Correction of hidden vertices as link targets ([`crate::exchange::hidden`]).
     pub hidden: HiddenParams,
@@ -144,6 +146,7 @@ impl Default for SolveParams {
             near_emitter: Default::default(),
             near_sky: Default::default(),
             emitter_cv: true,
+            near_gather: Default::default(),
             gather: GatherParams::default(),
             hidden: HiddenParams::default(),
             sky: Default::default(),
@@ -162,6 +165,8 @@ impl SolveParams {
         p.emitter.seed = s.seed;
         p.near_emitter.seed = s.seed;
         p.near_sky.seed = s.seed;
+        p.near_gather.seed = s.seed;
+        p.near_gather.rays = crate::exchange::NearGatherParams::for_link_rays(s.rays_per_vertex);
         // Emitters' direct light as many rays as the links (at least 64): its noise falls with theirs.
         p.emitter.samples = s.rays_per_vertex.max(64);
         // Sky portals' rays likewise scale with the links'.
@@ -205,6 +210,9 @@ pub struct SolveStats {
     /// Shadow rays from near hits toward the sky and their time, ms.
     pub near_sky_rays: u64,
     pub near_sky_ms: f64,
+    /// Gather rays from near hits and their time, ms.
+    pub near_gather_rays: u64,
+    pub near_gather_ms: f64,
     /// Rays of the noise check ([`crate::exchange::noise_check`]) and their time, ms.
     pub noise_check_rays: u64,
     pub noise_check_ms: f64,
@@ -250,6 +258,10 @@ pub struct Solution {
     /// expectation): part of the gathered `E_i`, smoothed with it; empty
     /// without emitter groups.
     pub e_cv: Vec<Vec3>,
+    /// The later bounces' correction at near hits
+    /// ([`crate::exchange::near_gather`]), W/m^2: part of the gathered
+    /// `E_i`, smoothed with it; empty without near hits.
+    pub e_near_gather: Vec<Vec3>,
     /// The direct irradiance the bounces started from (the light links'
     /// [`crate::exchange::BounceSource`] plus `e_sky`, `e_emitter`, `e_near` and `e_cv`),
     /// W/m^2. Emitters without emitter links add `M_e / pi` to the first
@@ -297,6 +309,8 @@ pub struct Solver {
     pub sky_portals: crate::sky::PortalSamples,
     /// The sky's light at the links' near hits ([`crate::exchange::near_sky`]).
     pub near_sky: crate::exchange::NearSky,
+    /// The later bounces' light at the links' near hits ([`crate::exchange::near_gather`]).
+    pub near_gather: crate::exchange::NearGather,
     /// A second estimate at a sample of vertices, which calibrates the noise estimate ([`crate::exchange::noise_check`]).
     pub noise_check: NoiseCheck,
     /// Present when links, light links and bounces run on a GPU.
@@ -343,6 +357,7 @@ impl Solver {
             NearLight::compute(&scene, &links.near, &accel, &params.light).expect("a CPU tracer cannot fail");
         let near_emitters =
             near_emitters(&scene, &links, &emitter_links, &accel, &params).expect("a CPU tracer cannot fail");
+        let near_gather = near_gather(&scene, &links, &accel, &params).expect("a CPU tracer cannot fail");
         let noise_check = NoiseCheck::compute(&scene, &accel, &params.links, &params.smoothing.noise);
         Solver {
             scene,
@@ -356,6 +371,7 @@ impl Solver {
             sky_refine,
             sky_portals,
             near_sky,
+            near_gather,
             noise_check,
             gpu: None,
             compute: Compute::Cpu,
@@ -428,6 +444,7 @@ impl Solver {
         let (sky_refine, sky_portals, near_sky) = sky_rays(&scene, &tracer, &links, &params)?;
         let near_light = NearLight::compute(&scene, &links.near, &tracer, &params.light)?;
         let near_emitters = near_emitters(&scene, &links, &emitter_links, &tracer, &params)?;
+        let near_gather = near_gather(&scene, &links, &tracer, &params)?;
         // On the CPU: the GPU tracer shoots whole vertices' ray sets only.
         let noise_check = NoiseCheck::compute(&scene, &kd, &params.links, &params.smoothing.noise);
         let gpu_links = GpuLinks::new(tracer.dev.clone(), &links, &scene.albedo)?;
@@ -444,6 +461,7 @@ impl Solver {
             sky_refine,
             sky_portals,
             near_sky,
+            near_gather,
             noise_check,
             gpu: Some(gpu),
             compute: compute.clone(),
@@ -548,6 +566,8 @@ impl Solver {
             near_emitter_ms: self.near_emitters.ms,
             near_sky_rays: self.near_sky.shadow_rays,
             near_sky_ms: self.near_sky.ms,
+            near_gather_rays: self.near_gather.rays,
+            near_gather_ms: self.near_gather.ms,
             near_rays: self.near_light.shadow_rays,
             near_ms: self.near_light.ms,
             bounces: solution.gather.bounces,

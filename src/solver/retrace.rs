@@ -111,6 +111,22 @@ pub(crate) fn sky_rays(
     Ok((refine, samples, near))
 }
 
+/// The final gather from the near hits of `links`, traced with `tracer`.
+pub(crate) fn near_gather(
+    scene: &PreparedScene,
+    links: &Links,
+    tracer: &dyn crate::trace::Tracer,
+    params: &SolveParams,
+) -> crate::Result<crate::exchange::NearGather> {
+    crate::exchange::NearGather::compute(
+        scene,
+        &links.near,
+        tracer,
+        &params.near_gather,
+        params.links.rays_per_vertex,
+    )
+}
+
 /// The emitters' light at the near hits of `links`, traced with `tracer`.
 pub(crate) fn near_emitters(
     scene: &PreparedScene,

@@ -85,6 +85,8 @@ impl Solver {
         let angle = self.params.smoothing_angle_deg;
         let mut gathered = gather.e_indirect.clone();
         src.add_control_variate(&mut gathered);
+        let e_near_gather = if quick { Vec::new() } else { self.near_gather_correction(&src, &gathered, &stand_ins) };
+        gathered.iter_mut().zip(&e_near_gather).for_each(|(g, d)| *g += *d);
         let mut e_indirect = if quick {
             exchange::smooth(&gathered, &s.rings, &s.normals, angle)
         } else {
@@ -99,6 +101,7 @@ impl Solver {
             e_emitter: src.e_emitter,
             e_near: src.e_near,
             e_cv: src.e_cv,
+            e_near_gather,
             e_source: src.e_source,
             e_indirect_raw,
             e_indirect,
@@ -195,6 +198,34 @@ impl Solver {
         }
     }
 
+    /// The later bounces' correction at near hits
+    /// ([`exchange::near_gather`]), W/m^2, for the gathered `E_i`
+    /// `gathered` (control variate included) of the sources `src`, with
+    /// the hidden vertices' `stand_ins`; empty without near hits.
+    pub fn near_gather_correction(
+        &self,
+        src: &Sources,
+        gathered: &[Vec3],
+        stand_ins: &[exchange::hidden::StandIn],
+    ) -> Vec<Vec3> {
+        if self.near_gather.is_empty() {
+            return Vec::new();
+        }
+        let s = &self.scene;
+        let mut g_h = gathered.to_vec();
+        for (h, linkers) in stand_ins {
+            g_h[*h] = exchange::hidden::stand_in_irradiance(linkers, |u| gathered[u]);
+        }
+        let b_h: Vec<Vec3> = (0..s.vertex_count())
+            .into_par_iter()
+            .map(|v| {
+                s.albedo[v] / std::f32::consts::PI * (src.e_source[v] + g_h[v])
+                    + src.emission.get(v).map_or(Vec3::ZERO, |m| *m / std::f32::consts::PI)
+            })
+            .collect();
+        self.near_gather.correction(s, &self.links.near, &b_h, &g_h, self.params.links.rays_per_vertex)
+    }
+
     /// The CPU bounces from `e_source` (W/m^2, [`Sources::e_source`], plus
     /// the emission the links carry, [`Sources::emission`]) with hidden
     /// vertices replaced as link targets in every bounce
@@ -265,6 +296,11 @@ impl Solver {
 
     /// Hidden vertices and their linkers ([`exchange::hidden::stand_ins`]),
     /// from the cache when the links and hidden-vertex parameters are unchanged.
+    /// The hidden vertices' stand-ins for the current links (computed on first use and kept).
+    pub fn stand_ins_shared(&self) -> Arc<Vec<exchange::hidden::StandIn>> {
+        self.stand_ins()
+    }
+
     fn stand_ins(&self) -> Arc<Vec<exchange::hidden::StandIn>> {
         let mut cache = self.stand_ins_cache.lock().unwrap_or_else(|p| p.into_inner());
         if let Some((p, v)) = &*cache {
