@@ -70,11 +70,12 @@ fn underside_means(s: &Solver, with: &linkgi::solver::Solution, without: &linkgi
 /// interpolate the floor's lit corners into the shadow under the plate and
 /// bring 1.8x the light the reference finds (0.80 against 0.44 W/m^2);
 /// with the exact direct light at near hits the first bounce is right and
-/// the mean is 15% low (0.37, the same at 1024 rays and against a
-/// 16384-path reference): what stays is the light going back and forth in
-/// the 5 mm gap, which the floor's corners cannot represent (its second
-/// and later bounces are still interpolated). Held: within 20%, and at
-/// least 3x closer than the links alone.
+/// the mean was 15% low (0.37, the same at 1024 rays and against a
+/// 16384-path reference): the light going back and forth in the 5 mm gap,
+/// which the floor's corners cannot represent; with the final gather from
+/// the near hits for the later bounces ([`linkgi::exchange::near_gather`])
+/// 0.462 (+5%). Held: within 10%, and at least 3x closer than the links
+/// alone.
 #[test]
 fn plate_underside_agrees_with_the_reference() {
     let desc = plate_scene(256);
@@ -89,7 +90,7 @@ fn plate_underside_agrees_with_the_reference() {
         "underside mean E_i: reference {m_ref:.4}, near hits {m_with:.4}, links alone {m_without:.4}; {} near hits",
         with.links.near.hits.len()
     );
-    assert!((m_with - m_ref).abs() < 0.2 * m_ref, "with near hits: {m_with} vs {m_ref}");
+    assert!((m_with - m_ref).abs() < 0.1 * m_ref, "with near hits: {m_with} vs {m_ref}");
     assert!((m_without - m_ref).abs() > 3.0 * (m_with - m_ref).abs(), "links alone {m_without} vs {m_ref}");
     // The correction takes light away here on the whole, and never leaves a vertex negative.
     assert!(mean(&a.e_near) < -0.3 * m_ref, "{}", mean(&a.e_near));
@@ -100,9 +101,9 @@ fn plate_underside_agrees_with_the_reference() {
 /// above instead of the point light: the emitters' light at near hits
 /// ([`linkgi::exchange::near_emitters`]) takes the floor's lit corners out
 /// of the shadow under the plate as the point light's near field does:
-/// measured 0.116 against the reference's 0.143 W/m^2 (-19%, the light
-/// going back and forth in the gap, as for the point light), 0.209 (+46%)
-/// without. Held: within 25%, at least 2x closer than without; doubling
+/// measured 0.1435 against the reference's 0.1431 W/m^2 (0.116 before the
+/// final gather at near hits took the light going back and forth in the
+/// gap), 0.274 without. Held: within 10%, at least 2x closer than without; doubling
 /// the panel's exitance doubles the correction without a ray; the
 /// coefficients are valid.
 #[test]
@@ -126,7 +127,7 @@ fn plate_underside_under_an_emitter_agrees_with_the_reference() {
     assert!(with.near_emitters.shadow_rays > 0);
     let (m_ref, m_with, m_without) = underside_means(&with, &a, &b);
     eprintln!("underside mean E_i under the panel: reference {m_ref:.4}, with {m_with:.4}, without {m_without:.4}");
-    assert!((m_with - m_ref).abs() < 0.25 * m_ref, "with the emitters' near field: {m_with} vs {m_ref}");
+    assert!((m_with - m_ref).abs() < 0.1 * m_ref, "with the emitters' near field: {m_with} vs {m_ref}");
     assert!((m_without - m_ref).abs() > 2.0 * (m_with - m_ref).abs(), "without {m_without} vs {m_ref}");
     assert!(a.e_indirect.iter().chain(&a.e_indirect_raw).all(|e| e.min_element() >= 0.0 && e.is_finite()));
     // Twice the exitance: twice the correction, from the same coefficients.
@@ -142,14 +143,14 @@ fn plate_underside_under_an_emitter_agrees_with_the_reference() {
     }
 }
 
-/// Moving the light retraces the near hits' column: the result equals a
-/// fresh solve with the light there; a brighter light traces nothing.
 /// The plate of [`plate_scene`] under a uniform sky instead of the point
 /// light: the floor's corners see the whole sky while the floor under the
 /// plate sees a thin slit of it, so the links alone bring the plate's
 /// underside the open floor's sky light. The sky's light at near hits
 /// ([`linkgi::exchange::near_sky`]) takes it out as the lights' and
-/// emitters' near fields do. Held: within 25% of the reference and at
+/// emitters' near fields do: 0.765 against the reference's 0.736 W/m^2
+/// (0.596 before the final gather at near hits), 2.51 without. Held:
+/// within 10% of the reference and at
 /// least 2x closer than without; the samples are valid; a brighter sky
 /// doubles the correction from the stored directions, tracing nothing.
 #[test]
@@ -170,7 +171,7 @@ fn plate_underside_under_the_sky_agrees_with_the_reference() {
     assert!(with.near_sky.shadow_rays > 0 && !with.near_sky.dirs.is_empty());
     let (m_ref, m_with, m_without) = underside_means(&with, &a, &b);
     eprintln!("underside mean E_i under the sky: reference {m_ref:.4}, with {m_with:.4}, without {m_without:.4}");
-    assert!((m_with - m_ref).abs() < 0.25 * m_ref, "with the sky's near field: {m_with} vs {m_ref}");
+    assert!((m_with - m_ref).abs() < 0.1 * m_ref, "with the sky's near field: {m_with} vs {m_ref}");
     assert!((m_without - m_ref).abs() > 2.0 * (m_with - m_ref).abs(), "without {m_without} vs {m_ref}");
     assert!(a.e_indirect.iter().chain(&a.e_indirect_raw).all(|e| e.min_element() >= 0.0 && e.is_finite()));
     // Twice the sky: twice the correction, from the same directions.
@@ -185,6 +186,47 @@ fn plate_underside_under_the_sky_agrees_with_the_reference() {
     }
 }
 
+/// The final gather from near hits ([`linkgi::exchange::near_gather`]) on
+/// the plate of [`plate_scene`] under its point light: the later bounces'
+/// light under the plate, interpolated from the floor's corners (lit) and
+/// the plate's underside, read 15% low (0.37 against the reference's 0.44
+/// W/m^2); gathered at the hit points themselves, 0.46. Held: with it
+/// within 10% of the reference and at least 2x closer than without; its
+/// weights are valid and a brighter light, which changes only the
+/// radiosity, traces nothing and scales the correction.
+#[test]
+fn the_final_gather_at_near_hits_brings_the_light_in_the_gap() {
+    let desc = plate_scene(256);
+    let scene = prep::prepare(&desc).expect("scene prepares");
+    let solve = |rays: u32| {
+        let mut params = SolveParams::from_settings(&scene.settings);
+        params.near_gather.rays = rays;
+        common::solve_with(scene.clone(), params)
+    };
+    let ((with, a), (without, b)) = (solve(4), solve(0));
+    assert!(!with.near_gather.is_empty() && without.near_gather.is_empty());
+    assert!(a.e_near_gather.iter().any(|d| *d != Vec3::ZERO) && b.e_near_gather.is_empty());
+    let (m_ref, m_with, m_without) = underside_means(&with, &a, &b);
+    eprintln!("underside mean E_i: reference {m_ref:.4}, with the final gather {m_with:.4}, without {m_without:.4}");
+    assert!((m_with - m_ref).abs() < 0.1 * m_ref, "with: {m_with} vs {m_ref}");
+    assert!((m_without - m_ref).abs() > 2.0 * (m_with - m_ref).abs(), "without {m_without} vs {m_ref}");
+    // Twice the light: twice the correction, from the same gather rays.
+    let mut brighter = with;
+    let rays = brighter.near_gather.rays;
+    for l in &mut brighter.scene.lights {
+        if let Light::Point { intensity, .. } = l {
+            *intensity *= 2.0;
+        }
+    }
+    let twice = brighter.solve();
+    assert_eq!(brighter.near_gather.rays, rays);
+    for (x, y) in twice.e_near_gather.iter().zip(&a.e_near_gather) {
+        assert!((*x - 2.0 * *y).abs().max_element() <= 1e-3 * y.abs().max_element().max(1e-4), "{x} vs 2 x {y}");
+    }
+}
+
+/// Moving the light retraces the near hits' column: the result equals a
+/// fresh solve with the light there; a brighter light traces nothing.
 #[test]
 fn light_moves_update_the_near_columns() {
     let desc = plate_scene(64);

@@ -145,7 +145,8 @@ impl Solver {
         (self.sky_refine, self.sky_portals, self.near_sky) =
             super::sky_rays(&self.scene, &self.accel, &self.links, &params).expect("a CPU tracer cannot fail");
         // The final gather from the new near hits, traced anew.
-        self.near_gather = super::near_gather(&self.scene, &self.links, &self.accel, &params).expect("a CPU tracer cannot fail");
+        self.near_gather =
+            super::near_gather(&self.scene, &self.links, &self.accel, &params).expect("a CPU tracer cannot fail");
         // The noise check's rays: a few hundred vertices, traced anew.
         self.noise_check =
             crate::exchange::NoiseCheck::compute(&self.scene, &self.accel, &params.links, &params.smoothing.noise);
