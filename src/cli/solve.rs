@@ -205,7 +205,8 @@ pub fn run(args: SolveArgs) -> Result<()> {
     if s.near_hits > 0 {
         println!(
             "near hits        {} ({:.1}% of the rays; exact direct light at them: {} shadow rays, {:.1} ms; \
-             emitters' light at them: {} shadow rays, {:.1} ms; the sky's: {} rays, {:.1} ms)",
+             emitters' light at them: {} shadow rays, {:.1} ms; the sky's: {} rays, {:.1} ms; \
+             the final gather from them: {} rays, {:.1} ms)",
             s.near_hits,
             100.0 * s.near_hits as f64 / s.links.rays.max(1) as f64,
             s.near_rays,
@@ -213,7 +214,9 @@ pub fn run(args: SolveArgs) -> Result<()> {
             s.near_emitter_rays,
             s.near_emitter_ms,
             s.near_sky_rays,
-            s.near_sky_ms
+            s.near_sky_ms,
+            s.near_gather_rays,
+            s.near_gather_ms
         );
     }
     println!(

@@ -444,7 +444,8 @@ impl Solver {
         let (sky_refine, sky_portals, near_sky) = sky_rays(&scene, &tracer, &links, &params)?;
         let near_light = NearLight::compute(&scene, &links.near, &tracer, &params.light)?;
         let near_emitters = near_emitters(&scene, &links, &emitter_links, &tracer, &params)?;
-        let near_gather = near_gather(&scene, &links, &tracer, &params)?;
+        // On the CPU, with the noise check: the GPU tracer shoots whole vertices' ray sets only.
+        let near_gather = near_gather(&scene, &links, &kd, &params)?;
         // On the CPU: the GPU tracer shoots whole vertices' ray sets only.
         let noise_check = NoiseCheck::compute(&scene, &kd, &params.links, &params.smoothing.noise);
         let gpu_links = GpuLinks::new(tracer.dev.clone(), &links, &scene.albedo)?;
