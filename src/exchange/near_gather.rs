@@ -21,9 +21,10 @@
 //! kernels do. It is added to the gathered `E_i` after the bounces (it is
 //! not carried on through them: a second-order term) and smoothed with it.
 //!
-//! Stored: per vertex, the corners of the gather rays' hits merged with
-//! their weights `rho(h) pi beta / (m n)` (RGB), so a new radiosity (a
-//! moved light, a changed sky) needs no ray. Rays start `eps * l` off and
+//! Stored: where each gather ray landed (triangle and barycentrics to
+//! 2^-16, 8 bytes a ray: 28 MB for tearoom's 3.5M at 1024 rays; the
+//! corners merged with their RGB weights per vertex took 3x that), so a
+//! new radiosity (a moved light, a changed sky) needs no ray. Rays start `eps * l` off and
 //! into the hit's triangle (l its longest edge), as the sky's near-hit
 //! rays. Units: irradiance W/m^2, radiosity W/(m^2 sr), lengths metres.
 //! Measured: see [`NearGatherParams::rays`]; tearoom's bowls' feet
@@ -48,16 +49,21 @@ use std::time::Instant;
 /// How the final gather at near hits is sampled.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct NearGatherParams {
-    /// Rays per near hit (0: off); [`Self::for_link_rays`] sets it from
-    /// the link rays. Measured (total relative RMSE against the reference,
+    /// Rays per near hit (0: off), default 2. Measured (total relative RMSE against the reference,
     /// auto bounces, seed 1, `examples/sky_probe.rs`, `NEAR_GATHER=m`), off
     /// / 1 / 2 / 4 rays a hit: tearoom 1024 link rays 1.67 / 1.18 / 1.12 /
     /// 1.08%, cornell 1.02 / 1.03 / 0.99 / 0.97%; at 64 link rays cornell
     /// 4.84 / 5.10 / - / 4.85% and tearoom 4.77 / 4.85 / - / 4.62% (one ray a
     /// hit adds more noise than it takes bias when a vertex has a few near
     /// hits), at 256 cornell 2.21 / 2.32 / 2.23 / 2.19%, tearoom 2.34 / 2.20
-    /// / - / 2.02%. Cost at 1024 link rays on tearoom: 1.74M near hits, 3.5M
-    /// rays at 2 a hit beside the links' 13.3M. Without the stand-ins for
+    /// / - / 2.02%; 2 a hit: cornell 4.90 / 2.23 / 0.99%, tearoom 4.70 /
+    /// 2.08 / 1.12% at 64 / 256 / 1024. Cost at 1024 link rays on tearoom:
+    /// 1.74M near hits, 3.5M rays at 2 a hit beside the links' 13.3M, about
+    /// 1 s against the links' 1.7 s (arbitrary rays, one at a time: 3.6M
+    /// rays/s against the links' 7.9M). Four a hit lowers the error at 64
+    /// and 256 link rays a little more but costs more than it gains at
+    /// equal time (tearoom 64 rays: 5.0x against the path tracer with 4,
+    /// about 5.8x with 2). Without the stand-ins for
     /// hidden vertices (a prototype) cornell read 1.26-1.31% at 1024 rays:
     /// rays from the floor beside a box meet its bottom row, hidden
     /// vertices whose own irradiance is meaningless; added after the
@@ -75,36 +81,44 @@ impl Default for NearGatherParams {
     }
 }
 
-impl NearGatherParams {
-    /// Rays a near hit for `link_rays` link rays a vertex: `1024 / n`
-    /// between 2 and 4 (few link rays, few near hits a vertex: more rays
-    /// each keep the correction's noise below the links'; see [`Self::rays`]).
-    pub fn for_link_rays(link_rays: u32) -> u32 {
-        (1024 / link_rays.max(1)).clamp(2, 4)
+/// Where one gather ray landed: a front face's triangle and barycentrics
+/// `(u, v)` in units of 1/65535, or [`GatherHit::NONE`].
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct GatherHit {
+    pub tri: u32,
+    pub u: u16,
+    pub v: u16,
+}
+
+impl GatherHit {
+    /// A ray that left the scene or met a back face: it brings nothing.
+    pub const NONE: GatherHit = GatherHit { tri: u32::MAX, u: 0, v: 0 };
+
+    /// The corner weights `(1 - u - v, u, v)`.
+    pub fn barycentrics(&self) -> [f32; 3] {
+        let (u, v) = (self.u as f32 / 65535.0, self.v as f32 / 65535.0);
+        [(1.0 - u - v).max(0.0), u, v]
     }
 }
 
-/// Every vertex's near hits' gather weights (see the module doc).
+/// Every near hit's gather rays (see the module doc).
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct NearGather {
-    /// Vertex `v`'s entries are `offsets[v]..offsets[v + 1]` (empty: none anywhere).
-    pub offsets: Vec<u32>,
-    pub targets: Vec<u32>,
-    /// sr per channel: `rho(h) pi beta / (m n)` summed per target.
-    pub weights: Vec<Vec3>,
+    /// Rays a near hit: near hit `k` (in [`NearHits::hits`] order) owns
+    /// `hits[k * per_hit..(k + 1) * per_hit]`; 0 when there is nothing.
+    pub per_hit: u32,
+    pub hits: Vec<GatherHit>,
     pub rays: u64,
     pub ms: f64,
 }
 
 impl NearGather {
-    /// Traces `params.rays` rays from every near hit of `near` (link rays
-    /// shot `rays_per_vertex` a vertex) with `tracer`.
+    /// Traces `params.rays` rays from every near hit of `near` with `tracer`.
     pub fn compute(
         scene: &PreparedScene,
         near: &NearHits,
         tracer: &dyn Tracer,
         params: &NearGatherParams,
-        rays_per_vertex: u32,
     ) -> crate::Result<NearGather> {
         let start = Instant::now();
         let n = scene.vertex_count();
@@ -112,52 +126,37 @@ impl NearGather {
         if near.is_empty() || params.rays == 0 {
             return Ok(out);
         }
-        out.offsets = vec![0; n + 1];
-        let scale = std::f32::consts::PI / (params.rays as f32 * rays_per_vertex.max(1) as f32);
+        out.per_hit = params.rays;
+        out.hits.reserve(near.hits.len() * params.rays as usize);
         for range in near.vertex_batches(n, 1 << 16) {
-            let (v0, v1) = (range.start, range.end);
-            let batch: Vec<Vec<(Ray, Vec3)>> = (v0..v1)
+            // Per ray of the batch's near hits in order, its ray (none: a direction under the surface).
+            let batch: Vec<Option<Ray>> = range
                 .into_par_iter()
-                .map(|v| {
+                .flat_map_iter(|v| {
                     let hits = near.of(v);
                     hits.iter()
                         .enumerate()
                         .flat_map(|(i, h)| {
                             let rank = hits[..i].iter().filter(|o| o.tri == h.tri).count();
-                            let w = albedo_at(scene, h) * scale;
-                            gather_rays(scene, h, params, v, rank).into_iter().map(move |r| (r, w))
+                            gather_rays(scene, h, params, v, rank)
                         })
-                        .collect()
+                        .collect::<Vec<_>>()
                 })
                 .collect();
-            let rays: Vec<Ray> = batch.iter().flatten().map(|r| r.0).collect();
+            let rays: Vec<Ray> = batch.iter().flatten().copied().collect();
             out.rays += rays.len() as u64;
-            let found = tracer.closest_hits(&rays)?;
-            let mut hit = found.into_iter();
-            for (k, samples) in batch.into_iter().enumerate() {
-                let mut row: Vec<(u32, Vec3)> = Vec::new();
-                for (_, w) in samples {
-                    let Some(y) = hit.next().expect("one answer per ray") else { continue };
-                    if !y.front {
-                        continue;
-                    }
-                    let tri = scene.triangles[y.tri as usize];
-                    for (c, b) in tri.iter().zip(y.barycentrics()) {
-                        row.push((*c, w * b));
-                    }
-                }
-                row.sort_by_key(|e| e.0);
-                let mut merged: Vec<(u32, Vec3)> = Vec::with_capacity(row.len());
-                for (t, w) in row {
-                    match merged.last_mut() {
-                        Some(last) if last.0 == t => last.1 += w,
-                        _ => merged.push((t, w)),
-                    }
-                }
-                out.targets.extend(merged.iter().map(|e| e.0));
-                out.weights.extend(merged.iter().map(|e| e.1));
-                out.offsets[v0 + k + 1] = out.targets.len() as u32;
-            }
+            let mut found = tracer.closest_hits(&rays)?.into_iter();
+            out.hits.extend(batch.iter().map(|r| match r {
+                None => GatherHit::NONE,
+                Some(_) => match found.next().expect("one answer per ray") {
+                    Some(y) if y.front => GatherHit {
+                        tri: y.tri,
+                        u: (y.u.clamp(0.0, 1.0) * 65535.0).round() as u16,
+                        v: (y.v.clamp(0.0, 1.0) * 65535.0).round() as u16,
+                    },
+                    _ => GatherHit::NONE,
+                },
+            }));
         }
         out.ms = start.elapsed().as_secs_f64() * 1e3;
         Ok(out)
@@ -165,13 +164,18 @@ impl NearGather {
 
     /// True when it holds nothing.
     pub fn is_empty(&self) -> bool {
-        self.offsets.is_empty()
+        self.per_hit == 0
+    }
+
+    /// Bytes held.
+    pub fn bytes(&self) -> u64 {
+        std::mem::size_of_val(self.hits.as_slice()) as u64
     }
 
     /// `D_g` of every vertex (module doc), W/m^2, for the radiosity `b_h`
     /// (W/(m^2 sr)) and gathered irradiance `g_h` (W/m^2) with hidden
     /// vertices' stand-ins applied, over the near hits `near` the rays
-    /// were traced from.
+    /// were traced from (zero when they are not those).
     pub fn correction(
         &self,
         scene: &PreparedScene,
@@ -181,77 +185,77 @@ impl NearGather {
         rays_per_vertex: u32,
     ) -> Vec<Vec3> {
         let n = scene.vertex_count();
-        if self.is_empty() || near.offsets.len() != n + 1 {
+        let m = self.per_hit as usize;
+        if self.is_empty() || near.offsets.len() != n + 1 || self.hits.len() != near.hits.len() * m {
             return vec![Vec3::ZERO; n];
         }
         let inv = 1.0 / rays_per_vertex.max(1) as f32;
+        let per_ray = std::f32::consts::PI / m as f32;
+        let at = |tri: u32, beta: [f32; 3], x: &[Vec3]| -> Vec3 {
+            let t = scene.triangles[tri as usize];
+            (0..3).map(|c| x[t[c] as usize] * beta[c]).sum()
+        };
         (0..n)
             .into_par_iter()
             .map(|v| {
-                let r = self.offsets[v] as usize..self.offsets[v + 1] as usize;
-                let gathered: Vec3 =
-                    self.targets[r.clone()].iter().zip(&self.weights[r]).map(|(&t, w)| b_h[t as usize] * *w).sum();
-                let mut interpolated = Vec3::ZERO;
-                for h in near.of(v) {
-                    let tri = scene.triangles[h.tri as usize];
+                let first = near.offsets[v] as usize;
+                let mut d = Vec3::ZERO;
+                for (i, h) in near.of(v).iter().enumerate() {
+                    let k = first + i;
+                    let gathered: Vec3 = self.hits[k * m..(k + 1) * m]
+                        .iter()
+                        .filter(|y| y.tri != GatherHit::NONE.tri)
+                        .map(|y| at(y.tri, y.barycentrics(), b_h))
+                        .sum::<Vec3>()
+                        * per_ray;
                     let beta = [1.0 - h.u - h.v, h.u, h.v];
+                    let tri = scene.triangles[h.tri as usize];
+                    let mut rho = Vec3::ZERO;
+                    let mut interpolated = Vec3::ZERO;
                     for c in 0..3 {
                         let cv = tri[c] as usize;
+                        rho += scene.albedo[cv] * beta[c];
                         interpolated += scene.albedo[cv] * g_h[cv] * beta[c];
                     }
+                    d += rho * gathered - interpolated;
                 }
-                gathered - interpolated * inv
+                d * inv
             })
             .collect()
     }
 
-    /// Checks the structure against `n` vertices: CSR offsets, targets in
-    /// range and ascending per vertex, finite non-negative weights.
-    pub fn validate(&self, n: usize) -> Result<(), String> {
+    /// Checks the structure against `near_hits` near hits of a scene of
+    /// `triangles` triangles: `per_hit` slots a hit, triangles in range,
+    /// barycentrics inside the triangle.
+    pub fn validate(&self, near_hits: usize, triangles: usize) -> Result<(), String> {
         if self.is_empty() {
-            return if self.targets.is_empty() && self.weights.is_empty() {
-                Ok(())
-            } else {
-                Err("targets without offsets".into())
-            };
+            return if self.hits.is_empty() { Ok(()) } else { Err("gather hits without rays a hit".into()) };
         }
-        if self.offsets.len() != n + 1
-            || self.offsets[0] != 0
-            || self.offsets.windows(2).any(|w| w[0] > w[1])
-            || *self.offsets.last().unwrap() as usize != self.targets.len()
-            || self.targets.len() != self.weights.len()
+        if self.hits.len() != near_hits * self.per_hit as usize {
+            return Err(format!("{} gather hits for {near_hits} near hits x {}", self.hits.len(), self.per_hit));
+        }
+        if let Some(y) = self
+            .hits
+            .iter()
+            .find(|y| *y != &GatherHit::NONE && (y.tri as usize >= triangles || y.u as u32 + y.v as u32 > 65536))
         {
-            return Err(format!(
-                "{} offsets, {} targets, {} weights for {n} vertices",
-                self.offsets.len(),
-                self.targets.len(),
-                self.weights.len()
-            ));
-        }
-        for v in 0..n {
-            let row = &self.targets[self.offsets[v] as usize..self.offsets[v + 1] as usize];
-            if row.iter().any(|&t| t as usize >= n) || row.windows(2).any(|w| w[0] >= w[1]) {
-                return Err(format!("vertex {v}: targets out of range or order"));
-            }
-        }
-        if let Some(w) = self.weights.iter().find(|w| !(w.is_finite() && w.min_element() >= 0.0)) {
-            return Err(format!("weight {w}"));
+            return Err(format!("gather hit {y:?} of {triangles} triangles"));
         }
         Ok(())
     }
 }
 
-/// The albedo at near hit `h`, interpolated from its triangle's corners.
-fn albedo_at(scene: &PreparedScene, h: &NearHit) -> Vec3 {
-    let tri = scene.triangles[h.tri as usize];
-    let beta = [1.0 - h.u - h.v, h.u, h.v];
-    (0..3).map(|c| scene.albedo[tri[c] as usize] * beta[c]).sum()
-}
-
-/// The gather rays of near hit `h` of vertex `v` (the `rank`-th of its
-/// hits on that triangle: the directions hash from the vertex, the
-/// triangle and the rank, as [`super::near_sky`]'s).
-fn gather_rays(scene: &PreparedScene, h: &NearHit, params: &NearGatherParams, v: usize, rank: usize) -> Vec<Ray> {
+/// The `params.rays` gather rays of near hit `h` of vertex `v` (the
+/// `rank`-th of its hits on that triangle: the directions hash from the
+/// vertex, the triangle and the rank, as [`super::near_sky`]'s); `None`
+/// for a direction on the horizon.
+fn gather_rays(
+    scene: &PreparedScene,
+    h: &NearHit,
+    params: &NearGatherParams,
+    v: usize,
+    rank: usize,
+) -> Vec<Option<Ray>> {
     let (p, normal, l) = super::near_field::hit_frame(scene, h);
     let eps = params.eps * l;
     let centroid = scene.triangles[h.tri as usize].map(|i| scene.positions[i as usize]).iter().sum::<Vec3>() / 3.0;
@@ -263,7 +267,7 @@ fn gather_rays(scene: &PreparedScene, h: &NearHit, params: &NearGatherParams, v:
     let (t, b) = basis(normal);
     let unit = |x: u64| (x >> 40) as f32 / (1u64 << 24) as f32;
     (0..params.rays)
-        .filter_map(|j| {
+        .map(|j| {
             let hash = splitmix64(key ^ u64::from(j));
             let local = cosine_hemisphere(Vec2::new(unit(hash), unit(splitmix64(hash))));
             let dir = (t * local.x + b * local.y + normal * local.z).normalize_or_zero();

@@ -166,7 +166,6 @@ impl SolveParams {
         p.near_emitter.seed = s.seed;
         p.near_sky.seed = s.seed;
         p.near_gather.seed = s.seed;
-        p.near_gather.rays = crate::exchange::NearGatherParams::for_link_rays(s.rays_per_vertex);
         // Emitters' direct light as many rays as the links (at least 64): its noise falls with theirs.
         p.emitter.samples = s.rays_per_vertex.max(64);
         // Sky portals' rays likewise scale with the links'.

@@ -118,7 +118,7 @@ pub(crate) fn near_gather(
     tracer: &dyn crate::trace::Tracer,
     params: &SolveParams,
 ) -> crate::Result<crate::exchange::NearGather> {
-    crate::exchange::NearGather::compute(scene, &links.near, tracer, &params.near_gather, params.links.rays_per_vertex)
+    crate::exchange::NearGather::compute(scene, &links.near, tracer, &params.near_gather)
 }
 
 /// The emitters' light at the near hits of `links`, traced with `tracer`.

@@ -26,7 +26,10 @@ pub fn solve_with(scene: prep::PreparedScene, params: SolveParams) -> (Solver, S
         .expect("near-hit emitter coefficients valid");
     solver.near_sky.validate(solver.scene.vertex_count()).expect("near-hit sky samples valid");
     solver.emitter_cv().validate(solver.scene.vertex_count()).expect("emitter control variate valid");
-    solver.near_gather.validate(solver.scene.vertex_count()).expect("near-hit gather weights valid");
+    solver
+        .near_gather
+        .validate(solver.links.near.hits.len(), solver.scene.triangles.len())
+        .expect("near-hit gather rays valid");
     solver.noise_check.validate(solver.scene.vertex_count()).expect("noise check valid");
     let sol = solver.solve();
     for v in sol.e_direct.iter().chain(&sol.e_indirect).chain(&sol.e_indirect_raw) {
