@@ -174,6 +174,27 @@ pub(crate) fn hit_frame(scene: &PreparedScene, h: &NearHit) -> (Vec3, Vec3, f32)
     (p, normal, l)
 }
 
+/// Where rays from near hit `h` start, and its triangle's unit normal:
+/// `eps` times the triangle's longest edge off the surface and as far into
+/// the triangle (toward its centroid). A hit on the edge where the floor
+/// meets a wall would otherwise start on the wall's plane, where the CPU
+/// and GPU triangle tests answer a ray into the wall either way, and a
+/// one-sided wall is all that keeps such a ray in the room
+/// ([`super::near_sky`], [`super::near_gather`]).
+pub(crate) fn hit_origin(scene: &PreparedScene, h: &NearHit, eps: f32) -> (Vec3, Vec3) {
+    let (p, normal, l) = hit_frame(scene, h);
+    let centroid = scene.triangles[h.tri as usize].map(|i| scene.positions[i as usize]).iter().sum::<Vec3>() / 3.0;
+    (p + (normal + (centroid - p).normalize_or_zero()) * (eps * l), normal)
+}
+
+/// The rank of near hit `i` of `hits` (one vertex's) among those on its
+/// triangle: with the vertex and the triangle, what the near hits' samples
+/// hash from, so a vertex's hits on other triangles keep their samples
+/// where the CPU and GPU tracers give it one near hit more or less.
+pub(crate) fn rank_on_triangle(hits: &[NearHit], i: usize) -> usize {
+    hits[..i].iter().filter(|o| o.tri == hits[i].tri).count()
+}
+
 /// The geometry term of `light` at near hit `h` and its shadow ray (none
 /// where `G = 0` or where the light sits on the surface).
 fn shadow_ray(scene: &PreparedScene, h: &NearHit, light: &Light, params: &LightLinkParams) -> (f32, Option<Ray>) {

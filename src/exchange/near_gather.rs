@@ -137,8 +137,7 @@ impl NearGather {
                     hits.iter()
                         .enumerate()
                         .flat_map(|(i, h)| {
-                            let rank = hits[..i].iter().filter(|o| o.tri == h.tri).count();
-                            gather_rays(scene, h, params, v, rank)
+                            gather_rays(scene, h, params, v, super::near_field::rank_on_triangle(hits, i))
                         })
                         .collect::<Vec<_>>()
                 })
@@ -256,10 +255,7 @@ fn gather_rays(
     v: usize,
     rank: usize,
 ) -> Vec<Option<Ray>> {
-    let (p, normal, l) = super::near_field::hit_frame(scene, h);
-    let eps = params.eps * l;
-    let centroid = scene.triangles[h.tri as usize].map(|i| scene.positions[i as usize]).iter().sum::<Vec3>() / 3.0;
-    let origin = p + normal * eps + (centroid - p).normalize_or_zero() * eps;
+    let (origin, normal) = super::near_field::hit_origin(scene, h, params.eps);
     let key = splitmix64(
         splitmix64(splitmix64(params.seed ^ 0x9b05_688c_2b3e_6c1f) ^ v as u64)
             ^ (u64::from(h.tri) | (rank as u64) << 32),

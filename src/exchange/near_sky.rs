@@ -147,8 +147,7 @@ impl NearSky {
                         .enumerate()
                         .flat_map(|(i, h)| {
                             let rho = albedo_at(scene, h) * inv;
-                            // Its rank among the vertex's hits on its triangle.
-                            let rank = hits[..i].iter().filter(|o| o.tri == h.tri).count();
+                            let rank = super::near_field::rank_on_triangle(hits, i);
                             candidates(scene, h, portals, params, v, rank)
                                 .into_iter()
                                 .map(move |c| (c.ray, rho * c.weight))
@@ -284,14 +283,7 @@ fn candidates(
     v: usize,
     rank: usize,
 ) -> Vec<Candidate> {
-    let (p, normal, l) = super::near_field::hit_frame(scene, h);
-    let eps = params.eps * l;
-    // Off the surface, and `eps` into the triangle: a hit on the edge where
-    // the floor meets a wall would start on the wall's plane, where the
-    // CPU and GPU triangle tests answer a ray into the wall either way (and
-    // a one-sided wall is all that keeps it in the room).
-    let centroid = scene.triangles[h.tri as usize].map(|i| scene.positions[i as usize]).iter().sum::<Vec3>() / 3.0;
-    let origin = p + normal * eps + (centroid - p).normalize_or_zero() * eps;
+    let (origin, normal) = super::near_field::hit_origin(scene, h, params.eps);
     let hit = u64::from(h.tri) | (rank as u64) << 32;
     let key = splitmix64(splitmix64(splitmix64(params.seed ^ 0x3c6e_f372_fe94_f82b) ^ v as u64) ^ hit) << 20;
     let mut out = Vec::new();
