@@ -106,7 +106,7 @@ pub fn sweep(
             let t = Instant::now();
             let mut g = solver.gather_corrected(e_source, &gp);
             src.add_control_variate(&mut g.e_indirect);
-            let d = solver.near_gather_correction(&src, &g.e_indirect, &solver.stand_ins_shared());
+            let d = solver.near_gather_correction(&src, &g.e_indirect, &solver.stand_ins());
             g.e_indirect.iter_mut().zip(&d).for_each(|(e, d)| *e += *d);
             g.ms = t.elapsed().as_secs_f64() * 1e3;
             for smoothing in [angle, 0.0] {

@@ -205,8 +205,8 @@ pub fn run(args: SolveArgs) -> Result<()> {
     if s.near_hits > 0 {
         println!(
             "near hits        {} ({:.1}% of the rays; exact direct light at them: {} shadow rays, {:.1} ms; \
-             emitters' light at them: {} shadow rays, {:.1} ms; the sky's: {} rays, {:.1} ms; \
-             the final gather from them: {} rays, {:.1} ms)",
+             emitters' light at them: {} shadow rays, {:.1} ms; the sky's: {} rays, {:.1} ms, {:.2} MB; \
+             the final gather from them: {} rays, {:.1} ms, {:.2} MB)",
             s.near_hits,
             100.0 * s.near_hits as f64 / s.links.rays.max(1) as f64,
             s.near_rays,
@@ -215,8 +215,10 @@ pub fn run(args: SolveArgs) -> Result<()> {
             s.near_emitter_ms,
             s.near_sky_rays,
             s.near_sky_ms,
+            mb(solver.near_sky.bytes()),
             s.near_gather_rays,
-            s.near_gather_ms
+            s.near_gather_ms,
+            mb(solver.near_gather.bytes())
         );
     }
     println!(

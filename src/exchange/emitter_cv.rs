@@ -55,7 +55,7 @@
 use super::emitter_links::NO_GROUP;
 use super::EmitterLinks;
 use crate::links::Links;
-use crate::scene::prep::PreparedScene;
+use crate::scene::prep::{check_offsets, PreparedScene};
 use glam::{Vec3, Vec4};
 use rayon::prelude::*;
 use std::f32::consts::PI;
@@ -215,12 +215,9 @@ impl EmitterCv {
                 self.offsets.len()
             ));
         }
-        if self.offsets[0] != 0
-            || self.offsets.windows(2).any(|w| w[0] > w[1])
-            || *self.offsets.last().unwrap() as usize != self.entry_groups.len()
-            || self.entry_groups.len() != self.coefficients.len()
-        {
-            return Err("offsets, groups and coefficients disagree".into());
+        check_offsets(&self.offsets, n, self.entry_groups.len())?;
+        if self.entry_groups.len() != self.coefficients.len() {
+            return Err("groups and coefficients disagree in length".into());
         }
         if self
             .entry_groups

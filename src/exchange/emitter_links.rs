@@ -265,11 +265,9 @@ impl EmitterLinks {
                 self.covered.len()
             ));
         }
-        if self.offsets[0] != 0 || self.offsets.windows(2).any(|w| w[0] > w[1]) {
-            return Err("offsets do not rise from 0".into());
-        }
-        if *self.offsets.last().unwrap() as usize != self.groups.len() || self.groups.len() != self.factors.len() {
-            return Err("offsets, groups and factors disagree in length".into());
+        crate::scene::prep::check_offsets(&self.offsets, n, self.groups.len())?;
+        if self.groups.len() != self.factors.len() {
+            return Err("groups and factors disagree in length".into());
         }
         if let Some(g) = self.groups.iter().find(|&&g| g as usize >= self.group_vertex.len()) {
             return Err(format!("group {g} of {}", self.group_vertex.len()));

@@ -31,7 +31,7 @@ use super::EmitterLinks;
 use crate::kdtree::traverse::{Ray, NO_SKIP};
 use crate::links::NearHits;
 use crate::sampling::splitmix64;
-use crate::scene::prep::PreparedScene;
+use crate::scene::prep::{check_offsets, PreparedScene};
 use crate::trace::Tracer;
 use glam::Vec3;
 use rayon::prelude::*;
@@ -158,7 +158,7 @@ impl NearEmitters {
                 for (h, s) in near.of(v).iter().zip(per_hit) {
                     let tri = scene.triangles[h.tri as usize];
                     let beta = [1.0 - h.u - h.v, h.u, h.v];
-                    let rho: Vec3 = (0..3).map(|c| scene.albedo[tri[c] as usize] * beta[c]).sum();
+                    let rho = super::near_field::hit_albedo(scene, h);
                     for (g, scale, weights) in &s.parts {
                         let seen: f32 = weights
                             .iter()
@@ -218,18 +218,9 @@ impl NearEmitters {
         if self.offsets.is_empty() && self.groups.is_empty() && self.coefficients.is_empty() {
             return Ok(());
         }
-        if self.offsets.len() != n + 1
-            || self.offsets[0] != 0
-            || self.offsets.windows(2).any(|w| w[0] > w[1])
-            || *self.offsets.last().unwrap() as usize != self.groups.len()
-            || self.groups.len() != self.coefficients.len()
-        {
-            return Err(format!(
-                "{} offsets, {} groups, {} coefficients for {n} vertices",
-                self.offsets.len(),
-                self.groups.len(),
-                self.coefficients.len()
-            ));
+        check_offsets(&self.offsets, n, self.groups.len())?;
+        if self.groups.len() != self.coefficients.len() {
+            return Err(format!("{} groups, {} coefficients", self.groups.len(), self.coefficients.len()));
         }
         for v in 0..n {
             let row = &self.groups[self.offsets[v] as usize..self.offsets[v + 1] as usize];

@@ -134,15 +134,7 @@ impl NearLight {
                 let first = near.offsets[v] as usize;
                 let mut d = Vec3::ZERO;
                 for (i, h) in near.of(v).iter().enumerate() {
-                    let tri = scene.triangles[h.tri as usize];
-                    let w = [1.0 - h.u - h.v, h.u, h.v];
-                    let mut rho = Vec3::ZERO;
-                    let mut interpolated = Vec3::ZERO;
-                    for c in 0..3 {
-                        let a = scene.albedo[tri[c] as usize] * w[c];
-                        rho += a;
-                        interpolated += a * e_src[tri[c] as usize];
-                    }
+                    let (rho, interpolated) = albedo_and_interpolated(scene, h, e_src);
                     let e_d: Vec3 = powers.iter().zip(&self.columns).map(|(p, col)| *p * col[first + i]).sum();
                     d += rho * e_d - interpolated;
                 }
@@ -172,6 +164,30 @@ pub(crate) fn hit_frame(scene: &PreparedScene, h: &NearHit) -> (Vec3, Vec3, f32)
     let normal = (b - a).cross(c - a).normalize_or_zero();
     let l = (b - a).length().max((c - b).length()).max((a - c).length()).max(f32::MIN_POSITIVE);
     (p, normal, l)
+}
+
+/// The albedo at near hit `h` (`sum_c beta_c rho_c`, interpolated from its
+/// triangle's corners).
+pub(crate) fn hit_albedo(scene: &PreparedScene, h: &NearHit) -> Vec3 {
+    albedo_and_interpolated(scene, h, &[]).0
+}
+
+/// The albedo at near hit `h` and what its corners interpolate of the
+/// per-vertex irradiance `x` reflected, `sum_c beta_c rho_c x(c)` (W/m^2;
+/// `x` empty: zero): what a link brought of `x`'s reflection at the hit,
+/// which the near-hit corrections replace.
+pub(crate) fn albedo_and_interpolated(scene: &PreparedScene, h: &NearHit, x: &[Vec3]) -> (Vec3, Vec3) {
+    let tri = scene.triangles[h.tri as usize];
+    let beta = [1.0 - h.u - h.v, h.u, h.v];
+    let (mut rho, mut interpolated) = (Vec3::ZERO, Vec3::ZERO);
+    for c in 0..3 {
+        let a = scene.albedo[tri[c] as usize] * beta[c];
+        rho += a;
+        if let Some(xc) = x.get(tri[c] as usize) {
+            interpolated += a * *xc;
+        }
+    }
+    (rho, interpolated)
 }
 
 /// Where rays from near hit `h` start, and its triangle's unit normal:

@@ -22,9 +22,8 @@
 //! not carried on through them: a second-order term) and smoothed with it.
 //!
 //! Stored: where each gather ray landed (triangle and barycentrics to
-//! 2^-16, 8 bytes a ray: 28 MB for tearoom's 3.5M at 1024 rays; the
-//! corners merged with their RGB weights per vertex took 3x that), so a
-//! new radiosity (a moved light, a changed sky) needs no ray. Rays start `eps * l` off and
+//! 2^-16, 8 bytes a ray: 28 MB for tearoom's 3.5M at 1024 rays), so a new
+//! radiosity (a moved light, a changed sky) needs no ray. Rays start `eps * l` off and
 //! into the hit's triangle (l its longest edge), as the sky's near-hit
 //! rays. Units: irradiance W/m^2, radiosity W/(m^2 sr), lengths metres.
 //! Measured: see [`NearGatherParams::rays`]; tearoom's bowls' feet
@@ -58,12 +57,12 @@ pub struct NearGatherParams {
     /// hits), at 256 cornell 2.21 / 2.32 / 2.23 / 2.19%, tearoom 2.34 / 2.20
     /// / - / 2.02%; 2 a hit: cornell 4.90 / 2.23 / 0.99%, tearoom 4.70 /
     /// 2.08 / 1.12% at 64 / 256 / 1024. Cost at 1024 link rays on tearoom:
-    /// 1.74M near hits, 3.5M rays at 2 a hit beside the links' 13.3M, about
-    /// 1 s against the links' 1.7 s (arbitrary rays, one at a time: 3.6M
-    /// rays/s against the links' 7.9M). Four a hit lowers the error at 64
+    /// 1.74M near hits, 3.5M rays at 2 a hit beside the links' 13.3M,
+    /// 0.7-1.0 s against the links' 1.7 s in the same runs (arbitrary rays,
+    /// one at a time: 3.6-5.0M rays/s against the links' 7.8-7.9M). Four a hit lowers the error at 64
     /// and 256 link rays a little more but costs more than it gains at
     /// equal time (tearoom 64 rays: 5.0x against the path tracer with 4,
-    /// about 5.8x with 2). Without the stand-ins for
+    /// 5.5x with 2). Without the stand-ins for
     /// hidden vertices (a prototype) cornell read 1.26-1.31% at 1024 rays:
     /// rays from the floor beside a box meet its bottom row, hidden
     /// vertices whose own irradiance is meaningless; added after the
@@ -207,15 +206,7 @@ impl NearGather {
                         .map(|y| at(y.tri, y.barycentrics(), b_h))
                         .sum::<Vec3>()
                         * per_ray;
-                    let beta = [1.0 - h.u - h.v, h.u, h.v];
-                    let tri = scene.triangles[h.tri as usize];
-                    let mut rho = Vec3::ZERO;
-                    let mut interpolated = Vec3::ZERO;
-                    for c in 0..3 {
-                        let cv = tri[c] as usize;
-                        rho += scene.albedo[cv] * beta[c];
-                        interpolated += scene.albedo[cv] * g_h[cv] * beta[c];
-                    }
+                    let (rho, interpolated) = super::near_field::albedo_and_interpolated(scene, h, g_h);
                     d += rho * gathered - interpolated;
                 }
                 d * inv

@@ -53,7 +53,7 @@
 use crate::kdtree::traverse::{Ray, NO_SKIP};
 use crate::links::{NearHit, NearHits};
 use crate::sampling::{basis, cosine_hemisphere, splitmix64};
-use crate::scene::prep::PreparedScene;
+use crate::scene::prep::{check_offsets, PreparedScene};
 use crate::sky::{portal, Portal, Sky};
 use crate::trace::Tracer;
 use glam::{Vec2, Vec3};
@@ -146,7 +146,7 @@ impl NearSky {
                     hits.iter()
                         .enumerate()
                         .flat_map(|(i, h)| {
-                            let rho = albedo_at(scene, h) * inv;
+                            let rho = super::near_field::hit_albedo(scene, h) * inv;
                             let rank = super::near_field::rank_on_triangle(hits, i);
                             candidates(scene, h, portals, params, v, rank)
                                 .into_iter()
@@ -209,15 +209,8 @@ impl NearSky {
                 let r = self.offsets[v] as usize..self.offsets[v + 1] as usize;
                 let exact: Vec3 =
                     self.dirs[r.clone()].iter().zip(&self.weights[r]).map(|(d, w)| radiance(*d) * *w).sum();
-                let mut interpolated = Vec3::ZERO;
-                for h in near.of(v) {
-                    let tri = scene.triangles[h.tri as usize];
-                    let beta = [1.0 - h.u - h.v, h.u, h.v];
-                    for c in 0..3 {
-                        let cv = tri[c] as usize;
-                        interpolated += scene.albedo[cv] * e_sky[cv] * beta[c];
-                    }
-                }
+                let interpolated: Vec3 =
+                    near.of(v).iter().map(|h| super::near_field::albedo_and_interpolated(scene, h, e_sky).1).sum();
                 exact - interpolated * inv
             })
             .collect()
@@ -236,18 +229,9 @@ impl NearSky {
                 Err("directions without offsets".into())
             };
         }
-        if self.offsets.len() != n + 1
-            || self.offsets[0] != 0
-            || self.offsets.windows(2).any(|w| w[0] > w[1])
-            || *self.offsets.last().unwrap() as usize != self.dirs.len()
-            || self.dirs.len() != self.weights.len()
-        {
-            return Err(format!(
-                "{} offsets, {} directions, {} weights for {n} vertices",
-                self.offsets.len(),
-                self.dirs.len(),
-                self.weights.len()
-            ));
+        check_offsets(&self.offsets, n, self.dirs.len())?;
+        if self.dirs.len() != self.weights.len() {
+            return Err(format!("{} directions, {} weights", self.dirs.len(), self.weights.len()));
         }
         if let Some(d) = self.dirs.iter().find(|d| !(d.is_finite() && (d.length() - 1.0).abs() < 1e-3)) {
             return Err(format!("direction {d} is not a unit vector"));
@@ -257,13 +241,6 @@ impl NearSky {
         }
         Ok(())
     }
-}
-
-/// The albedo at near hit `h`, interpolated from its triangle's corners.
-fn albedo_at(scene: &PreparedScene, h: &NearHit) -> Vec3 {
-    let tri = scene.triangles[h.tri as usize];
-    let beta = [1.0 - h.u - h.v, h.u, h.v];
-    (0..3).map(|c| scene.albedo[tri[c] as usize] * beta[c]).sum()
 }
 
 /// The shadow rays of near hit `h` of vertex `v`, the `rank`-th of its

@@ -97,12 +97,7 @@ impl NearHits {
         if self.offsets.is_empty() {
             return if self.hits.is_empty() { Ok(()) } else { Err("near hits without offsets".into()) };
         }
-        if self.offsets.len() != n + 1 || self.offsets[0] != 0 || self.offsets.windows(2).any(|w| w[0] > w[1]) {
-            return Err(format!("near-hit offsets ({}) do not rise from 0 over {n} vertices", self.offsets.len()));
-        }
-        if *self.offsets.last().unwrap() as usize != self.hits.len() {
-            return Err("near-hit offsets and hits disagree in length".into());
-        }
+        crate::scene::prep::check_offsets(&self.offsets, n, self.hits.len()).map_err(|e| format!("near hits: {e}"))?;
         for h in &self.hits {
             let inside = h.u.is_finite() && h.v.is_finite() && h.u >= -1e-6 && h.v >= -1e-6 && h.u + h.v <= 1.0 + 1e-6;
             if h.tri as usize >= triangles || !inside {

@@ -73,6 +73,20 @@ impl Csr {
     }
 }
 
+/// Checks the offsets of a CSR layout (this module's [`Csr`], and the
+/// per-vertex rows of links, near hits and their samples): `rows + 1`
+/// offsets rising from 0 to `entries`.
+pub fn check_offsets(offsets: &[u32], rows: usize, entries: usize) -> std::result::Result<(), String> {
+    if offsets.len() != rows + 1
+        || offsets[0] != 0
+        || offsets.windows(2).any(|w| w[0] > w[1])
+        || offsets[rows] as usize != entries
+    {
+        return Err(format!("{} offsets do not rise from 0 to {entries} entries over {rows} rows", offsets.len()));
+    }
+    Ok(())
+}
+
 /// One-rings of `n` vertices over `triangles`: each vertex's edge
 /// neighbours, sorted.
 pub fn rings_of(triangles: &[[u32; 3]], n: usize) -> Csr {

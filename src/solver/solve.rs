@@ -296,12 +296,7 @@ impl Solver {
 
     /// Hidden vertices and their linkers ([`exchange::hidden::stand_ins`]),
     /// from the cache when the links and hidden-vertex parameters are unchanged.
-    /// The hidden vertices' stand-ins for the current links (computed on first use and kept).
-    pub fn stand_ins_shared(&self) -> Arc<Vec<exchange::hidden::StandIn>> {
-        self.stand_ins()
-    }
-
-    fn stand_ins(&self) -> Arc<Vec<exchange::hidden::StandIn>> {
+    pub(crate) fn stand_ins(&self) -> Arc<Vec<exchange::hidden::StandIn>> {
         let mut cache = self.stand_ins_cache.lock().unwrap_or_else(|p| p.into_inner());
         if let Some((p, v)) = &*cache {
             if *p == self.params.hidden {
