@@ -41,7 +41,8 @@ fn main() {
         })
         .collect();
     for round in 0..1 {
-        for (label, tr) in [("bvh512", &bvhs[0] as &dyn CpuTracer)] {
+        let best = isas.iter().position(|i| i.supported()).expect("portable");
+        for (label, tr) in [(format!("bvh {:?}", isas[best]), &bvhs[best] as &dyn CpuTracer)] {
             let mut out = vec![None::<Hit>; 256];
             let t = Instant::now();
             let mut sum = 0f64;

@@ -103,6 +103,11 @@ fn check(mesh: &Mesh, rays: &[Ray], params: &BvhBuildParams) -> usize {
         for (i, (f, want)) in free.iter().zip(&wants).enumerate() {
             assert_eq!(*f, want.is_none(), "visible_run ray {i} ({isa:?})");
         }
+        let mut near = vec![None; rays.len()];
+        bvh.intersect_run(rays, &mut near);
+        for (i, (got, want)) in near.iter().zip(&wants).enumerate() {
+            assert_eq!(key(*got), key(*want), "intersect_run ray {i} ({isa:?})");
+        }
         // Rays sharing an origin, as a vertex shoots them.
         for (j, r) in rays.iter().enumerate().step_by(331) {
             let dirs: Vec<Vec3> = rays.iter().map(|q| q.dir).collect();

@@ -145,6 +145,25 @@ pub fn intersect8_avx(b: &Block8, o: Vec3, s: &RayShear, skip: u32, tmin: f32, t
             _mm256_or_ps(_mm256_cmp_ps::<_CMP_EQ_OQ>(u, z), _mm256_cmp_ps::<_CMP_EQ_OQ>(v, z)),
             _mm256_cmp_ps::<_CMP_EQ_OQ>(w, z),
         ));
+        let skipped = {
+            let sk = _mm256_set1_epi32(skip as i32);
+            let load = |c: usize| _mm256_load_si256(b.corners[c].as_ptr() as *const __m256i);
+            let eq = _mm256_or_si256(
+                _mm256_or_si256(_mm256_cmpeq_epi32(load(0), sk), _mm256_cmpeq_epi32(load(1), sk)),
+                _mm256_cmpeq_epi32(load(2), sk),
+            );
+            mm(_mm256_castsi256_ps(eq))
+        };
+        let mut h = Hits8 { mask: 0, t: [0.0; LANES], u: [0.0; LANES], v: [0.0; LANES], front: 0 };
+        // Most blocks a ray tests hold no triangle it crosses: those leave
+        // before the division (the lanes' results would all be rejected).
+        // With no edge function zero, a crossed triangle's are all of one
+        // sign: `neg ^ pos` (NaN lanes, unused, set neither).
+        let inside = (neg ^ pos) & !skipped & !zero & 0xff;
+        let redo = zero & !skipped & 0xff;
+        if inside == 0 && redo == 0 {
+            return h;
+        }
         let det = _mm256_add_ps(_mm256_add_ps(u, v), w);
         let t_scaled = _mm256_mul_ps(
             _mm256_set1_ps(s.sz()),
@@ -157,18 +176,8 @@ pub fn intersect8_avx(b: &Block8, o: Vec3, s: &RayShear, skip: u32, tmin: f32, t
             _mm256_cmp_ps::<_CMP_LE_OQ>(t, _mm256_set1_ps(tmax)),
         ));
         let det_zero = mm(_mm256_cmp_ps::<_CMP_EQ_OQ>(det, z));
-        let skipped = {
-            let sk = _mm256_set1_epi32(skip as i32);
-            let load = |c: usize| _mm256_load_si256(b.corners[c].as_ptr() as *const __m256i);
-            let eq = _mm256_or_si256(
-                _mm256_or_si256(_mm256_cmpeq_epi32(load(0), sk), _mm256_cmpeq_epi32(load(1), sk)),
-                _mm256_cmpeq_epi32(load(2), sk),
-            );
-            mm(_mm256_castsi256_ps(eq))
-        };
-        let mut h = Hits8 { mask: 0, t: [0.0; LANES], u: [0.0; LANES], v: [0.0; LANES], front: 0 };
-        let mut mask = !(neg & pos) & !det_zero & in_range & !skipped & !zero & 0xff;
-        if mask == 0 && zero & !skipped == 0 {
+        let mut mask = inside & !det_zero & in_range;
+        if mask == 0 && redo == 0 {
             return h;
         }
         _mm256_storeu_ps(h.t.as_mut_ptr(), t);
@@ -177,7 +186,7 @@ pub fn intersect8_avx(b: &Block8, o: Vec3, s: &RayShear, skip: u32, tmin: f32, t
         h.front = mm(_mm256_cmp_ps::<_CMP_GT_OQ>(det, z));
         // Lanes with an edge function exactly zero: the scalar test, which
         // redoes them in f64.
-        let mut redo = zero & !skipped & 0xff;
+        let mut redo = redo;
         while redo != 0 {
             let l = redo.trailing_zeros() as usize;
             redo &= redo - 1;

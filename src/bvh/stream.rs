@@ -1,5 +1,5 @@
 //! Several rays in flight at once: the rays of one origin (a vertex's link
-//! rays) and runs of shadow rays are walked [`IN_FLIGHT`] at a time, each
+//! rays), runs of closest-hit rays and runs of shadow rays are walked [`IN_FLIGHT`] at a time, each
 //! advanced by one node or leaf in turn, and a finished ray's slot takes
 //! the next ray. A single ray's walk is a chain of dependent loads and
 //! compares (on tearoom's link rays about 10 node steps and 4 leaf tests a
@@ -142,6 +142,42 @@ impl Bvh {
     #[target_feature(enable = "avx2,bmi1,bmi2,popcnt,lzcnt,avx512f,avx512vl")]
     fn origin_avx512(&self, origin: Vec3, skip: u32, dirs: &[Vec3], out: &mut [Option<Hit>]) {
         self.origin_rays::<Avx512>(origin, skip, dirs, out)
+    }
+
+    /// Nearest hits of a run of rays (any origins and directions), walked
+    /// [`IN_FLIGHT`] at a time: `out[i]` for `rays[i]`, the hits of
+    /// [`Bvh::intersect`].
+    pub fn intersect_run(&self, rays: &[Ray], out: &mut [Option<Hit>]) {
+        match self.isa {
+            #[cfg(target_arch = "x86_64")]
+            Isa::Avx512 => {
+                // SAFETY: `self.isa` is only ever a build the CPU supports.
+                unsafe { self.run_avx512(rays, out) }
+            }
+            #[cfg(target_arch = "x86_64")]
+            Isa::Avx2 => {
+                // SAFETY: as above.
+                unsafe { self.run_avx2(rays, out) }
+            }
+            _ => self.run_rays::<Portable>(rays, out),
+        }
+    }
+
+    #[inline(always)]
+    fn run_rays<N: NodeTest>(&self, rays: &[Ray], out: &mut [Option<Hit>]) {
+        self.interleaved::<N, false>(rays.len(), |i| rays[i], |i, h| out[i] = h);
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,bmi1,bmi2,popcnt,lzcnt")]
+    fn run_avx2(&self, rays: &[Ray], out: &mut [Option<Hit>]) {
+        self.run_rays::<Avx2>(rays, out)
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,bmi1,bmi2,popcnt,lzcnt,avx512f,avx512vl")]
+    fn run_avx512(&self, rays: &[Ray], out: &mut [Option<Hit>]) {
+        self.run_rays::<Avx512>(rays, out)
     }
 
     /// Visibility of a run of shadow rays (`true`: nothing on the segment).

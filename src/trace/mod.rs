@@ -64,6 +64,14 @@ pub trait CpuTracer: Sync {
         }
     }
 
+    /// Nearest hits of a run of rays, `out[i]` for `rays[i]`. A tracer may
+    /// walk several at once; the hits are those of [`CpuTracer::intersect`].
+    fn intersect_run(&self, rays: &[Ray], out: &mut [Option<Hit>]) {
+        for (r, o) in rays.iter().zip(out.iter_mut()) {
+            *o = self.intersect(r);
+        }
+    }
+
     /// Visibility of a run of nearby shadow rays (one vertex's
     /// oversampling points), `out[i]` for `rays[i]`. A tracer may carry
     /// start hints from ray to ray; the answers are those of
@@ -80,14 +88,10 @@ impl<T: CpuTracer> Tracer for T {
         CpuTracer::name(self)
     }
 
-    /// Rays split over rayon threads in runs of `RUN`.
+    /// Runs of `RUN` rays ([`CpuTracer::intersect_run`]) over rayon threads.
     fn closest_hits(&self, rays: &[Ray]) -> crate::Result<Vec<Option<Hit>>> {
         let mut out = vec![None; rays.len()];
-        out.par_chunks_mut(RUN).zip(rays.par_chunks(RUN)).for_each(|(o, r)| {
-            for (o, r) in o.iter_mut().zip(r) {
-                *o = self.intersect(r);
-            }
-        });
+        out.par_chunks_mut(RUN).zip(rays.par_chunks(RUN)).for_each(|(o, r)| self.intersect_run(r, o));
         Ok(out)
     }
 
@@ -198,6 +202,13 @@ impl CpuTracer for Accel {
         }
     }
 
+    fn intersect_run(&self, rays: &[Ray], out: &mut [Option<Hit>]) {
+        match self {
+            Accel::Bvh(b) => b.intersect_run(rays, out),
+            Accel::Kd(k) => k.intersect_run(rays, out),
+        }
+    }
+
     fn visible_run(&self, rays: &[Ray], out: &mut [bool]) {
         match self {
             Accel::Bvh(b) => b.visible_run(rays, out),
@@ -275,6 +286,10 @@ impl CpuTracer for Bvh {
 
     fn intersect_origin(&self, origin: Vec3, skip: u32, dirs: &[Vec3], out: &mut [Option<Hit>]) {
         Bvh::intersect_origin(self, origin, skip, dirs, out)
+    }
+
+    fn intersect_run(&self, rays: &[Ray], out: &mut [Option<Hit>]) {
+        Bvh::intersect_run(self, rays, out)
     }
 
     fn visible_run(&self, rays: &[Ray], out: &mut [bool]) {
