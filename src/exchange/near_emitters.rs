@@ -46,7 +46,8 @@ pub struct NearEmitterParams {
     /// with 4, 8 and 16 points alike); 1.25M shadow rays, 0.2 s beside the
     /// emitter links' 2.2M. At 64 and 256 rays: 4.61 -> 4.60%, 2.33 -> 2.27%.
     pub samples: u32,
-    /// Shadow rays start `eps * l` off the hit's triangle (l: its longest edge).
+    /// Shadow rays start `eps * l` off the hit's triangle and as far into
+    /// it (l: its longest edge; [`super::near_field::hit_origin`]).
     pub eps: f32,
     pub seed: u64,
 }
@@ -141,7 +142,9 @@ impl NearEmitters {
             let samples: Vec<Vec<HitSamples>> = (v0..v1)
                 .into_par_iter()
                 .map(|v| {
-                    near.of(v).iter().enumerate().map(|(i, h)| hit_samples(scene, h, &groups, params, v, i)).collect()
+                    let hits = near.of(v);
+                    let rank = |i| super::near_field::rank_on_triangle(hits, i);
+                    hits.iter().enumerate().map(|(i, h)| hit_samples(scene, h, &groups, params, v, rank(i))).collect()
                 })
                 .collect();
             let rays: Vec<Ray> = samples.iter().flatten().flat_map(|s| s.rays.iter().copied()).collect();
@@ -235,23 +238,27 @@ impl NearEmitters {
     }
 }
 
-/// The points and shadow rays of near hit `h` (vertex `v`'s `i`-th: the
-/// points hash from those, so a vertex's samples do not depend on how many
-/// near hits the vertices before it have) toward every group.
+/// The points and shadow rays of near hit `h` (vertex `v`'s `rank`-th on
+/// its triangle: the points hash from the vertex, the triangle and the
+/// rank, as [`super::near_sky`]'s, so a near hit more or less elsewhere,
+/// where the CPU and GPU tracers differ, keeps this hit's points) toward
+/// every group. The rays start where [`super::near_field::hit_origin`]
+/// puts them (off the surface and into the triangle).
 fn hit_samples(
     scene: &PreparedScene,
     h: &crate::links::NearHit,
     groups: &[Group],
     params: &NearEmitterParams,
     v: usize,
-    i: usize,
+    rank: usize,
 ) -> HitSamples {
-    let (p, normal, l) = super::near_field::hit_frame(scene, h);
+    let (_, _, l) = super::near_field::hit_frame(scene, h);
     let eps = params.eps * l;
-    let origin = p + normal * eps;
+    let (origin, normal) = super::near_field::hit_origin(scene, h, params.eps);
     let mut out = HitSamples { rays: Vec::new(), parts: Vec::new() };
     let m = params.samples;
-    let key = splitmix64(splitmix64(params.seed ^ 0x2545_f491_4f6c_dd1d) ^ v as u64) ^ ((i as u64) << 16);
+    let hit = u64::from(h.tri) | (rank as u64) << 32;
+    let key = splitmix64(splitmix64(splitmix64(params.seed ^ 0x2545_f491_4f6c_dd1d) ^ v as u64) ^ hit) << 20;
     for (g, group) in groups.iter().enumerate() {
         if group.triangles.is_empty() {
             continue;
