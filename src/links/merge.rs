@@ -263,12 +263,13 @@ mod tests {
             hit(HIT_MISS, 0.0, 0.0),
             hit(1, 0.3, 0.3),
             hit(2, 0.7, 0.1),
-            hit(0 | HIT_BACK, 0.1, 0.1),
+            hit(HIT_BACK, 0.1, 0.1),
             hit(0, 0.6, 0.2),
         ];
         let merge = |hits: &[HitRecord]| {
             let (mut t, mut w, mut s) = (Vec::new(), Vec::new(), Vec::new());
-            let c = merge_vertex_sums(hits, &triangles, 0.25, &mut MergeScratch::default(), &mut t, &mut w, Some(&mut s));
+            let c =
+                merge_vertex_sums(hits, &triangles, 0.25, &mut MergeScratch::default(), &mut t, &mut w, Some(&mut s));
             (t, w, s, (c.front, c.back, c.miss))
         };
         let first = merge(&hits);

@@ -146,8 +146,13 @@ fn read_hdr(path: &Path) -> Result<(usize, usize, Vec<Vec3>)> {
     // Run-length coding needs at least about 8 bytes per 127 pixels.
     let file_len = std::fs::metadata(path).map(|m| m.len() as usize).unwrap_or(usize::MAX);
     check_size(path, meta.width as usize, meta.height as usize, file_len.saturating_mul(32).saturating_add(1 << 16))?;
-    let px = dec.read_image_hdr().map_err(|e| image_err(path, format!("Radiance HDR pixels: {e}")))?;
-    Ok((meta.width as usize, meta.height as usize, px.into_iter().map(|p| Vec3::from(p.0)).collect()))
+    // Decoded as RGB f32, 12 bytes a pixel.
+    let mut bytes = vec![0u8; meta.width as usize * meta.height as usize * 12];
+    image::ImageDecoder::read_image(dec, &mut bytes)
+        .map_err(|e| image_err(path, format!("Radiance HDR pixels: {e}")))?;
+    let channel = |b: &[u8]| f32::from_ne_bytes([b[0], b[1], b[2], b[3]]);
+    let px = bytes.chunks_exact(12).map(|p| Vec3::new(channel(&p[0..4]), channel(&p[4..8]), channel(&p[8..12])));
+    Ok((meta.width as usize, meta.height as usize, px.collect()))
 }
 
 /// Writes `map` as an OpenEXR file (tests and examples make sky images with it).
