@@ -59,7 +59,8 @@ pub struct NearGatherParams {
     /// 2.08 / 1.12% at 64 / 256 / 1024. Cost at 1024 link rays on tearoom:
     /// 1.74M near hits, 3.5M rays at 2 a hit beside the links' 13.3M,
     /// 0.7-1.0 s against the links' 1.7 s in the same runs (arbitrary rays,
-    /// one at a time: 3.6-5.0M rays/s against the links' 7.8-7.9M). Four a hit lowers the error at 64
+    /// then one at a time: 3.6-5.0M rays/s against the links' 7.8-7.9M;
+    /// now four in flight, `Bvh::intersect_run`). Four a hit lowers the error at 64
     /// and 256 link rays a little more but costs more than it gains at
     /// equal time (tearoom 64 rays: 5.0x against the path tracer with 4,
     /// 5.5x with 2). Without the stand-ins for
