@@ -1,11 +1,15 @@
 //! Export of a solved scene for other tools: `mesh.ply` (binary little-endian
 //! PLY; per vertex position, normal, albedo, direct, smoothed indirect and
-//! sky irradiance in W/m^2 and emitted exitance in W/m^2; faces as
+//! sky irradiance in W/m^2 and emitted exitance in W/m^2, then the
+//! vertex's radiance `rho / pi (E_d + E_sky + E_i) + M / pi` tone mapped
+//! as `linkgi render` does at its default exposure, as `uchar red green
+//! blue`, which mesh viewers show as vertex colours; faces as
 //! `uchar`-counted `uint` lists, in the solver's vertex order with
 //! transforms applied) and `scene.json` (lights, sky, emitters, settings,
 //! stats). Emitters' light reaches other vertices through links, so it is
 //! part of `e_indirect_*`.
 
+use crate::render::{display_rgb8, DEFAULT_EXPOSURE};
 use crate::scene::prep::PreparedScene;
 use crate::scene::{Bounces, Light};
 use crate::sky::SkyModel;
@@ -45,12 +49,21 @@ fn io_err(path: &Path) -> impl FnOnce(std::io::Error) -> Error + '_ {
     move |source| Error::Io { path: path.to_path_buf(), source }
 }
 
+/// Vertex properties written after the floats when colours are written (`uchar`).
+pub const PLY_COLOUR_PROPERTIES: [&str; 3] = ["red", "green", "blue"];
+
 /// Binary little-endian PLY of `scene`'s mesh: the float vertex
-/// properties `names`, whose values `vertex(v)` gives in that order, and
-/// the triangles (the one PLY writer of the project).
-fn ply_with(scene: &PreparedScene, names: &[&str], vertex: impl Fn(usize) -> Vec<Vec3>) -> Vec<u8> {
+/// properties `names`, whose values `vertex(v)` gives in that order, then
+/// (with `colour`) [`PLY_COLOUR_PROPERTIES`], and the triangles (the one
+/// PLY writer of the project).
+fn ply_with(
+    scene: &PreparedScene,
+    names: &[&str],
+    vertex: impl Fn(usize) -> Vec<Vec3>,
+    colour: Option<&dyn Fn(usize) -> [u8; 3]>,
+) -> Vec<u8> {
     let n = scene.vertex_count();
-    let mut out = Vec::with_capacity(300 + n * 4 * names.len() + scene.triangles.len() * 13);
+    let mut out = Vec::with_capacity(300 + n * (4 * names.len() + 3) + scene.triangles.len() * 13);
     let mut header = format!(
         "ply\nformat binary_little_endian 1.0\ncomment linkgi scene {}\n",
         scene.name.replace(['\n', '\r'], " ")
@@ -59,6 +72,11 @@ fn ply_with(scene: &PreparedScene, names: &[&str], vertex: impl Fn(usize) -> Vec
     for p in names {
         header += &format!("property float {p}\n");
     }
+    if colour.is_some() {
+        for p in PLY_COLOUR_PROPERTIES {
+            header += &format!("property uchar {p}\n");
+        }
+    }
     header += &format!("element face {}\nproperty list uchar uint vertex_indices\nend_header\n", scene.triangles.len());
     out.extend_from_slice(header.as_bytes());
     for v in 0..n {
@@ -66,6 +84,9 @@ fn ply_with(scene: &PreparedScene, names: &[&str], vertex: impl Fn(usize) -> Vec
             for c in vec.to_array() {
                 out.extend_from_slice(&c.to_le_bytes());
             }
+        }
+        if let Some(colour) = colour {
+            out.extend_from_slice(&colour(v));
         }
     }
     for t in &scene.triangles {
@@ -79,24 +100,38 @@ fn ply_with(scene: &PreparedScene, names: &[&str], vertex: impl Fn(usize) -> Vec
 
 /// Writes the PLY bytes for `scene` and `solution`.
 pub fn ply_bytes(scene: &PreparedScene, solution: &Solution) -> Vec<u8> {
-    ply_with(scene, &PLY_VERTEX_PROPERTIES, |v| {
-        vec![
-            scene.positions[v],
-            scene.normals[v],
-            scene.albedo[v],
-            solution.e_direct[v],
-            solution.e_indirect[v],
-            solution.e_sky.get(v).copied().unwrap_or_default(),
-            scene.emission[v],
-        ]
-    })
+    let e_sky = |v: usize| solution.e_sky.get(v).copied().unwrap_or_default();
+    let colour = |v: usize| display_rgb8(vertex_radiance(scene, solution, v), DEFAULT_EXPOSURE);
+    ply_with(
+        scene,
+        &PLY_VERTEX_PROPERTIES,
+        |v| {
+            vec![
+                scene.positions[v],
+                scene.normals[v],
+                scene.albedo[v],
+                solution.e_direct[v],
+                solution.e_indirect[v],
+                e_sky(v),
+                scene.emission[v],
+            ]
+        },
+        Some(&colour),
+    )
+}
+
+/// The radiance leaving vertex `v`, W/(m^2 sr): `rho / pi (E_d + E_sky +
+/// E_i) + M / pi` (what `linkgi render` shows at a vertex).
+pub fn vertex_radiance(scene: &PreparedScene, solution: &Solution, v: usize) -> Vec3 {
+    let e = solution.e_direct[v] + solution.e_indirect[v] + solution.e_sky.get(v).copied().unwrap_or_default();
+    (scene.albedo[v] * e + scene.emission[v]) / std::f32::consts::PI
 }
 
 /// The PLY of the mesh alone (`x y z nx ny nz` per vertex and the
 /// triangles), in the solver's vertex order: what other programs that only
 /// need the geometry read (the Embree peer of `linkgi bench`).
 pub fn mesh_ply_bytes(scene: &PreparedScene) -> Vec<u8> {
-    ply_with(scene, &PLY_VERTEX_PROPERTIES[..6], |v| vec![scene.positions[v], scene.normals[v]])
+    ply_with(scene, &PLY_VERTEX_PROPERTIES[..6], |v| vec![scene.positions[v], scene.normals[v]], None)
 }
 
 /// `x` as a JSON number, or null when it is NaN or infinite (e.g. no BVH was built).

@@ -86,11 +86,15 @@ fn solve_time_evaluates_the_deformers() {
         assert!(ok, "{err}");
         let bytes = std::fs::read(dir.join("mesh.ply")).unwrap();
         let at = bytes.windows(11).position(|w| w == b"end_header\n").unwrap() + 11;
-        let f = |i: usize| f32::from_le_bytes(bytes[at + 4 * i..at + 4 * i + 4].try_into().unwrap());
-        // `k` floats a vertex; the first three are the position.
+        // `k` floats and three colour bytes a vertex; the first three floats are the position.
         let k = linkgi::export::PLY_VERTEX_PROPERTIES.len();
+        let stride = 4 * k + linkgi::export::PLY_COLOUR_PROPERTIES.len();
+        let f = |v: usize, i: usize| {
+            let o = at + v * stride + 4 * i;
+            f32::from_le_bytes(bytes[o..o + 4].try_into().unwrap())
+        };
         let n = prep::prepare(&builtin::builtin("torso").unwrap()).unwrap().vertex_count();
-        (0..n).map(|v| glam::Vec3::new(f(k * v), f(k * v + 1), f(k * v + 2))).collect::<Vec<_>>()
+        (0..n).map(|v| glam::Vec3::new(f(v, 0), f(v, 1), f(v, 2))).collect::<Vec<_>>()
     };
     let rest = prep::prepare(&builtin::builtin("torso").unwrap()).unwrap();
     let (expected, _) = deform_scene(&rest, &rest.positions, &rest.normals, 1.3);

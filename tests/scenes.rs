@@ -73,13 +73,38 @@ fn ply_export_carries_the_solution() {
     for p in linkgi::export::PLY_VERTEX_PROPERTIES {
         assert!(header.contains(&format!("property float {p}\n")), "{p}");
     }
+    assert!(header.contains(
+        "property float emission_b\nproperty uchar red\nproperty uchar green\nproperty uchar blue\nelement face"
+    ));
     let props = linkgi::export::PLY_VERTEX_PROPERTIES.len();
-    assert_eq!(bytes.len(), header_end + n * props * 4 + t * 13);
+    let stride = props * 4 + 3;
+    assert_eq!(bytes.len(), header_end + n * stride + t * 13);
     // Vertex 7's indirect red and the last face read back.
-    let rec = header_end + 7 * props * 4;
+    let rec = header_end + 7 * stride;
     let f = |i: usize| f32::from_le_bytes(bytes[rec + 4 * i..rec + 4 * i + 4].try_into().unwrap());
     assert_eq!(f(0), solver.scene.positions[7].x);
     assert_eq!(f(12), sol.e_indirect[7].x);
+    // Every vertex's colour is its radiance from the record's own floats,
+    // tone mapped as renders are.
+    let mut sums = [[0f64; 3]; 2];
+    for v in 0..n {
+        let rec = &bytes[header_end + v * stride..header_end + (v + 1) * stride];
+        let f = |i: usize| f32::from_le_bytes(rec[4 * i..4 * i + 4].try_into().unwrap());
+        let vec = |i: usize| glam::Vec3::new(f(i), f(i + 1), f(i + 2));
+        let (rho, e) = (vec(6), vec(9) + vec(12) + vec(15));
+        let radiance = (rho * e + vec(18)) / std::f32::consts::PI;
+        let rgb = &rec[props * 4..];
+        assert_eq!(rgb, linkgi::render::display_rgb8(radiance, linkgi::render::DEFAULT_EXPOSURE), "vertex {v}");
+        // The red and green walls show their colours.
+        for (k, wall) in [rho.x > 2.0 * rho.y, rho.y > 2.0 * rho.x].into_iter().enumerate() {
+            if wall {
+                for c in 0..3 {
+                    sums[k][c] += rgb[c] as f64;
+                }
+            }
+        }
+    }
+    assert!(sums[0][0] > 1.5 * sums[0][1] && sums[1][1] > 1.5 * sums[1][0], "wall colours {sums:?}");
     let last = &bytes[bytes.len() - 13..];
     assert_eq!(last[0], 3);
     assert_eq!(u32::from_le_bytes(last[9..13].try_into().unwrap()), solver.scene.triangles[t - 1][2]);

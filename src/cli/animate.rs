@@ -44,7 +44,7 @@ pub struct AnimateArgs {
     #[command(flatten)]
     pub overrides: Overrides,
     /// Radiance scale before tone mapping.
-    #[arg(long, default_value_t = 0.6)]
+    #[arg(long, default_value_t = linkgi::render::DEFAULT_EXPOSURE)]
     pub exposure: f32,
     /// Turn the scene's sky about +y at this many degrees per second of
     /// animation time (a gather-only update per frame; ignored without a sky).

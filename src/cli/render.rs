@@ -28,7 +28,7 @@ pub struct RenderArgs {
     #[command(flatten)]
     pub overrides: Overrides,
     /// Radiance scale before tone mapping.
-    #[arg(long, default_value_t = 0.6)]
+    #[arg(long, default_value_t = linkgi::render::DEFAULT_EXPOSURE)]
     pub exposure: f32,
 }
 

@@ -56,7 +56,7 @@ pub struct RenderParams {
     pub width: u32,
     pub height: u32,
     pub view: View,
-    /// Radiance scale before tone mapping. Default 0.6.
+    /// Radiance scale before tone mapping. Default [`DEFAULT_EXPOSURE`].
     pub exposure: f32,
     /// Shadow-map layer size in texels (GPU). Default 1024.
     pub shadow_size: u32,
@@ -65,9 +65,20 @@ pub struct RenderParams {
     pub normal_offset: f32,
 }
 
+/// The radiance scale before tone mapping of renders, animations and the
+/// exported vertex colours, unless set (`--exposure`).
+pub const DEFAULT_EXPOSURE: f32 = 0.6;
+
 impl Default for RenderParams {
     fn default() -> Self {
-        Self { width: 640, height: 480, view: View::Combined, exposure: 0.6, shadow_size: 1024, normal_offset: 0.002 }
+        Self {
+            width: 640,
+            height: 480,
+            view: View::Combined,
+            exposure: DEFAULT_EXPOSURE,
+            shadow_size: 1024,
+            normal_offset: 0.002,
+        }
     }
 }
 
@@ -241,13 +252,19 @@ pub fn srgb(x: f32) -> f32 {
     }
 }
 
+/// One radiance (W/(m^2 sr)) as 8-bit sRGB: exposure, ACES and sRGB
+/// (negative and NaN channels give 0).
+pub fn display_rgb8(radiance: Vec3, exposure: f32) -> [u8; 3] {
+    let l = radiance * exposure;
+    let c = |v: f32| (srgb(aces(v.max(0.0))) * 255.0 + 0.5) as u8;
+    [c(l.x), c(l.y), c(l.z)]
+}
+
 /// Exposure, ACES and sRGB: 8-bit RGB rows, top to bottom.
 pub fn tone_map(img: &HdrImage, exposure: f32) -> image::RgbImage {
     let mut out = image::RgbImage::new(img.width, img.height);
     for (i, p) in out.pixels_mut().enumerate() {
-        let l = img.pixels[i] * exposure;
-        let c = |v: f32| (srgb(aces(v.max(0.0))) * 255.0 + 0.5) as u8;
-        *p = image::Rgb([c(l.x), c(l.y), c(l.z)]);
+        *p = image::Rgb(display_rgb8(img.pixels[i], exposure));
     }
     out
 }
