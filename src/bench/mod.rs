@@ -1,5 +1,5 @@
 //! Benchmark of the pipeline (CPU, GPU or both), laid out like the paper's two tables
-//! (docs/DESIGN.md, "The paper's figures"): sizes (vertices, kd nodes, links raw
+//! (docs/DESIGN.md, "The paper's figures"): sizes (vertices, tree nodes, links raw
 //! and merged in millions, their storage in MB) and times (kd build, link
 //! shooting with its ray rate, light links with their shadow-ray rate, three
 //! bounces, and the time to the first complete solution from the prepared

@@ -20,6 +20,15 @@ fn stat_or_dash(s: &Stat, digits: usize) -> String {
     }
 }
 
+/// The structure a row's rays went through, as the size table names it.
+fn tree(r: &BenchRow) -> &'static str {
+    match r.tracer.as_str() {
+        "bvh" => "bvh8",
+        "" => "?",
+        _ => "kd",
+    }
+}
+
 /// Both tables for `rows` as GitHub markdown.
 pub fn markdown(rows: &[BenchRow]) -> String {
     let mut out = String::new();
@@ -28,7 +37,7 @@ pub fn markdown(rows: &[BenchRow]) -> String {
     let _ = writeln!(out, "### Sizes ({rays} rays per vertex)\n");
     let _ = writeln!(
         out,
-        "| scene | source | vertices | kd nodes | links raw (M) | links merged (M) | MB raw | MB merged |"
+        "| scene | source | vertices | tree nodes | links raw (M) | links merged (M) | MB raw | MB merged |"
     );
     let _ = writeln!(out, "|---|---|---|---|---|---|---|---|");
     // Sizes are the same for every backend (the links are identical): one row a scene.
@@ -41,8 +50,9 @@ pub fn markdown(rows: &[BenchRow]) -> String {
     for r in scenes.iter().filter_map(|s| rows.iter().find(|r| r.scene == *s)) {
         let _ = writeln!(
             out,
-            "| {} | linkgi | {} | {} | {:.2} | {:.2} | {:.1} | {:.1} |",
+            "| {} | linkgi ({}) | {} | {} | {:.2} | {:.2} | {:.1} | {:.1} |",
             r.scene,
+            tree(r),
             r.vertices,
             r.kd_nodes,
             r.links_raw as f64 / 1e6,
@@ -60,12 +70,16 @@ pub fn markdown(rows: &[BenchRow]) -> String {
             );
         }
     }
-    let _ =
-        writeln!(out, "\nThe paper gives one link count without saying raw or merged; it is shown in the raw column.");
+    let _ = writeln!(
+        out,
+        "\nThe paper gives one link count without saying raw or merged; it is shown in the raw column. \
+         Tree: the structure the rays went through (ours: 8-wide BVH nodes with the `bvh` tracer, \
+         kd-tree nodes with `kd` and on the GPU; the paper's: a kd-tree)."
+    );
     let _ = writeln!(out, "\n### Times (median [min, max] of {runs} runs, 3 bounces)\n");
     let _ = writeln!(
         out,
-        "| scene | source | kd ms | links ms | k rays/s | light links ms | k shadow rays/s | bounces ms | first solution s | fps | peak MB |"
+        "| scene | source | tree ms | links ms | k rays/s | light links ms | k shadow rays/s | bounces ms | first solution s | fps | peak MB |"
     );
     let _ = writeln!(out, "|---|---|---|---|---|---|---|---|---|---|---|");
     for scene in &scenes {
@@ -243,7 +257,7 @@ pub fn markdown(rows: &[BenchRow]) -> String {
         let _ = writeln!(
             out,
             "\nOurs: link shooting rate (tracing and merging into links), median of {runs} runs; trace-only: the same rays traced \
-             without merging, best of {runs} passes; the build of the structure the rays go through (`kd ms` above), median. Embree (`../shared/peers/embree_peer`): \
+             without merging, best of {runs} passes; the build of the structure the rays go through (`tree ms` above), median. Embree (`../shared/peers/embree_peer`): \
              the same mesh, {rays} cosine-weighted rays per vertex, best of {runs} traces with as many threads; \
              BVH build `RTC_BUILD_QUALITY_HIGH`, best of 3. Ratios above 1: ours is faster (rays) or slower (build)."
         );
@@ -307,7 +321,9 @@ mod tests {
             ray_state_bytes: 0,
             near_hits: 400_000,
         };
-        BenchRow::from_runs(scene, &sizes, 256, &runs)
+        let mut row = BenchRow::from_runs(scene, &sizes, 256, &runs);
+        row.tracer = "bvh".into();
+        row
     }
 
     #[test]
@@ -337,7 +353,7 @@ mod tests {
         let c = lines.iter().position(|l| l.starts_with("| cornell | linkgi CPU")).unwrap();
         assert!(lines[c + 1].starts_with("| sculpture | linkgi CPU"));
         assert!(lines[c + 2].starts_with("| IPHI | paper, 2 GPUs | 47 |"));
-        assert!(md.contains("| tearoom | linkgi | 11900 | 14000 | 3.00 | 1.00 | 24.0 | 6.0 |"));
+        assert!(md.contains("| tearoom | linkgi (bvh8) | 11900 | 14000 | 3.00 | 1.00 | 24.0 | 6.0 |"), "{md}");
         assert!(md.contains("first solution s") && md.contains("2.00 [1.00, 3.00]"));
         assert!(md.contains("| tearoom | linkgi CPU | 1.0 [0.5, 1.5] | 5.0 [2.5, 7.5] |"), "{md}");
         // Near hits (400k, columns k / 8 ms), no emitters.
@@ -359,7 +375,7 @@ mod tests {
         gpu.peak_mb = 123.4;
         let md = markdown(&[synthetic("tearoom"), gpu]);
         let count = |prefix: &str| md.lines().filter(|l| l.starts_with(prefix)).count();
-        assert_eq!(count("| tearoom | linkgi |"), 1, "{md}");
+        assert_eq!(count("| tearoom | linkgi ("), 1, "{md}");
         assert_eq!(count("| TEAROOM | paper |"), 1, "{md}");
         assert_eq!(count("| TEAROOM | paper, 1 GPU |"), 1, "{md}");
         let lines: Vec<&str> = md.lines().collect();
