@@ -70,10 +70,15 @@ impl Compute {
         ))
     }
 
-    /// "cpu" or the adapters used.
+    /// "cpu (threads, processor, BVH node tests)" or the adapters used.
     pub fn describe(&self) -> String {
         match self {
-            Compute::Cpu => format!("cpu ({} threads)", rayon::current_num_threads()),
+            Compute::Cpu => format!(
+                "cpu ({} threads; {}; BVH node tests {:?})",
+                rayon::current_num_threads(),
+                cpu_model(),
+                crate::bvh::Isa::detect()
+            ),
             Compute::Gpu(g) => {
                 let names: Vec<String> = g.devices.iter().map(|d| d.describe()).collect();
                 let split = if g.logical_per_device > 1 {
@@ -223,7 +228,7 @@ pub struct SolveStats {
     pub tail_relative: f32,
     pub gather_ms: f64,
     pub smooth_ms: f64,
-    /// "cpu (N threads)" or the adapters.
+    /// "cpu (N threads; processor; node tests)" or the adapters.
     pub backend: String,
     /// The tracer the rays went through ("bvh", "kd" or "gpu-kd").
     pub tracer: String,
@@ -592,4 +597,27 @@ pub fn solve(scene: PreparedScene, params: SolveParams) -> (Solver, Solution, So
     let total_ms = t.elapsed().as_secs_f64() * 1e3;
     let stats = solver.stats(&solution, (total_ms - solution.gather.ms).max(0.0));
     (solver, solution, stats)
+}
+
+/// The processor's name with its family and model numbers (Linux:
+/// `/proc/cpuinfo`; a VM's name alone, "AMD EPYC", does not tell Zen 3 from
+/// Zen 4), or the architecture where it cannot be read: figures that set
+/// our tracer beside another depend on it (AVX-512 or not, above all).
+fn cpu_model() -> String {
+    let Ok(info) = std::fs::read_to_string("/proc/cpuinfo") else {
+        return std::env::consts::ARCH.to_string();
+    };
+    // The first processor's value of `key`.
+    let field = |key: &str| {
+        info.lines()
+            .find(|l| l.split(':').next().is_some_and(|k| k.trim() == key))
+            .and_then(|l| l.split_once(':'))
+            .map(|(_, v)| v.split_whitespace().collect::<Vec<_>>().join(" "))
+            .filter(|v| !v.is_empty())
+    };
+    match (field("model name"), field("cpu family"), field("model")) {
+        (Some(name), Some(family), Some(model)) => format!("{name}, family {family} model {model}"),
+        (Some(name), _, _) => name,
+        _ => std::env::consts::ARCH.to_string(),
+    }
 }
