@@ -100,8 +100,11 @@ fn ply_with(
 
 /// Writes the PLY bytes for `scene` and `solution`.
 pub fn ply_bytes(scene: &PreparedScene, solution: &Solution) -> Vec<u8> {
-    let e_sky = |v: usize| solution.e_sky.get(v).copied().unwrap_or_default();
-    let colour = |v: usize| display_rgb8(vertex_radiance(scene, solution, v), DEFAULT_EXPOSURE);
+    // The radiance leaving each vertex, W/(m^2 sr): `rho / pi (E_d + E_sky
+    // + E_i) + M / pi`, what `linkgi render` shows there.
+    let total = solution.total();
+    let radiance = |v: usize| (scene.albedo[v] * total[v] + scene.emission[v]) / std::f32::consts::PI;
+    let colour = |v: usize| display_rgb8(radiance(v), DEFAULT_EXPOSURE);
     ply_with(
         scene,
         &PLY_VERTEX_PROPERTIES,
@@ -112,19 +115,12 @@ pub fn ply_bytes(scene: &PreparedScene, solution: &Solution) -> Vec<u8> {
                 scene.albedo[v],
                 solution.e_direct[v],
                 solution.e_indirect[v],
-                e_sky(v),
+                solution.e_sky_at(v),
                 scene.emission[v],
             ]
         },
         Some(&colour),
     )
-}
-
-/// The radiance leaving vertex `v`, W/(m^2 sr): `rho / pi (E_d + E_sky +
-/// E_i) + M / pi` (what `linkgi render` shows at a vertex).
-pub fn vertex_radiance(scene: &PreparedScene, solution: &Solution, v: usize) -> Vec3 {
-    let e = solution.e_direct[v] + solution.e_indirect[v] + solution.e_sky.get(v).copied().unwrap_or_default();
-    (scene.albedo[v] * e + scene.emission[v]) / std::f32::consts::PI
 }
 
 /// The PLY of the mesh alone (`x y z nx ny nz` per vertex and the

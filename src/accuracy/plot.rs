@@ -76,115 +76,115 @@ pub fn plot(scene: &str, rows: &[SweepRow], ladder: &[PathRow], path: &Path) -> 
     // own PNG encoder would pull in a second version of that crate).
     const SIZE: (u32, u32) = (1000, 700);
     let mut pixels = vec![0u8; SIZE.0 as usize * SIZE.1 as usize * 3];
-    {
-        let root = BitMapBackend::with_buffer(&mut pixels, SIZE).into_drawing_area();
-        root.fill(&WHITE).map_err(plot_err)?;
-        let mut chart = ChartBuilder::on(&root)
-            .caption(format!("{scene}: error of E_d + E_i vs time to solution"), ("sans-serif", 26))
-            .margin(20)
-            .x_label_area_size(55)
-            .y_label_area_size(80)
-            .build_cartesian_2d((x0..x1).log_scale(), (y0..y1).log_scale())
-            .map_err(plot_err)?;
+    let root = BitMapBackend::with_buffer(&mut pixels, SIZE).into_drawing_area();
+    root.fill(&WHITE).map_err(plot_err)?;
+    let mut chart = ChartBuilder::on(&root)
+        .caption(format!("{scene}: error of E_d + E_i vs time to solution"), ("sans-serif", 26))
+        .margin(20)
+        .x_label_area_size(55)
+        .y_label_area_size(80)
+        .build_cartesian_2d((x0..x1).log_scale(), (y0..y1).log_scale())
+        .map_err(plot_err)?;
+    chart
+        .configure_mesh()
+        .x_labels(6)
+        .y_labels(6)
+        .x_label_formatter(&|x| format!("{x:.0}"))
+        .y_label_formatter(&|y| format!("{y}"))
+        .x_desc("run time (ms): links: kd + links + light links + gather + smoothing; path tracer: BVH + paths")
+        .y_desc("relative RMSE of E_d + E_i vs reference")
+        .label_style(("sans-serif", 16))
+        .axis_desc_style(("sans-serif", 18))
+        .draw()
+        .map_err(plot_err)?;
+    let smoothings: Vec<f32> = {
+        let mut s: Vec<f32> = finite.iter().map(|r| r.smoothing_deg).collect();
+        s.sort_by(|a, b| b.total_cmp(a));
+        s.dedup();
+        s
+    };
+    let colours = [RGBColor(31, 119, 180), RGBColor(214, 39, 40), RGBColor(44, 160, 44)];
+    for (i, &s) in smoothings.iter().enumerate() {
+        let c = colours[i % colours.len()];
+        let pts: Vec<(f64, f64)> =
+            finite.iter().filter(|r| r.smoothing_deg == s).map(|r| (r.total_ms.max(1e-3), err(r))).collect();
+        let name = if s > 0.0 { format!("smoothing on ({s:.0} deg)") } else { "smoothing off".to_string() };
         chart
-            .configure_mesh()
-            .x_labels(6)
-            .y_labels(6)
-            .x_label_formatter(&|x| format!("{x:.0}"))
-            .y_label_formatter(&|y| format!("{y}"))
-            .x_desc("run time (ms): links: kd + links + light links + gather + smoothing; path tracer: BVH + paths")
-            .y_desc("relative RMSE of E_d + E_i vs reference")
-            .label_style(("sans-serif", 16))
-            .axis_desc_style(("sans-serif", 18))
-            .draw()
-            .map_err(plot_err)?;
-        let smoothings: Vec<f32> = {
-            let mut s: Vec<f32> = finite.iter().map(|r| r.smoothing_deg).collect();
-            s.sort_by(|a, b| b.total_cmp(a));
-            s.dedup();
-            s
-        };
-        let colours = [RGBColor(31, 119, 180), RGBColor(214, 39, 40), RGBColor(44, 160, 44)];
-        for (i, &s) in smoothings.iter().enumerate() {
-            let c = colours[i % colours.len()];
-            let pts: Vec<(f64, f64)> =
-                finite.iter().filter(|r| r.smoothing_deg == s).map(|r| (r.total_ms.max(1e-3), err(r))).collect();
-            let name = if s > 0.0 { format!("smoothing on ({s:.0} deg)") } else { "smoothing off".to_string() };
-            chart
-                .draw_series(LineSeries::new(pareto(&pts), c.stroke_width(2)))
-                .map_err(plot_err)?
-                .label(name)
-                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 24, y)], c.stroke_width(2)));
-            chart.draw_series(pts.iter().map(|p| Circle::new(*p, 4, c.filled()))).map_err(plot_err)?;
-            // Ray counts along the front.
-            for r in finite.iter().filter(|r| r.smoothing_deg == s && r.bounces == "auto") {
-                chart
-                    .draw_series(std::iter::once(Text::new(
-                        format!("{}", r.rays),
-                        (r.total_ms.max(1e-3) * 1.05, err(r) * 1.08),
-                        ("sans-serif", 14).into_font().color(&c),
-                    )))
-                    .map_err(plot_err)?;
-            }
-        }
-        if !ladder.is_empty() {
-            let pts: Vec<(f64, f64)> = ladder.iter().map(|p| (p.ms.max(1e-3), path_err(p))).collect();
-            chart
-                .draw_series(LineSeries::new(pts.clone(), BLACK.stroke_width(2)))
-                .map_err(plot_err)?
-                .label("path tracer (samples per vertex)")
-                .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 24, y)], BLACK.stroke_width(2)));
-            chart
-                .draw_series(
-                    pts.iter()
-                        .map(|&(x, y)| Rectangle::new([(x / 1.04, y / 1.04), (x * 1.04, y * 1.04)], BLACK.filled())),
-                )
-                .map_err(plot_err)?;
-            for (p, at) in ladder.iter().zip(&pts) {
-                chart
-                    .draw_series(std::iter::once(Text::new(
-                        format!("{}", p.samples),
-                        (at.0 * 1.06, at.1 * 1.1),
-                        ("sans-serif", 14).into_font().color(&BLACK),
-                    )))
-                    .map_err(plot_err)?;
-            }
-            // The ratio at equal time of the auto-bounce, smoothed settings, as text in the lower left.
-            let owned: Vec<PathRow> = ladder.iter().map(|p| (*p).clone()).collect();
-            let mut lines = vec!["path tracer error / link error at equal time:".to_string()];
-            for r in finite.iter().filter(|r| r.bounces == "auto" && r.smoothing_deg > 0.0) {
-                if let Some(e) = error_at(&owned, r.total_ms) {
-                    lines.push(format!("  {} rays: {:.1}x", r.rays, e / err(r)));
-                }
-            }
-            for (i, l) in lines.iter().enumerate() {
-                let y = y0 * (y1 / y0).powf(0.03 + 0.05 * (lines.len() - 1 - i) as f64);
-                chart
-                    .draw_series(std::iter::once(Text::new(l.clone(), (x0 * 1.05, y), ("sans-serif", 15))))
-                    .map_err(plot_err)?;
-            }
-        }
-        if let Some(p) = finite.iter().find(|r| r.is_paper_default()) {
-            let at = (p.total_ms.max(1e-3), err(p));
-            chart.draw_series(std::iter::once(Circle::new(at, 11, BLACK.stroke_width(2)))).map_err(plot_err)?;
+            .draw_series(LineSeries::new(pareto(&pts), c.stroke_width(2)))
+            .map_err(plot_err)?
+            .label(name)
+            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 24, y)], c.stroke_width(2)));
+        chart.draw_series(pts.iter().map(|p| Circle::new(*p, 4, c.filled()))).map_err(plot_err)?;
+        // Ray counts along the front.
+        for r in finite.iter().filter(|r| r.smoothing_deg == s && r.bounces == "auto") {
             chart
                 .draw_series(std::iter::once(Text::new(
-                    "paper default: 256 rays, 3 bounces, smoothing",
-                    (at.0 * 1.12, at.1 * 1.25),
-                    ("sans-serif", 15),
+                    format!("{}", r.rays),
+                    (r.total_ms.max(1e-3) * 1.05, err(r) * 1.08),
+                    ("sans-serif", 14).into_font().color(&c),
                 )))
                 .map_err(plot_err)?;
         }
-        chart
-            .configure_series_labels()
-            .position(SeriesLabelPosition::UpperRight)
-            .label_font(("sans-serif", 16))
-            .border_style(BLACK)
-            .background_style(WHITE.mix(0.9))
-            .draw()
-            .map_err(plot_err)?;
-        root.present().map_err(plot_err)?;
     }
+    if !ladder.is_empty() {
+        let pts: Vec<(f64, f64)> = ladder.iter().map(|p| (p.ms.max(1e-3), path_err(p))).collect();
+        chart
+            .draw_series(LineSeries::new(pts.clone(), BLACK.stroke_width(2)))
+            .map_err(plot_err)?
+            .label("path tracer (samples per vertex)")
+            .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 24, y)], BLACK.stroke_width(2)));
+        chart
+            .draw_series(
+                pts.iter().map(|&(x, y)| Rectangle::new([(x / 1.04, y / 1.04), (x * 1.04, y * 1.04)], BLACK.filled())),
+            )
+            .map_err(plot_err)?;
+        for (p, at) in ladder.iter().zip(&pts) {
+            chart
+                .draw_series(std::iter::once(Text::new(
+                    format!("{}", p.samples),
+                    (at.0 * 1.06, at.1 * 1.1),
+                    ("sans-serif", 14).into_font().color(&BLACK),
+                )))
+                .map_err(plot_err)?;
+        }
+        // The ratio at equal time of the auto-bounce, smoothed settings, as text in the lower left.
+        let owned: Vec<PathRow> = ladder.iter().map(|p| (*p).clone()).collect();
+        let mut lines = vec!["path tracer error / link error at equal time:".to_string()];
+        for r in finite.iter().filter(|r| r.bounces == "auto" && r.smoothing_deg > 0.0) {
+            if let Some(e) = error_at(&owned, r.total_ms) {
+                lines.push(format!("  {} rays: {:.1}x", r.rays, e / err(r)));
+            }
+        }
+        for (i, l) in lines.iter().enumerate() {
+            let y = y0 * (y1 / y0).powf(0.03 + 0.05 * (lines.len() - 1 - i) as f64);
+            chart
+                .draw_series(std::iter::once(Text::new(l.clone(), (x0 * 1.05, y), ("sans-serif", 15))))
+                .map_err(plot_err)?;
+        }
+    }
+    if let Some(p) = finite.iter().find(|r| r.is_paper_default()) {
+        let at = (p.total_ms.max(1e-3), err(p));
+        chart.draw_series(std::iter::once(Circle::new(at, 11, BLACK.stroke_width(2)))).map_err(plot_err)?;
+        chart
+            .draw_series(std::iter::once(Text::new(
+                "paper default: 256 rays, 3 bounces, smoothing",
+                (at.0 * 1.12, at.1 * 1.25),
+                ("sans-serif", 15),
+            )))
+            .map_err(plot_err)?;
+    }
+    chart
+        .configure_series_labels()
+        .position(SeriesLabelPosition::UpperRight)
+        .label_font(("sans-serif", 16))
+        .border_style(BLACK)
+        .background_style(WHITE.mix(0.9))
+        .draw()
+        .map_err(plot_err)?;
+    root.present().map_err(plot_err)?;
+    // The drawing borrows the pixels until it is dropped.
+    drop(chart);
+    drop(root);
     let img =
         image::RgbImage::from_raw(SIZE.0, SIZE.1, pixels).ok_or_else(|| Error::Plot("plot buffer size".into()))?;
     img.save_with_format(path, image::ImageFormat::Png)

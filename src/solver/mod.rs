@@ -286,9 +286,12 @@ pub struct Solution {
 impl Solution {
     /// Total irradiance `E_d + E_sky + E_i` per vertex (`E_i` includes the emitters' direct light), W/m^2.
     pub fn total(&self) -> Vec<Vec3> {
-        (0..self.e_direct.len())
-            .map(|v| self.e_direct[v] + self.e_sky.get(v).copied().unwrap_or_default() + self.e_indirect[v])
-            .collect()
+        (0..self.e_direct.len()).map(|v| self.e_direct[v] + self.e_sky_at(v) + self.e_indirect[v]).collect()
+    }
+
+    /// `E_sky` of vertex `v` (zero without a sky), W/m^2.
+    pub fn e_sky_at(&self, v: usize) -> Vec3 {
+        self.e_sky.get(v).copied().unwrap_or_default()
     }
 }
 
