@@ -3,6 +3,9 @@
 // invocation per vertex, links summed in stored order as on the CPU.
 // `update_bounce`: E_i += E^(b); B = rho * E^(b) / pi; per-workgroup sums of
 // E^(b) for the bounce totals (the CPU adds the partials in f64).
+// `reconstruct_radiosity`: B~[c] = B[c] + sum_n K_cn (B[n] - B[c]), clamped
+// to B's range over the row (src/exchange/reconstruct.rs), before every
+// bounce after the first when the correction is on.
 // Links are compact (src/links/packed.rs): weights are IEEE half floats
 // packed two per u32 (link j in the low half of word j/2 when j is even);
 // targets are gaps in a byte stream: a row is the control bytes of its
@@ -44,6 +47,12 @@ struct GatherUniforms {
 @group(0) @binding(9) var<storage, read> row_starts: array<u32>;
 // `decode_targets`: every link's target, at its link index (segment-relative).
 @group(0) @binding(10) var<storage, read_write> decoded: array<u32>;
+// `reconstruct_radiosity` (src/exchange/reconstruct.rs): the corrected
+// radiosity it writes (what `gather_bounce` then reads as `radiosity`),
+// and its CSR rows of (neighbour, weight bits) pairs.
+@group(0) @binding(11) var<storage, read_write> corrected: array<vec4<f32>>;
+@group(0) @binding(12) var<storage, read> recon_offsets: array<u32>;
+@group(0) @binding(13) var<storage, read> recon_entries: array<vec2<u32>>;
 
 var<workgroup> sums: array<vec4<f32>, WORKGROUP>;
 
@@ -149,4 +158,25 @@ fn update_bounce(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(local_i
     if lid == 0u {
         partials[wid.x + wid.y * params.groups_x] = sums[0];
     }
+}
+
+// Same operations in the same order as `Reconstruction::at` on the CPU.
+@compute @workgroup_size(256)
+fn reconstruct_radiosity(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let c = gid.x + gid.y * params.groups_x * WORKGROUP;
+    if c >= params.vertex_count {
+        return;
+    }
+    let bc = radiosity[c];
+    var acc = bc;
+    var lo = bc;
+    var hi = bc;
+    for (var j = recon_offsets[c]; j < recon_offsets[c + 1u]; j++) {
+        let e = recon_entries[j];
+        let bn = radiosity[e.x];
+        acc += (bn - bc) * bitcast<f32>(e.y);
+        lo = min(lo, bn);
+        hi = max(hi, bn);
+    }
+    corrected[c] = min(max(acc, lo), hi);
 }

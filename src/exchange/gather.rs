@@ -212,6 +212,12 @@ pub struct CpuBounces<'a> {
     e_b: Vec<Vec3>,
     /// Radiosity `rho/pi * E` of the newest bounce, padded to 16 bytes.
     b: Vec<Vec4>,
+    /// The gradient correction of the radiosity each bounce after the
+    /// first gathers ([`super::reconstruct`]; the first bounce's source
+    /// comes corrected), and its output.
+    reconstruction: Option<&'a super::Reconstruction>,
+    corrected: Vec<Vec4>,
+    bounces_run: u32,
 }
 
 /// The radiosity the bounces start from, W/(m^2 sr):
@@ -235,7 +241,17 @@ impl<'a> CpuBounces<'a> {
     pub fn from_radiosity(links: &'a Links, albedo: &'a [Vec3], b0: &[Vec3]) -> Self {
         let n = b0.len();
         let b = b0.iter().map(|b| b.extend(0.0)).collect();
-        Self { links, albedo, stand_ins: &[], e_i: vec![Vec3::ZERO; n], e_b: vec![Vec3::ZERO; n], b }
+        Self {
+            links,
+            albedo,
+            stand_ins: &[],
+            e_i: vec![Vec3::ZERO; n],
+            e_b: vec![Vec3::ZERO; n],
+            b,
+            reconstruction: None,
+            corrected: Vec::new(),
+            bounces_run: 0,
+        }
     }
 
     /// The kernel with the hidden-vertex substitution applied in every
@@ -246,13 +262,29 @@ impl<'a> CpuBounces<'a> {
         self.stand_ins = stand_ins;
         self
     }
+
+    /// The kernel gathering, from the second bounce on, the radiosity
+    /// corrected by `r` ([`super::reconstruct`]; `None`: as it is). The
+    /// starting radiosity is gathered as given.
+    pub fn with_reconstruction(mut self, r: Option<&'a super::Reconstruction>) -> Self {
+        self.reconstruction = r;
+        self
+    }
 }
 
 impl BounceKernel for CpuBounces<'_> {
     fn run_bounces(&mut self, count: u32) -> crate::Result<Vec<[f64; 3]>> {
         let mut totals = Vec::with_capacity(count as usize);
         for _ in 0..count {
-            gather_bounce_padded(self.links, &self.b, &mut self.e_b);
+            match self.reconstruction {
+                Some(r) if self.bounces_run > 0 => {
+                    self.corrected.resize(self.b.len(), Vec4::ZERO);
+                    r.apply(&self.b, &mut self.corrected);
+                    gather_bounce_padded(self.links, &self.corrected, &mut self.e_b);
+                }
+                _ => gather_bounce_padded(self.links, &self.b, &mut self.e_b),
+            }
+            self.bounces_run += 1;
             self.e_i.par_iter_mut().zip(&self.e_b).for_each(|(i, e)| *i += *e);
             self.b
                 .par_iter_mut()

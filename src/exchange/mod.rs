@@ -26,6 +26,7 @@ pub mod near_gather;
 pub mod near_sky;
 pub mod noise;
 pub mod noise_check;
+pub mod reconstruct;
 pub mod smooth;
 
 pub use emitter_cv::EmitterCv;
@@ -38,5 +39,6 @@ pub use near_field::NearLight;
 pub use near_gather::{NearGather, NearGatherParams};
 pub use near_sky::{NearSky, NearSkyParams};
 pub use noise::NoiseParams;
+pub use reconstruct::Reconstruction;
 pub use noise_check::NoiseCheck;
 pub use smooth::{smooth, smooth_adaptive, SmoothMode, SmoothParams};

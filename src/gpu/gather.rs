@@ -43,6 +43,7 @@ pub struct GpuLinks {
     gather: wgpu::ComputePipeline,
     update: wgpu::ComputePipeline,
     decode: wgpu::ComputePipeline,
+    reconstruct: wgpu::ComputePipeline,
     uniforms: wgpu::Buffer,
     segments: Vec<Segment>,
     albedo: wgpu::Buffer,
@@ -146,6 +147,7 @@ impl GpuLinks {
             gather: pipeline("gather_bounce"),
             update: pipeline("update_bounce"),
             decode: pipeline("decode_targets"),
+            reconstruct: pipeline("reconstruct_radiosity"),
             uniforms: uniform_init(d, "update uniforms", &uniforms),
             segments,
             albedo: storage_init(d, "albedo", &vec4s(albedo)),
@@ -185,25 +187,7 @@ impl GpuLinks {
                     .collect::<Vec<_>>(),
             })
         };
-        let gather_groups = self
-            .segments
-            .iter()
-            .map(|g| {
-                bind(
-                    &self.gather,
-                    "gather_bounce bind group",
-                    &[
-                        (0, &g.uniforms),
-                        (1, &g.offsets),
-                        (2, &g.stream),
-                        (3, &g.weights),
-                        (4, &radiosity),
-                        (5, &bounce),
-                        (9, &g.starts),
-                    ],
-                )
-            })
-            .collect();
+        let gather_groups = self.gather_groups(&radiosity, &bounce);
         let update_group = bind(
             &self.update,
             "update_bounce bind group",
@@ -211,6 +195,8 @@ impl GpuLinks {
         );
         GpuBounces {
             links: self,
+            reconstruction: None,
+            bounces_run: 0,
             radiosity,
             bounce,
             total,
@@ -225,6 +211,32 @@ impl GpuLinks {
 }
 
 impl GpuLinks {
+    /// One bind group a segment for `gather_bounce` reading `radiosity`
+    /// and writing `bounce`.
+    fn gather_groups(&self, radiosity: &wgpu::Buffer, bounce: &wgpu::Buffer) -> Vec<wgpu::BindGroup> {
+        self.segments
+            .iter()
+            .map(|g| {
+                self.dev.device.create_bind_group(&wgpu::BindGroupDescriptor {
+                    label: Some("gather_bounce bind group"),
+                    layout: &self.gather.get_bind_group_layout(0),
+                    entries: &[
+                        (0, &g.uniforms),
+                        (1, &g.offsets),
+                        (2, &g.stream),
+                        (3, &g.weights),
+                        (4, radiosity),
+                        (5, bounce),
+                        (9, &g.starts),
+                    ]
+                    .iter()
+                    .map(|(i, b)| wgpu::BindGroupEntry { binding: *i, resource: b.as_entire_binding() })
+                    .collect::<Vec<_>>(),
+                })
+            })
+            .collect()
+    }
+
     /// Every link's target as the WGSL decoder reads it from the uploaded
     /// stream (`decode_targets`), in link order: equal to `Links::targets`.
     pub fn decode_targets(&self) -> Result<Vec<u32>> {
@@ -268,6 +280,12 @@ fn vec4s(v: &[Vec3]) -> Vec<[f32; 4]> {
 /// The per-solve state of the GPU bounce loop.
 pub struct GpuBounces<'a> {
     links: &'a GpuLinks,
+    /// With the radiosity correction ([`crate::exchange::reconstruct`]):
+    /// the corrected radiosity the gather reads and the
+    /// `reconstruct_radiosity` bind group that writes it from `radiosity`
+    /// before every bounce after the first (the first gathers `b0`, copied).
+    reconstruction: Option<(wgpu::Buffer, wgpu::BindGroup)>,
+    bounces_run: u32,
     radiosity: wgpu::Buffer,
     bounce: wgpu::Buffer,
     total: wgpu::Buffer,
@@ -289,6 +307,43 @@ impl GpuBounces<'_> {
     pub fn with_stand_ins(mut self, stand_ins: Vec<crate::exchange::hidden::StandIn>) -> Self {
         self.stand_ins = stand_ins;
         self
+    }
+
+    /// Gathers, from the second bounce on, the radiosity corrected by `r`
+    /// ([`crate::exchange::reconstruct`], as
+    /// [`crate::exchange::gather::CpuBounces::with_reconstruction`]);
+    /// uploads its weights. `None`: unchanged.
+    pub fn with_reconstruction(mut self, r: Option<&crate::exchange::Reconstruction>) -> Result<Self> {
+        let Some(r) = r else { return Ok(self) };
+        let l = self.links;
+        if r.rows() != l.n as usize {
+            return Err(crate::Error::Gpu(format!(
+                "radiosity correction for {} vertices, links for {}",
+                r.rows(),
+                l.n
+            )));
+        }
+        let dev = l.dev.clone();
+        let (corrected, group) = checked(&dev, "uploading the radiosity correction", || {
+            let d = &dev.device;
+            let corrected = storage_init(d, "corrected radiosity", &vec![[0f32; 4]; l.n as usize]);
+            let entries: Vec<[u32; 2]> =
+                r.targets.iter().zip(&r.weights).map(|(t, w)| [*t, w.to_bits()]).collect();
+            let offsets = storage_init(d, "radiosity correction offsets", &r.offsets);
+            let entries = storage_init(d, "radiosity correction entries", &entries);
+            let group = d.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("reconstruct_radiosity bind group"),
+                layout: &l.reconstruct.get_bind_group_layout(0),
+                entries: &[(0, &l.uniforms), (4, &self.radiosity), (11, &corrected), (12, &offsets), (13, &entries)]
+                    .iter()
+                    .map(|(i, b)| wgpu::BindGroupEntry { binding: *i, resource: b.as_entire_binding() })
+                    .collect::<Vec<_>>(),
+            });
+            (corrected, group)
+        })?;
+        self.gather_groups = l.gather_groups(&corrected, &self.bounce);
+        self.reconstruction = Some((corrected, group));
+        Ok(self)
     }
 }
 
@@ -325,6 +380,22 @@ impl GpuBounces<'_> {
         });
         let mut enc = d.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("bounces") });
         for b in 0..count {
+            match &self.reconstruction {
+                Some((corrected, _)) if self.bounces_run == 0 => {
+                    enc.copy_buffer_to_buffer(&self.radiosity, 0, corrected, 0, self.radiosity.size());
+                }
+                Some((_, group)) => {
+                    let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                        label: Some("reconstruct radiosity"),
+                        timestamp_writes: None,
+                    });
+                    pass.set_pipeline(&l.reconstruct);
+                    pass.set_bind_group(0, group, &[]);
+                    pass.dispatch_workgroups(l.groups.0, l.groups.1, 1);
+                }
+                None => {}
+            }
+            self.bounces_run += 1;
             {
                 let mut pass = enc
                     .begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some("bounce"), timestamp_writes: None });

@@ -127,6 +127,9 @@ pub struct SolveParams {
     pub emitter_cv: bool,
     /// The later bounces' light at near hits ([`crate::exchange::near_gather`]).
     pub near_gather: crate::exchange::NearGatherParams,
+    /// Gradient-corrected radiosity at link hits ([`crate::exchange::reconstruct`]):
+    /// removes linear interpolation's dark bias at surfaces' borders; default on.
+    pub reconstruct: bool,
     pub gather: GatherParams,
     /// Correction of hidden vertices as link targets ([`crate::exchange::hidden`]).
     pub hidden: HiddenParams,
@@ -152,6 +155,7 @@ impl Default for SolveParams {
             near_sky: Default::default(),
             emitter_cv: true,
             near_gather: Default::default(),
+            reconstruct: true,
             gather: GatherParams::default(),
             hidden: HiddenParams::default(),
             sky: Default::default(),
@@ -333,6 +337,9 @@ pub struct Solver {
     /// The emitter groups' control variate for the current links
     /// ([`Solver::emitter_cv`]); [`Solver::emitters_changed`] drops it.
     emitter_cv_cache: std::sync::Mutex<Option<Arc<crate::exchange::EmitterCv>>>,
+    /// The radiosity correction's weights for the current geometry
+    /// ([`Solver::reconstruction`]); [`Solver::links_changed`] drops them.
+    reconstruction_cache: std::sync::Mutex<Option<Arc<crate::exchange::Reconstruction>>>,
 }
 
 /// Hidden vertices and their linkers, with the parameters they were found with.
@@ -384,6 +391,7 @@ impl Solver {
             compute: Compute::Cpu,
             ray_hits,
             stand_ins_cache: Default::default(),
+            reconstruction_cache: Default::default(),
             emitter_cv_cache: Default::default(),
         }
     }
@@ -475,6 +483,7 @@ impl Solver {
             compute: compute.clone(),
             ray_hits: None,
             stand_ins_cache: Default::default(),
+            reconstruction_cache: Default::default(),
             emitter_cv_cache: Default::default(),
         })
     }

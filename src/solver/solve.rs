@@ -66,12 +66,14 @@ impl Solver {
     fn solve_as(&self, quick: bool) -> Solution {
         let s = &self.scene;
         let src = self.sources();
-        let b0 = exchange::gather::source_radiosity(&src.e_source, &s.albedo, &src.emission);
+        let reconstruction = self.reconstruction();
+        let b0 = self.links_source(&src.e_source, &src.e_emitter, &src.emission);
         // The hidden-vertex substitution runs inside the bounces, on either kernel.
         let stand_ins = if quick { Arc::default() } else { self.stand_ins() };
         let on_gpu = self.gpu.as_ref().map(|g| {
             g.links
                 .kernel_from_radiosity(&b0, &s.albedo)
+                .and_then(|k| k.with_reconstruction(reconstruction.as_deref()))
                 .and_then(|k| exchange::gather::drive(&mut k.with_stand_ins(stand_ins.to_vec()), &self.params.gather))
         });
         let gather = match on_gpu {
@@ -147,6 +149,11 @@ impl Solver {
     fn near_correction(&self, e_src: &[Vec3], e_sky: Option<&[Vec3]>) -> Vec<Vec3> {
         let s = &self.scene;
         let rays = self.params.links.rays_per_vertex;
+        // The corner terms read what the links read (module doc of `exchange::reconstruct`).
+        let reconstruction = self.reconstruction().filter(|_| !self.links.near.is_empty());
+        let through = |x: &[Vec3]| reconstruction.as_ref().map(|r| r.through_albedo(&s.albedo, x));
+        let e_src_read = through(e_src);
+        let e_src = e_src_read.as_deref().unwrap_or(e_src);
         let mut d = self.near_light.correction(s, &self.links.near, &s.lights, e_src, rays);
         if !self.near_emitters.is_empty() {
             let em = self.near_emitters.correction(&s.emission, &self.emitter_links.group_vertex, s.vertex_count());
@@ -161,6 +168,8 @@ impl Solver {
                     &owned
                 }
             };
+            let e_sky_read = through(e_sky);
+            let e_sky = e_sky_read.as_deref().unwrap_or(e_sky);
             let k = self.near_sky.correction(s, &self.links.near, s.sky.as_ref(), e_sky, rays);
             d.iter_mut().zip(&k).for_each(|(d, k)| *d += *k);
         }
@@ -216,10 +225,17 @@ impl Solver {
         for (h, linkers) in stand_ins {
             g_h[*h] = exchange::hidden::stand_in_irradiance(linkers, |u| gathered[u]);
         }
+        // What the links read of the total and of the gathered part (module
+        // doc of `exchange::reconstruct`); the gather rays read it too.
+        let mut e_h: Vec<Vec3> = src.e_source.iter().zip(&g_h).map(|(e, g)| *e + *g).collect();
+        if let Some(r) = self.reconstruction() {
+            e_h = r.through_albedo(&s.albedo, &e_h);
+            g_h = r.through_albedo(&s.albedo, &g_h);
+        }
         let b_h: Vec<Vec3> = (0..s.vertex_count())
             .into_par_iter()
             .map(|v| {
-                s.albedo[v] / std::f32::consts::PI * (src.e_source[v] + g_h[v])
+                s.albedo[v] / std::f32::consts::PI * e_h[v]
                     + src.emission.get(v).map_or(Vec3::ZERO, |m| *m / std::f32::consts::PI)
             })
             .collect();
@@ -234,7 +250,8 @@ impl Solver {
     pub fn gather_corrected(&self, e_source: &[Vec3], params: &exchange::GatherParams) -> GatherResult {
         let s = &self.scene;
         let emission = self.emitter_links.carried_emission(&s.emission);
-        let b0 = exchange::gather::source_radiosity(e_source, &s.albedo, &emission);
+        let e_emitter = if self.params.reconstruct { self.e_emitter() } else { Vec::new() };
+        let b0 = self.links_source(e_source, &e_emitter, &emission);
         self.gather_cpu(&b0, &self.stand_ins(), params)
     }
 
@@ -313,6 +330,7 @@ impl Solver {
     /// stand-ins); call it after changing `links` in place.
     pub fn links_changed(&mut self) {
         *self.stand_ins_cache.get_mut().unwrap_or_else(|p| p.into_inner()) = None;
+        *self.reconstruction_cache.get_mut().unwrap_or_else(|p| p.into_inner()) = None;
         self.emitters_changed();
     }
 
@@ -338,6 +356,34 @@ impl Solver {
             .clone()
     }
 
+    /// The radiosity correction's weights for the current geometry
+    /// ([`exchange::reconstruct`]), computed on first use and kept; `None`
+    /// when off ([`super::SolveParams::reconstruct`]).
+    pub fn reconstruction(&self) -> Option<Arc<exchange::Reconstruction>> {
+        if !self.params.reconstruct {
+            return None;
+        }
+        let mut cache = self.reconstruction_cache.lock().unwrap_or_else(|p| p.into_inner());
+        Some(cache.get_or_insert_with(|| Arc::new(exchange::Reconstruction::new(&self.scene))).clone())
+    }
+
+    /// The radiosity the first bounce gathers, W/(m^2 sr): `rho/pi E + M/pi`
+    /// for the source irradiance `e_source` and the emission the links
+    /// carry, with `e_source` less the emitters' direct light `e_emitter`
+    /// (empty: none) gradient-corrected when the correction is on
+    /// ([`exchange::reconstruct`]).
+    pub fn links_source(&self, e_source: &[Vec3], e_emitter: &[Vec3], emission: &[Vec3]) -> Vec<Vec3> {
+        let s = &self.scene;
+        let Some(r) = self.reconstruction() else {
+            return exchange::gather::source_radiosity(e_source, &s.albedo, emission);
+        };
+        let em = |v: usize| e_emitter.get(v).copied().unwrap_or(Vec3::ZERO);
+        let rest: Vec<Vec3> = e_source.iter().enumerate().map(|(v, e)| *e - em(v)).collect();
+        let mut read = r.through_albedo(&s.albedo, &rest);
+        read.iter_mut().enumerate().for_each(|(v, e)| *e += em(v));
+        exchange::gather::source_radiosity(&read, &s.albedo, emission)
+    }
+
     /// The CPU bounces from radiosity `b0`, W/(m^2 sr).
     fn gather_cpu(
         &self,
@@ -345,8 +391,10 @@ impl Solver {
         stand_ins: &[exchange::hidden::StandIn],
         params: &exchange::GatherParams,
     ) -> GatherResult {
-        let mut kernel =
-            exchange::gather::CpuBounces::from_radiosity(&self.links, &self.scene.albedo, b0).with_stand_ins(stand_ins);
+        let reconstruction = self.reconstruction();
+        let mut kernel = exchange::gather::CpuBounces::from_radiosity(&self.links, &self.scene.albedo, b0)
+            .with_stand_ins(stand_ins)
+            .with_reconstruction(reconstruction.as_deref());
         exchange::gather::drive(&mut kernel, params).expect("the CPU kernel cannot fail")
     }
 
