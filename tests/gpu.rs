@@ -219,7 +219,10 @@ fn gpu_agrees_window() {
 }
 
 /// Both bounce kernels from the same first radiosity with emission and
-/// sky light (`source_radiosity`), the same links: within 1e-5.
+/// sky light (`source_radiosity`), the same links, with and without the
+/// radiosity correction (`exchange::reconstruct`, the WGSL
+/// `reconstruct_radiosity` against `Reconstruction::at`): within 1e-5;
+/// the correction itself moves some vertex by more than 100 times that.
 #[test]
 fn gpu_gather_with_emission_matches_cpu() {
     let Some(dev) = device() else { return };
@@ -228,14 +231,29 @@ fn gpu_gather_with_emission_matches_cpu() {
     let s = &solver.scene;
     let b0 = exchange::gather::source_radiosity(&sol.e_source, &s.albedo, &s.emission);
     let params = GatherParams { bounces: Bounces::Fixed(5), ..Default::default() };
-    let cpu = drive(&mut exchange::gather::CpuBounces::from_radiosity(&solver.links, &s.albedo, &b0), &params)
-        .expect("cpu gather");
+    let correction = exchange::Reconstruction::new(s);
+    correction.validate(s.vertex_count()).expect("correction valid");
     let gl = GpuLinks::new(dev.clone(), &solver.links, &s.albedo).expect("upload");
-    let gpu = drive(&mut gl.kernel_from_radiosity(&b0, &s.albedo).expect("kernel"), &params).expect("gather");
-    let mean = common::mean(&cpu.e_indirect).max_element();
-    assert!(mean > 0.0);
-    for (a, b) in cpu.e_indirect.iter().zip(&gpu.e_indirect) {
-        assert!(rel(*a, *b, 1e-3 * mean) <= 1e-5, "{a} vs {b}");
+    let mut plain = Vec::new();
+    for r in [None, Some(&correction)] {
+        let cpu = drive(
+            &mut exchange::gather::CpuBounces::from_radiosity(&solver.links, &s.albedo, &b0).with_reconstruction(r),
+            &params,
+        )
+        .expect("cpu gather");
+        let kernel = gl.kernel_from_radiosity(&b0, &s.albedo).and_then(|k| k.with_reconstruction(r));
+        let gpu = drive(&mut kernel.expect("kernel"), &params).expect("gather");
+        let mean = common::mean(&cpu.e_indirect).max_element();
+        assert!(mean > 0.0);
+        for (a, b) in cpu.e_indirect.iter().zip(&gpu.e_indirect) {
+            assert!(rel(*a, *b, 1e-3 * mean) <= 1e-5, "correction {}: {a} vs {b}", r.is_some());
+        }
+        if r.is_none() {
+            plain = cpu.e_indirect;
+        } else {
+            let moved = plain.iter().zip(&cpu.e_indirect).map(|(a, b)| rel(*a, *b, 1e-3 * mean)).fold(0f32, f32::max);
+            assert!(moved > 1e-3, "the correction changed nothing: {moved}");
+        }
     }
 }
 

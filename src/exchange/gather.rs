@@ -4,7 +4,9 @@
 //! `E^(b) = W B_(b-1)`, `B_b = rho/pi * E^(b)`, `E_i = sum_b E^(b)`. One
 //! pass over all links is one bounce. Emission is a source term only: an
 //! emitter's own exitance never appears in its `E_i`, the light it sends
-//! reaches other vertices through their links.
+//! reaches other vertices through their links. With the radiosity
+//! correction on ([`super::reconstruct`]), each bounce after the first
+//! gathers `Btilde = R B_(b-1)` instead (the solver corrects `B_0` itself).
 //!
 //! Bounce count is fixed or `auto`: stop once the newest bounce adds less
 //! than `tolerance` of the running total (per channel, over all vertices).

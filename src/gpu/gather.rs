@@ -2,7 +2,10 @@
 //! the running sums stay on the device; a fixed bounce count is one
 //! submission with no read-back between bounces. `auto` reads back only
 //! the per-workgroup sums of each bounce (16 bytes per 256 vertices) to
-//! decide whether to stop. Irradiance in W/m^2.
+//! decide whether to stop. With the radiosity correction
+//! ([`crate::exchange::reconstruct`]) a `reconstruct_radiosity` dispatch
+//! before every bounce after the first writes the radiosity the gather
+//! reads. Irradiance in W/m^2.
 //!
 //! The links are uploaded as the CPU gather reads them ([`crate::links::packed`]:
 //! the target stream as u32 words, the row starts, f16 weight pairs).
