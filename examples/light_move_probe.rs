@@ -1,5 +1,6 @@
 //! Stage times of a light move (issue 16's conference light-move target):
-//! `cargo run --release --example light_move_probe -- conference`.
+//! `cargo run --release --example light_move_probe -- conference`;
+//! `RECONSTRUCT=0` turns the radiosity correction off.
 use linkgi::exchange;
 use linkgi::scene::{self, prep, Light};
 use linkgi::solver::{SolveParams, Solver};
@@ -13,7 +14,9 @@ fn main() {
     let name = std::env::args().nth(1).unwrap_or_else(|| "conference".into());
     let desc = scene::load(&name).unwrap();
     let scene = prep::prepare(&desc).unwrap();
-    let mut solver = Solver::new(scene, SolveParams::from_settings(&desc.settings), &|_, _| {});
+    let mut params = SolveParams::from_settings(&desc.settings);
+    params.reconstruct = std::env::var("RECONSTRUCT").map_or(true, |v| v != "0");
+    let mut solver = Solver::new(scene, params, &|_, _| {});
     let _ = solver.solve();
     for round in 0..3 {
         if let Some(Light::Point { position, .. }) = solver.scene.lights.first_mut() {

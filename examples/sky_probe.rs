@@ -1,7 +1,7 @@
 //! Error of the link solver against the reference on a scene, per mesh and
 //! per quantity (E_sky, E_i, total): `cargo run --release --example sky_probe -- window 256 1024 [seed]`.
 //! Overrides: `EMITTER_SAMPLES=n` (emitter-link rays), `SKY_SUB=s` (sky refinement), `NOISE_SCALE=x`
-//! (the smoothing's noise calibration), `NOISE_CHECK=m` (its check's vertices), `NOISE_K=k` (neighbours of its local ratio), `LINKERS=k` (a hidden vertex's stand-ins), `NEAR=c` (near hits' length factor), `SMOOTH_SKY=0|1`, `PORTAL_RAYS=m` (rays a vertex and portal), `NEAR_EMITTER=m` (points a near hit and emitter group), `NEAR_SKY=m`, `NEAR_SKY_PORTAL=m` (near hits' sky directions and portal points), `EMITTER_CV=0|1`, `NEAR_GATHER=m` (the final gather's rays a near hit), `REF_DEPTH=d` (the reference's longest path), `SKY_OFF=1`, `EMIT_OFF=1`, `DUMP=file.csv` (per-vertex values).
+//! (the smoothing's noise calibration), `NOISE_CHECK=m` (its check's vertices), `NOISE_K=k` (neighbours of its local ratio), `LINKERS=k` (a hidden vertex's stand-ins), `NEAR=c` (near hits' length factor), `SMOOTH_SKY=0|1`, `PORTAL_RAYS=m` (rays a vertex and portal), `NEAR_EMITTER=m` (points a near hit and emitter group), `NEAR_SKY=m`, `NEAR_SKY_PORTAL=m` (near hits' sky directions and portal points), `EMITTER_CV=0|1`, `NEAR_GATHER=m` (the final gather's rays a near hit), `REF_DEPTH=d` (the reference's longest path), `SKY_OFF=1`, `EMIT_OFF=1`, `DUMP=file.csv` (per-vertex values), `RECONSTRUCT=0|1` (the radiosity correction at link hits).
 use glam::Vec3;
 use linkgi::accuracy::metrics::error_stats;
 use linkgi::reference::{self, ReferenceParams};
@@ -32,6 +32,9 @@ fn main() {
     }
     let s = prep::prepare(&desc).unwrap();
     let mut sp = SolveParams::from_settings(&desc.settings);
+    if let Ok(r) = std::env::var("RECONSTRUCT") {
+        sp.reconstruct = r != "0";
+    }
     if let Ok(n) = std::env::var("EMITTER_SAMPLES") {
         sp.emitter.samples = n.parse().unwrap();
     }

@@ -57,7 +57,10 @@ fn emission_adds_linearly_to_light() {
     // The short box glows.
     glowing.meshes[1].materials.iter_mut().for_each(|m| m.emission = Vec3::new(3.0, 2.0, 1.0));
     let scene = prep::prepare(&glowing).unwrap();
-    let params = linkgi::solver::SolveParams { reconstruct: false, ..linkgi::solver::SolveParams::from_settings(&scene.settings) };
+    let params = linkgi::solver::SolveParams {
+        reconstruct: false,
+        ..linkgi::solver::SolveParams::from_settings(&scene.settings)
+    };
     let (mut solver, both) = common::solve_with(scene, params);
     assert!(both.e_cv.iter().any(|d| *d != Vec3::ZERO), "the box's control variate is on");
     let (lights, emission) = (solver.scene.lights.clone(), solver.scene.emission.clone());

@@ -10,7 +10,7 @@ use linkgi::exchange::gather::gather_bounce;
 use linkgi::scene::{
     builtin, prep, shapes::MeshBuilder, Bounces, Camera, Light, Material, MeshDesc, SceneDesc, Settings,
 };
-use linkgi::solver::{SolveParams, Solution, Solver};
+use linkgi::solver::{Solution, SolveParams, Solver};
 
 fn area_weighted_mean(s: &prep::PreparedScene, e: &[Vec3]) -> Vec3 {
     // Each vertex stands for a third of the area of its triangles.

@@ -39,6 +39,6 @@ pub use near_field::NearLight;
 pub use near_gather::{NearGather, NearGatherParams};
 pub use near_sky::{NearSky, NearSkyParams};
 pub use noise::NoiseParams;
-pub use reconstruct::Reconstruction;
 pub use noise_check::NoiseCheck;
+pub use reconstruct::Reconstruction;
 pub use smooth::{smooth, smooth_adaptive, SmoothMode, SmoothParams};

@@ -330,8 +330,7 @@ impl GpuBounces<'_> {
         let (corrected, group) = checked(&dev, "uploading the radiosity correction", || {
             let d = &dev.device;
             let corrected = storage_init(d, "corrected radiosity", &vec![[0f32; 4]; l.n as usize]);
-            let entries: Vec<[u32; 2]> =
-                r.targets.iter().zip(&r.weights).map(|(t, w)| [*t, w.to_bits()]).collect();
+            let entries: Vec<[u32; 2]> = r.targets.iter().zip(&r.weights).map(|(t, w)| [*t, w.to_bits()]).collect();
             let offsets = storage_init(d, "radiosity correction offsets", &r.offsets);
             let entries = storage_init(d, "radiosity correction entries", &entries);
             let group = d.create_bind_group(&wgpu::BindGroupDescriptor {
