@@ -96,7 +96,7 @@ fn row(s: &PreparedScene, c: usize) -> Vec<(u32, f32)> {
         mu += a * p.iter().map(|q| *q - xc).sum::<Vec3>();
         area += a;
     }
-    if !(area > 0.0) {
+    if area.is_nan() || area <= 0.0 {
         return Vec::new();
     }
     mu /= 8.0 * area;
