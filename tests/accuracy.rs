@@ -236,12 +236,11 @@ fn hidden_substitution_in_the_bounces_equals_the_post_pass() {
 /// Linear interpolation at the link hits reads a wall's radiosity low
 /// toward its borders (`exchange::reconstruct`): the links' `E_i` on the
 /// Cornell box comes out dark on average, by more than the reference's
-/// noise allows; the gradient correction moves the mean at least a
-/// quarter of the way to the reference's and not past it. 1024 rays a
-/// vertex, unsmoothed, against a 1024-path reference (measured: -0.21%
-/// without, -0.04% with, the reference's mean good to 0.07%; against 256
-/// paths -0.42% and -0.25%: the difference of the two does not depend on
-/// the reference).
+/// noise allows; the gradient correction moves the mean at least half of
+/// the way to the reference's and not past it. 1024 rays a vertex,
+/// unsmoothed, against a 1024-path reference (measured: -0.21% without,
+/// +0.00% with, the reference's mean good to 0.07%; the difference of the
+/// two does not depend on the reference).
 #[test]
 fn gradient_correction_shrinks_the_dark_bias() {
     let scene = prep::prepare(&builtin::builtin("cornell").unwrap()).unwrap();
@@ -274,6 +273,6 @@ fn gradient_correction_shrinks_the_dark_bias() {
         bias[0], bias[1]
     );
     assert!(bias[0] < -2.0 * sd, "no dark bias to correct: {:+.4} (noise {sd:.4})", bias[0]);
-    assert!(bias[1] - bias[0] > bias[0].abs() / 4.0, "the correction moved the mean too little: {bias:?}");
+    assert!(bias[1] - bias[0] > bias[0].abs() / 2.0, "the correction moved the mean too little: {bias:?}");
     assert!(bias[1] < 2.0 * sd, "the correction overshoots: {bias:?}");
 }

@@ -49,7 +49,7 @@ fn emissive_furnace_irradiance_is_emission_over_one_minus_albedo() {
 /// solver, its sources edited: the emitter groups' control variate
 /// ([`linkgi::exchange::emitter_cv`]) is part of the estimator, and it
 /// exists only where the links were built with an emitter. The radiosity
-/// correction is off: its clamp to the one-ring's range
+/// correction is off: its clamp to its neighbours' range
 /// ([`linkgi::exchange::reconstruct`]) is not linear.
 #[test]
 fn emission_adds_linearly_to_light() {

@@ -112,9 +112,10 @@ fn stiff_albedo_furnace_and_closed_room() {
 /// the area mean of `E_d + E_i` is exactly `mean E_d / (1 - rho)`. Linear
 /// interpolation at the link hits reads the walls' radiosity low toward
 /// the corners, so the plain links fall short (measured at rho 0.99: 48.8
-/// against 51.7, 5.5% low); the gradient correction must not pass the
-/// balance (no energy created) and must close at least half of the gap
-/// (measured 50.8).
+/// against 51.7, 5.4% low; 487.9 against 516.8 at 0.999); the gradient
+/// correction must not pass the balance (no energy created) and must close
+/// at least three quarters of the gap (measured 51.38 and 513.8: 89% and
+/// 90%).
 fn closer_to_the_closed_balance(plain: &Solver, a: &Solution, corrected: &Solver, b: &Solution, rho: f32) {
     let total = |s: &Solver, x: &Solution| {
         (area_weighted_mean(&s.scene, &x.e_direct).x + area_weighted_mean(&s.scene, &x.e_indirect_raw).x) as f64
@@ -124,7 +125,7 @@ fn closer_to_the_closed_balance(plain: &Solver, a: &Solution, corrected: &Solver
     eprintln!("closed room rho {rho}: area mean E_d + E_i {ta:.4} plain, {tb:.4} corrected, balance {bound:.4}");
     assert!(b.e_indirect_raw.iter().all(|e| e.is_finite() && e.min_element() >= 0.0));
     assert!(tb <= bound * 1.002, "rho {rho}: the correction creates energy: {tb} against {bound}");
-    assert!(bound - tb < 0.5 * (bound - ta), "rho {rho}: {tb} closes too little of the gap from {ta} to {bound}");
+    assert!(bound - tb < 0.25 * (bound - ta), "rho {rho}: {tb} closes too little of the gap from {ta} to {bound}");
 }
 
 fn scaled(desc: &SceneDesc, s: f32) -> SceneDesc {
