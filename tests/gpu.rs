@@ -222,7 +222,8 @@ fn gpu_agrees_window() {
 /// sky light (`source_radiosity`), the same links, with and without the
 /// radiosity correction (`exchange::reconstruct`, the WGSL
 /// `reconstruct_radiosity` against `Reconstruction::at`): within 1e-5;
-/// the correction itself moves some vertex by more than 100 times that.
+/// the correction itself moves some vertex by more than 100 times that,
+/// and a second kernel with the same correction reuses its upload.
 #[test]
 fn gpu_gather_with_emission_matches_cpu() {
     let Some(dev) = device() else { return };
@@ -231,13 +232,14 @@ fn gpu_gather_with_emission_matches_cpu() {
     let s = &solver.scene;
     let b0 = exchange::gather::source_radiosity(&sol.e_source, &s.albedo, &s.emission);
     let params = GatherParams { bounces: Bounces::Fixed(5), ..Default::default() };
-    let correction = exchange::Reconstruction::new(s);
+    let correction = std::sync::Arc::new(exchange::Reconstruction::new(s));
     correction.validate(s.vertex_count()).expect("correction valid");
     let gl = GpuLinks::new(dev.clone(), &solver.links, &s.albedo).expect("upload");
     let mut plain = Vec::new();
     for r in [None, Some(&correction)] {
         let cpu = drive(
-            &mut exchange::gather::CpuBounces::from_radiosity(&solver.links, &s.albedo, &b0).with_reconstruction(r),
+            &mut exchange::gather::CpuBounces::from_radiosity(&solver.links, &s.albedo, &b0)
+                .with_reconstruction(r.map(|r| &**r)),
             &params,
         )
         .expect("cpu gather");
@@ -251,6 +253,12 @@ fn gpu_gather_with_emission_matches_cpu() {
         if r.is_none() {
             plain = cpu.e_indirect;
         } else {
+            // A second kernel with the same correction uploads nothing and gathers the same.
+            assert_eq!(gl.correction_uploads(), 1);
+            let again = gl.kernel_from_radiosity(&b0, &s.albedo).and_then(|k| k.with_reconstruction(r));
+            let again = drive(&mut again.expect("kernel"), &params).expect("gather");
+            assert_eq!(gl.correction_uploads(), 1, "the same correction uploaded twice");
+            assert_eq!(again.e_indirect, gpu.e_indirect);
             let moved = plain.iter().zip(&cpu.e_indirect).map(|(a, b)| rel(*a, *b, 1e-3 * mean)).fold(0f32, f32::max);
             assert!(moved > 1e-3, "the correction changed nothing: {moved}");
         }

@@ -40,6 +40,10 @@ struct Segment {
     links: usize,
 }
 
+/// A radiosity correction's CSR on the device: offsets and
+/// (neighbour, weight bits) entries.
+type UploadedCorrection = (Arc<crate::exchange::Reconstruction>, wgpu::Buffer, wgpu::Buffer);
+
 /// Links and albedo resident on one device.
 pub struct GpuLinks {
     pub dev: Arc<GpuDevice>,
@@ -47,6 +51,12 @@ pub struct GpuLinks {
     update: wgpu::ComputePipeline,
     decode: wgpu::ComputePipeline,
     reconstruct: wgpu::ComputePipeline,
+    /// The radiosity correction's weights last uploaded, with the `Arc`
+    /// they came from (held, so a new correction never shares its address):
+    /// a light move uploads nothing, a deformation (a new correction) anew.
+    corrections: std::sync::Mutex<Option<UploadedCorrection>>,
+    /// Corrections uploaded so far ([`GpuLinks::correction_uploads`]).
+    correction_uploads: std::sync::atomic::AtomicU32,
     uniforms: wgpu::Buffer,
     segments: Vec<Segment>,
     albedo: wgpu::Buffer,
@@ -151,6 +161,8 @@ impl GpuLinks {
             update: pipeline("update_bounce"),
             decode: pipeline("decode_targets"),
             reconstruct: pipeline("reconstruct_radiosity"),
+            corrections: Default::default(),
+            correction_uploads: Default::default(),
             uniforms: uniform_init(d, "update uniforms", &uniforms),
             segments,
             albedo: storage_init(d, "albedo", &vec4s(albedo)),
@@ -214,6 +226,30 @@ impl GpuLinks {
 }
 
 impl GpuLinks {
+    /// The device buffers of correction `r`, uploaded unless they are the
+    /// last ones uploaded.
+    fn upload_correction(&self, r: &Arc<crate::exchange::Reconstruction>) -> (wgpu::Buffer, wgpu::Buffer) {
+        let mut cache = self.corrections.lock().unwrap_or_else(|p| p.into_inner());
+        if let Some((a, offsets, entries)) = &*cache {
+            if Arc::ptr_eq(a, r) {
+                return (offsets.clone(), entries.clone());
+            }
+        }
+        let d = &self.dev.device;
+        let entries: Vec<[u32; 2]> = r.targets.iter().zip(&r.weights).map(|(t, w)| [*t, w.to_bits()]).collect();
+        let offsets = storage_init(d, "radiosity correction offsets", &r.offsets);
+        let entries = storage_init(d, "radiosity correction entries", &entries);
+        *cache = Some((r.clone(), offsets.clone(), entries.clone()));
+        self.correction_uploads.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        (offsets, entries)
+    }
+
+    /// How many radiosity corrections were uploaded (a kernel with the
+    /// last one uploaded reuses its buffers).
+    pub fn correction_uploads(&self) -> u32 {
+        self.correction_uploads.load(std::sync::atomic::Ordering::Relaxed)
+    }
+
     /// One bind group a segment for `gather_bounce` reading `radiosity`
     /// and writing `bounce`.
     fn gather_groups(&self, radiosity: &wgpu::Buffer, bounce: &wgpu::Buffer) -> Vec<wgpu::BindGroup> {
@@ -316,7 +352,7 @@ impl GpuBounces<'_> {
     /// ([`crate::exchange::reconstruct`], as
     /// [`crate::exchange::gather::CpuBounces::with_reconstruction`]);
     /// uploads its weights. `None`: unchanged.
-    pub fn with_reconstruction(mut self, r: Option<&crate::exchange::Reconstruction>) -> Result<Self> {
+    pub fn with_reconstruction(mut self, r: Option<&Arc<crate::exchange::Reconstruction>>) -> Result<Self> {
         let Some(r) = r else { return Ok(self) };
         let l = self.links;
         if r.rows() != l.n as usize {
@@ -330,9 +366,7 @@ impl GpuBounces<'_> {
         let (corrected, group) = checked(&dev, "uploading the radiosity correction", || {
             let d = &dev.device;
             let corrected = storage_init(d, "corrected radiosity", &vec![[0f32; 4]; l.n as usize]);
-            let entries: Vec<[u32; 2]> = r.targets.iter().zip(&r.weights).map(|(t, w)| [*t, w.to_bits()]).collect();
-            let offsets = storage_init(d, "radiosity correction offsets", &r.offsets);
-            let entries = storage_init(d, "radiosity correction entries", &entries);
+            let (offsets, entries) = l.upload_correction(r);
             let group = d.create_bind_group(&wgpu::BindGroupDescriptor {
                 label: Some("reconstruct_radiosity bind group"),
                 layout: &l.reconstruct.get_bind_group_layout(0),

@@ -73,7 +73,7 @@ impl Solver {
         let on_gpu = self.gpu.as_ref().map(|g| {
             g.links
                 .kernel_from_radiosity(&b0, &s.albedo)
-                .and_then(|k| k.with_reconstruction(reconstruction.as_deref()))
+                .and_then(|k| k.with_reconstruction(reconstruction.as_ref()))
                 .and_then(|k| exchange::gather::drive(&mut k.with_stand_ins(stand_ins.to_vec()), &self.params.gather))
         });
         let gather = match on_gpu {
