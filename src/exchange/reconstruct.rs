@@ -37,7 +37,8 @@
 //! fixed weights `K_cn`: one sparse pass per bounce, about as costly as a
 //! one-ring smoothing. The clamp to the row's range keeps the pass from
 //! raising the largest radiosity (the bounces' convergence and the energy
-//! bound rest on that); measured, it almost never acts.
+//! bound rest on that); measured with the first, plane-fit version,
+//! cornell's figures were the same to 4 digits without it.
 //!
 //! Where it applies: to the radiosity every bounce gathers (the CPU
 //! kernel, [`super::gather::CpuBounces`], and the WGSL one,
@@ -258,11 +259,6 @@ impl Reconstruction {
         self.offsets.len().saturating_sub(1)
     }
 
-    /// Bytes of the weights.
-    pub fn bytes(&self) -> usize {
-        4 * (self.offsets.len() + self.targets.len() + self.weights.len())
-    }
-
     /// `Btilde` of vertex `c` (module doc) from `b` (padded; the fourth
     /// lane passes through like the others). The order of operations is
     /// the WGSL pass's.
@@ -391,11 +387,10 @@ mod tests {
         assert!(errs[1] < errs[0] / 8.0, "errors {errs:?} do not fall faster than h^3");
     }
 
-    /// Linear fields pass unchanged (the gradient is exact and `mu` is a
-    /// first moment: the correction is then the value's own linear term,
-    /// which the clamp cannot need), and so do constants: a uniformly lit
-    /// furnace is untouched. Every weight is finite and rows exist at the
-    /// border.
+    /// Constants pass unchanged (every difference `B_n - B_c` is zero), so
+    /// a uniformly lit furnace is untouched; every weight is finite, border
+    /// vertices have rows and interior ones (regular fans, `mu` zero) small
+    /// or empty ones.
     #[test]
     fn constants_pass_unchanged_and_interior_rows_are_near_zero() {
         let s = floor(12, 6);
