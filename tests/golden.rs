@@ -1,0 +1,85 @@
+//! Golden hashes of the built-in scenes' results: a refactor keeps the
+//! answers. Every scene up to `tearoom` (and `window`) is solved on the CPU
+//! path at fixed rays and seed with its own other settings, and the bit
+//! patterns of the exported `E_d`, `E_i` and `E_sky` arrays (and of the
+//! unsmoothed `E_i`) are hashed (FNV-1a, 64 bits).
+//!
+//! The hashes must not move unless a commit of its own says why and by how
+//! much. `GOLDEN_PRINT=1 cargo test --test golden -- --nocapture` prints the
+//! table to paste below; the hits are bit-identical across the BVH's SIMD
+//! builds (`tests/bvh.rs`) and the solve does not depend on the thread
+//! count, so the hashes hold on any x86-64 or other machine.
+
+use linkgi::scene::{self, prep, TracerKind};
+use linkgi::solver::{SolveParams, Solver};
+
+/// FNV-1a over the bit patterns of the array's floats.
+fn hash(v: &[glam::Vec3]) -> u64 {
+    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+    for x in v.iter().flat_map(|v| v.to_array()) {
+        for b in x.to_bits().to_le_bytes() {
+            h ^= b as u64;
+            h = h.wrapping_mul(0x0100_0000_01b3);
+        }
+    }
+    h
+}
+
+/// (scene, tracer, rays, seed) and the hashes of `E_d`, `E_i`, `E_i` raw, `E_sky`.
+#[rustfmt::skip]
+const GOLDEN: &[(&str, TracerKind, u32, u64, [u64; 4])] = &[
+    ("cornell", TracerKind::Bvh, 64, 7, [0xa2fff410559f3ad4, 0x249c3f45d0cee228, 0xc2583b7e7019f21f, 0x65f72ca439112ca5]),
+    ("furnace", TracerKind::Bvh, 64, 7, [0xd6cb0114b4d6252a, 0x078edf9a764b0ff7, 0x8ccf0bfe2143fffb, 0x77bc99222abd8305]),
+    ("colorlamp", TracerKind::Bvh, 64, 7, [0xc9bb780441895e7c, 0xfc579f73b3d3ed98, 0x4b4aa9c393c3926f, 0x285e8ae0f09574d5]),
+    ("window", TracerKind::Bvh, 64, 7, [0x31e98294b1ba2e15, 0x55650e89328e7838, 0xb65fb82ea9305646, 0x5bbc2c77a1eea7a4]),
+    ("torso", TracerKind::Bvh, 64, 7, [0x2d5c5ba603c17e13, 0x309667c226118db9, 0x3a29f607eca13abb, 0x4b235a5a86553d05]),
+    ("tearoom", TracerKind::Bvh, 64, 7, [0x71346d79ec78e5b6, 0x4f3338b6ba9e6dae, 0xd4d23d7e40f16d3e, 0x51b05bcd00444155]),
+    ("cornell", TracerKind::Kd, 64, 7, [0xa2fff410559f3ad4, 0x249c3f45d0cee228, 0xc2583b7e7019f21f, 0x65f72ca439112ca5]),
+];
+
+fn solve_hashes(name: &str, tracer: TracerKind, rays: u32, seed: u64) -> [u64; 4] {
+    let mut desc = scene::builtin::builtin(name).expect("built-in scene");
+    desc.settings.rays_per_vertex = rays;
+    desc.settings.seed = seed;
+    desc.settings.tracer = tracer;
+    let scene = prep::prepare(&desc).expect("scene prepares");
+    let mut params = SolveParams::from_settings(&scene.settings);
+    // The kd-tree's top levels are object-median splits, as many as
+    // log2(threads) by default, and its rope walk's ties depend on the
+    // tree: pinned here so the hashes do not depend on the machine.
+    params.kd.parallel_levels = Some(1);
+    let solver = Solver::new(scene, params, &|_, _| {});
+    let sol = solver.solve();
+    [hash(&sol.e_direct), hash(&sol.e_indirect), hash(&sol.e_indirect_raw), hash(&sol.e_sky)]
+}
+
+/// The cases: every built-in scene up to `tearoom` and `window`, the BVH at
+/// 64 rays, and the Cornell box through the kd-tree too.
+fn cases() -> Vec<(&'static str, TracerKind, u32, u64)> {
+    let mut c: Vec<_> = ["cornell", "furnace", "colorlamp", "window", "torso", "tearoom"]
+        .into_iter()
+        .map(|s| (s, TracerKind::Bvh, 64, 7))
+        .collect();
+    c.push(("cornell", TracerKind::Kd, 64, 7));
+    c
+}
+
+#[test]
+fn built_in_scenes_keep_their_answers() {
+    let print = std::env::var_os("GOLDEN_PRINT").is_some();
+    let mut failures = Vec::new();
+    for (name, tracer, rays, seed) in cases() {
+        let got = solve_hashes(name, tracer, rays, seed);
+        if print {
+            println!("    (\"{name}\", TracerKind::{tracer:?}, {rays}, {seed}, [{:#018x}, {:#018x}, {:#018x}, {:#018x}]),",
+                got[0], got[1], got[2], got[3]);
+        }
+        let want = GOLDEN.iter().find(|g| g.0 == name && g.1 == tracer && g.2 == rays && g.3 == seed);
+        match want {
+            Some(w) if w.4 == got => {}
+            Some(w) => failures.push(format!("{name} ({tracer:?}, {rays} rays, seed {seed}): {:x?} != golden {:x?}", got, w.4)),
+            None => failures.push(format!("{name} ({tracer:?}, {rays} rays, seed {seed}): no golden value")),
+        }
+    }
+    assert!(failures.is_empty(), "results moved:\n{}", failures.join("\n"));
+}
