@@ -7,6 +7,7 @@
 pub mod accuracy;
 pub mod bench;
 pub mod bvh;
+pub mod csr;
 pub mod engine;
 pub mod error;
 pub mod exchange;

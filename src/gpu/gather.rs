@@ -25,8 +25,7 @@ use glam::Vec3;
 use std::f32::consts::PI;
 use std::sync::Arc;
 
-/// Invocations per workgroup of the gather shaders.
-pub const WORKGROUP: u32 = 256;
+pub use super::layout::GATHER_WORKGROUP as WORKGROUP;
 
 /// Rows `first..first + count` of the link matrix on the device.
 struct Segment {

@@ -162,12 +162,15 @@ pub fn shared_structs() -> Vec<SharedStruct> {
 pub fn shared_constants() -> Vec<(&'static str, &'static str, u32)> {
     vec![
         ("gather.wgsl", "GAP_BYTES", crate::links::packed::GAP_BYTES_WORD),
-        ("gather.wgsl", "WORKGROUP", crate::gpu::gather::WORKGROUP),
+        ("gather.wgsl", "WORKGROUP", GATHER_WORKGROUP),
     ]
 }
 
 /// The WGSL sources, for pipelines and the layout test.
 pub const SHOOT_WGSL: &str = include_str!("../../shaders/shoot.wgsl");
+/// Invocations per workgroup of the gather shaders (`WORKGROUP` in `gather.wgsl`).
+pub const GATHER_WORKGROUP: u32 = 256;
+
 pub const GATHER_WGSL: &str = include_str!("../../shaders/gather.wgsl");
 pub const RENDER_WGSL: &str = include_str!("../../shaders/render.wgsl");
 pub const TONEMAP_WGSL: &str = include_str!("../../shaders/tonemap.wgsl");

@@ -220,6 +220,29 @@ pub fn merge_vertex_sums(
     counts
 }
 
+/// The state of selective updates: the hit id of every ray,
+/// `ids[v * rays_per_vertex + k]` for ray `k` of vertex `v` (triangle id,
+/// `| HIT_BACK`, or `HIT_MISS`), and the fixed-point sum of every link, in
+/// the order of the links' targets.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct RayHits {
+    pub rays_per_vertex: usize,
+    pub ids: Vec<u32>,
+    pub sums: Vec<u32>,
+}
+
+impl RayHits {
+    /// Bytes held.
+    pub fn bytes(&self) -> u64 {
+        (std::mem::size_of_val(self.ids.as_slice()) + std::mem::size_of_val(self.sums.as_slice())) as u64
+    }
+
+    /// The ids of vertex `v`'s rays.
+    pub fn row(&self, v: usize) -> &[u32] {
+        &self.ids[v * self.rays_per_vertex..(v + 1) * self.rays_per_vertex]
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -39,7 +39,8 @@ use half::f16;
 pub use assemble::{assemble, CsrBuilder, GroupRun};
 pub use merge::{merge_vertex, HitRecord, MergeScratch, HIT_BACK, HIT_MISS};
 pub use near::{NearHit, NearHits, NearParams};
-pub use selective::{RayHits, ReshootStats};
+pub use merge::RayHits;
+pub use selective::ReshootStats;
 pub use shoot::{shoot_links, shoot_links_recording, LinkParams, RaySetup, TraceScratch, Wedge};
 
 /// Counters of one link generation.

@@ -5,7 +5,7 @@
 //! done for vertex links, exactly: the result equals a full re-shoot with
 //! the same seed (same hits, so the same merged groups bit for bit).
 //!
-//! State ([`RayHits`]), kept only for scenes with dynamic meshes: the id of
+//! State ([`RayHits`](super::RayHits)), kept only for scenes with dynamic meshes: the id of
 //! every ray's hit (triangle id, `| HIT_BACK` for a back face, or
 //! `HIT_MISS`), 4 bytes a ray, and every link's fixed-point sum
 //! ([`super::merge`]), 4 bytes a link. Barycentrics and distances are not
@@ -37,7 +37,7 @@
 //! gives, bit for bit. Remade vertices merge all their rays anew.
 
 use super::merge::{
-    corner_weights, fixed_scale, merge_vertex, merge_vertex_sums, requantize, HitRecord, MergeScratch, HIT_BACK,
+    RayHits, corner_weights, fixed_scale, merge_vertex, merge_vertex_sums, requantize, HitRecord, MergeScratch, HIT_BACK,
     HIT_MISS,
 };
 use super::near::{near_limits, push_near, NearHit, NearHits};
@@ -55,29 +55,6 @@ use glam::Vec3;
 use half::f16;
 use rayon::prelude::*;
 use std::time::Instant;
-
-/// The state of selective updates: the hit id of every ray,
-/// `ids[v * rays_per_vertex + k]` for ray `k` of vertex `v` (triangle id,
-/// `| HIT_BACK`, or `HIT_MISS`), and the fixed-point sum of every link, in
-/// the order of the links' targets.
-#[derive(Clone, Debug, Default, PartialEq)]
-pub struct RayHits {
-    pub rays_per_vertex: usize,
-    pub ids: Vec<u32>,
-    pub sums: Vec<u32>,
-}
-
-impl RayHits {
-    /// Bytes held.
-    pub fn bytes(&self) -> u64 {
-        (std::mem::size_of_val(self.ids.as_slice()) + std::mem::size_of_val(self.sums.as_slice())) as u64
-    }
-
-    /// The ids of vertex `v`'s rays.
-    pub fn row(&self, v: usize) -> &[u32] {
-        &self.ids[v * self.rays_per_vertex..(v + 1) * self.rays_per_vertex]
-    }
-}
 
 /// Figures of one selective update.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]

@@ -19,7 +19,7 @@
 
 use super::assemble::{CsrBuilder, GroupRun};
 use super::merge::{HitRecord, HIT_BACK, HIT_MISS};
-use super::selective::RayHits;
+use super::merge::RayHits;
 use super::Links;
 use crate::kdtree::Hit;
 use crate::sampling::{vertex_frame, vertex_rotations_and_sets, world_direction, DirectionSet};

@@ -13,68 +13,16 @@
 
 use glam::{Vec2, Vec3};
 use rand::{Rng, SeedableRng};
-use std::f32::consts::{FRAC_PI_2, FRAC_PI_4, PI};
+use std::f32::consts::FRAC_PI_2;
 
-use crate::scene::prep::Csr;
+use crate::csr::Csr;
 
-/// Concentric map from `[0,1)^2` to the unit disc.
-pub fn concentric_disk(u: Vec2) -> Vec2 {
-    let o = 2.0 * u - Vec2::ONE;
-    if o == Vec2::ZERO {
-        return Vec2::ZERO;
-    }
-    let (r, theta) =
-        if o.x.abs() > o.y.abs() { (o.x, FRAC_PI_4 * (o.y / o.x)) } else { (o.y, FRAC_PI_2 - FRAC_PI_4 * (o.x / o.y)) };
-    r * Vec2::new(theta.cos(), theta.sin())
-}
-
-/// Inverse of [`concentric_disk`].
-pub fn concentric_disk_inverse(p: Vec2) -> Vec2 {
-    let r = p.length();
-    if r == 0.0 {
-        return Vec2::splat(0.5);
-    }
-    let mut phi = p.y.atan2(p.x);
-    if phi < -FRAC_PI_4 {
-        phi += 2.0 * PI;
-    }
-    // Octant pairs: |x| > |y| regions are phi in [-pi/4, pi/4) and [3pi/4, 5pi/4).
-    let (a, b) = if phi < FRAC_PI_4 {
-        (r, r * phi / FRAC_PI_4)
-    } else if phi < 3.0 * FRAC_PI_4 {
-        (-r * (phi - FRAC_PI_2) / FRAC_PI_4, r)
-    } else if phi < 5.0 * FRAC_PI_4 {
-        (-r, -r * (phi - PI) / FRAC_PI_4)
-    } else {
-        (r * (phi - 3.0 * FRAC_PI_2) / FRAC_PI_4, -r)
-    };
-    (Vec2::new(a, b) + Vec2::ONE) * 0.5
-}
-
-/// Cosine-weighted direction about +z from a point of the unit square.
-pub fn cosine_hemisphere(u: Vec2) -> Vec3 {
-    let d = concentric_disk(u);
-    let z = (1.0 - d.length_squared()).max(0.0).sqrt();
-    Vec3::new(d.x, d.y, z)
-}
-
-/// Density of [`cosine_hemisphere`] per steradian.
-pub fn cosine_hemisphere_pdf(w: Vec3) -> f32 {
-    w.z.max(0.0) / PI
-}
-
-/// Inverse of [`cosine_hemisphere`]: the unit-square point that maps to `w`.
-pub fn cosine_hemisphere_inverse(w: Vec3) -> Vec2 {
-    concentric_disk_inverse(Vec2::new(w.x, w.y))
-}
-
-/// Orthonormal basis `(t, b)` with `t x b = n` (Duff et al. 2017).
-pub fn basis(n: Vec3) -> (Vec3, Vec3) {
-    let s = 1f32.copysign(n.z);
-    let a = -1.0 / (s + n.z);
-    let b = n.x * n.y * a;
-    (Vec3::new(1.0 + s * n.x * n.x * a, s * b, -s * n.x), Vec3::new(b, s + n.y * n.y * a, -n.y))
-}
+pub mod stream;
+mod warp;
+pub use stream::{splitmix64, Stream};
+pub use warp::{
+    basis, concentric_disk, concentric_disk_inverse, cosine_hemisphere, cosine_hemisphere_inverse, cosine_hemisphere_pdf,
+};
 
 /// The grid cells of a `k*k` grid in 4*4-block order.
 pub fn block_order(k: u32) -> Vec<(u32, u32)> {
@@ -167,7 +115,7 @@ pub fn vertex_rotations(rings: &Csr, seed: u64) -> Vec<f32> {
 /// colouring of the one-ring graph.
 pub fn vertex_rotations_and_sets(rings: &Csr, seed: u64) -> (Vec<f32>, Vec<u32>) {
     let color = colours(rings);
-    let mut rng = rand_pcg::Pcg32::seed_from_u64(seed ^ 0x9e37_79b9_7f4a_7c15);
+    let mut rng = rand_pcg::Pcg32::seed_from_u64(Stream::ROTATIONS.seed(seed));
     let offset: f32 = rng.random::<f32>() * FRAC_PI_2;
     let rotations = color.iter().map(|&c| offset + FRAC_PI_2 * radical_inverse(c)).collect();
     (rotations, color.into_iter().map(|c| c % DIRECTION_SETS).collect())
@@ -211,18 +159,10 @@ pub fn world_direction(frame: (Vec3, Vec3, Vec3), d: Vec3) -> Vec3 {
     (t * d.x + b * d.y + n * d.z).normalize()
 }
 
-/// The SplitMix64 finalizer (Steele et al. 2014): a well-mixed 64-bit hash
-/// of `z`, for per-item jitter that must not depend on evaluation order.
-pub fn splitmix64(mut z: u64) -> u64 {
-    z = z.wrapping_add(0x9e37_79b9_7f4a_7c15);
-    z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-    z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-    z ^ (z >> 31)
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
+    use std::f32::consts::PI;
 
     #[test]
     fn concentric_round_trip() {

@@ -12,7 +12,7 @@
 //! The same serde types write scene files back out (built-in scenes are
 //! written to `scenes/` this way).
 
-use super::deform::{Deform, DeformKind};
+use super::deformer::{Deform, DeformKind};
 use super::{gltf, obj, Backend, Bounces, Camera, Light, SceneDesc, Settings, TracerKind, Transform};
 use crate::sky::{EnvMap, Portal, Sky, SkyModel};
 use crate::{Error, Result};

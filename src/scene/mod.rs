@@ -11,6 +11,7 @@
 
 pub mod builtin;
 pub mod deform;
+pub mod deformer;
 pub mod file;
 pub mod gltf;
 mod gltf_mesh;
@@ -19,6 +20,7 @@ pub mod motion;
 pub mod obj;
 pub mod order;
 pub mod prep;
+pub mod rings;
 pub mod shapes;
 
 use glam::{Mat4, Quat, Vec3};

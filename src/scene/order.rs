@@ -46,7 +46,7 @@ pub fn locality(triangles: &[[u32; 3]]) -> f64 {
 /// `order[new] = old`. Each connected part starts at its lowest-numbered
 /// vertex; neighbours are taken in increasing number.
 pub fn breadth_first(triangles: &[[u32; 3]], n: usize) -> Vec<u32> {
-    let adj = super::prep::rings_of(triangles, n);
+    let adj = super::rings::rings_of(triangles, n);
     let mut seen = vec![false; n];
     let mut order = Vec::with_capacity(n);
     for s in 0..n {

@@ -33,71 +33,11 @@ pub struct MeshRange {
     pub triangles: Range<u32>,
     pub dynamic: bool,
     /// Deformers of the mesh (world space), applied to its vertices over time.
-    pub deform: Vec<super::deform::Deform>,
+    pub deform: Vec<super::deformer::Deform>,
 }
 
-/// Compressed sparse rows: `items[offsets[i]..offsets[i+1]]` belong to row `i`.
-#[derive(Clone, Debug, Default)]
-pub struct Csr {
-    pub offsets: Vec<u32>,
-    pub items: Vec<u32>,
-}
-
-impl Csr {
-    /// Builds rows from `(row, item)` pairs; items keep the order given.
-    pub fn from_pairs(rows: usize, pairs: &[(u32, u32)]) -> Self {
-        let mut offsets = vec![0u32; rows + 1];
-        for &(r, _) in pairs {
-            offsets[r as usize + 1] += 1;
-        }
-        for i in 0..rows {
-            offsets[i + 1] += offsets[i];
-        }
-        let mut fill = offsets.clone();
-        let mut items = vec![0u32; pairs.len()];
-        for &(r, it) in pairs {
-            items[fill[r as usize] as usize] = it;
-            fill[r as usize] += 1;
-        }
-        Self { offsets, items }
-    }
-
-    /// Row `i`.
-    #[inline]
-    pub fn row(&self, i: usize) -> &[u32] {
-        &self.items[self.offsets[i] as usize..self.offsets[i + 1] as usize]
-    }
-
-    pub fn rows(&self) -> usize {
-        self.offsets.len().saturating_sub(1)
-    }
-}
-
-/// Checks the offsets of a CSR layout (this module's [`Csr`], and the
-/// per-vertex rows of links, near hits and their samples): `rows + 1`
-/// offsets rising from 0 to `entries`.
-pub fn check_offsets(offsets: &[u32], rows: usize, entries: usize) -> std::result::Result<(), String> {
-    if offsets.len() != rows + 1
-        || offsets[0] != 0
-        || offsets.windows(2).any(|w| w[0] > w[1])
-        || offsets[rows] as usize != entries
-    {
-        return Err(format!("{} offsets do not rise from 0 to {entries} entries over {rows} rows", offsets.len()));
-    }
-    Ok(())
-}
-
-/// One-rings of `n` vertices over `triangles`: each vertex's edge
-/// neighbours, sorted.
-pub fn rings_of(triangles: &[[u32; 3]], n: usize) -> Csr {
-    let mut pairs: Vec<(u32, u32)> = triangles
-        .iter()
-        .flat_map(|t| (0..3).flat_map(move |k| [(t[k], t[(k + 1) % 3]), (t[(k + 1) % 3], t[k])]))
-        .collect();
-    pairs.sort_unstable();
-    pairs.dedup();
-    Csr::from_pairs(n, &pairs)
-}
+pub use super::rings::rings_of;
+pub use crate::csr::{check_offsets, Csr};
 
 /// The scene ready for the solver: world-space solver vertices and triangles.
 #[derive(Clone, Debug)]
