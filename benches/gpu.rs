@@ -7,7 +7,7 @@
 //! Run: `cargo bench --bench gpu` or `cargo bench --bench gpu -- tearoom`.
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
-use linkgi::exchange::gather::BounceKernel;
+use linkgi::exchange::bounce::gather::BounceKernel;
 use linkgi::gpu::{self, schedule, GpuLinks, GpuTracer};
 use linkgi::kdtree::{KdBuildParams, KdTree};
 use linkgi::links::{shoot_links, LinkParams, RaySetup};

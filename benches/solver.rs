@@ -11,7 +11,7 @@
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use linkgi::bvh::{Bvh, BvhBuildParams};
-use linkgi::exchange::gather::gather_bounce_padded;
+use linkgi::exchange::bounce::gather::gather_bounce_padded;
 use linkgi::exchange::{LightLinkParams, LightLinks};
 use linkgi::kdtree::{KdBuildParams, KdTree};
 use linkgi::links::{shoot_links, LinkParams};

@@ -153,7 +153,7 @@ fn tearoom_error_keeps_falling_with_rays() {
 /// which smoothing cannot remove, comes on top.)
 #[test]
 fn noise_estimate_matches_the_spread_between_seeds() {
-    use linkgi::exchange::{gather::gather_bounce, noise};
+    use linkgi::exchange::{bounce::gather::gather_bounce, denoise::noise};
     for name in ["cornell", "window"] {
         let scene = prep::prepare(&builtin::builtin(name).unwrap()).unwrap();
         for rays in [64, 256] {
@@ -163,8 +163,8 @@ fn noise_estimate_matches_the_spread_between_seeds() {
                 s.seed = seed;
                 s.bounces = Bounces::Auto;
                 let solver = Solver::new(scene.clone(), SolveParams::from_settings(&s), &|_, _| {});
-                solver.links.validate().expect("links valid");
-                solver.noise_check.validate(solver.scene.vertex_count()).expect("noise check valid");
+                solver.links().validate().expect("links valid");
+                solver.noise_check().validate(solver.scene().vertex_count()).expect("noise check valid");
                 solver
             };
             let (a, b) = (solver_for(1), solver_for(2));
@@ -173,23 +173,24 @@ fn noise_estimate_matches_the_spread_between_seeds() {
             let n = sol.e_indirect_raw.len();
             let gathered: Vec<Vec3> =
                 (0..n).map(|v| sol.e_indirect_raw[v] - sol.e_emitter[v] - sol.e_near[v]).collect();
-            let emission = a.emitter_links.carried_emission(&a.scene.emission);
-            let moments = noise::radiosity_moments(&a.scene.albedo, &emission, &sol.e_source, &gathered);
+            let emission = a.emitter_links().carried_emission(&a.scene().emission);
+            let moments = noise::radiosity_moments(&a.scene().albedo, &emission, &sol.e_source, &gathered);
             let radiosity: Vec<Vec3> = moments.iter().map(|m| m[0].truncate()).collect();
             let (mut ea, mut eb) = (vec![Vec3::ZERO; n], vec![Vec3::ZERO; n]);
-            gather_bounce(&a.links, &radiosity, &mut ea);
-            gather_bounce(&b.links, &radiosity, &mut eb);
+            gather_bounce(&a.links(), &radiosity, &mut ea);
+            gather_bounce(&b.links(), &radiosity, &mut eb);
             // With emitter groups, each seed's estimate carries its control variate
-            // (linkgi::exchange::emitter_cv), whose noise the estimate follows.
-            let means = a.emitter_cv().group_means(&a.scene.albedo, &sol.e_source);
+            // (linkgi::exchange::sources::emitter_cv), whose noise the estimate follows.
+            let means = a.emitter_cv().group_means(&a.scene().albedo, &sol.e_source);
             for (s, e) in [(&a, &mut ea), (&b, &mut eb)] {
                 e.iter_mut().zip(s.emitter_cv().correction(&means, n)).for_each(|(e, d)| *e += d);
             }
             let actual: f64 = ea.iter().zip(&eb).map(|(x, y)| (*x - *y).length_squared() as f64 / 2.0).sum();
             let sum = |v: Vec<Vec3>| v.iter().map(|v| v.element_sum() as f64).sum::<f64>();
             let estimate = sum(a.noise_variance(&sol.e_source, &sol.e_indirect_raw));
-            let p = &a.params.smoothing.noise;
-            let model = sum(noise::variance(&a.links, &a.scene.albedo, &emission, &sol.e_source, &gathered, rays, p));
+            let p = &a.params().smoothing.noise;
+            let model =
+                sum(noise::variance(&a.links(), &a.scene().albedo, &emission, &sol.e_source, &gathered, rays, p));
             let (ratio, model_ratio) = (estimate / actual, model / actual);
             eprintln!(
                 "{name} {rays} rays: estimated / actual variance of E_i {ratio:.2} (the model alone {model_ratio:.2})"
@@ -219,11 +220,12 @@ fn hidden_substitution_in_the_bounces_equals_the_post_pass() {
     // The plain gather below reads the radiosity as it is.
     let params = SolveParams { reconstruct: false, ..SolveParams::from_settings(&desc.settings) };
     let solver = Solver::new(scene, params, &|_, _| {});
-    let n = solver.scene.vertex_count();
-    let src = solver.light_links.bounce_source(&solver.scene.lights, n);
-    let plain = linkgi::exchange::gather(&solver.links, &solver.scene.albedo, &src, &solver.params.gather);
+    let n = solver.scene().vertex_count();
+    let src = solver.light_links().bounce_source(&solver.scene().lights, n);
+    let plain = linkgi::exchange::gather(&solver.links(), &solver.scene().albedo, &src, &solver.params().gather);
     let post = solver.correct_hidden(&plain.e_indirect);
-    let inside = solver.gather_corrected(&src, &solver.params.gather);
+    let sources = linkgi::solver::Sources { e_source: src.clone(), ..Default::default() };
+    let inside = solver.gathered(&sources, &solver.params().gather, false).bounces;
     let mean = post.iter().map(|e| e.element_sum()).sum::<f32>() / (3 * n) as f32;
     let diff =
         |a: &[Vec3], b: &[Vec3]| a.iter().zip(b).map(|(x, y)| (*x - *y).abs().max_element()).fold(0f32, f32::max);
@@ -234,7 +236,7 @@ fn hidden_substitution_in_the_bounces_equals_the_post_pass() {
 }
 
 /// Linear interpolation at the link hits reads a wall's radiosity low
-/// toward its borders (`exchange::reconstruct`): the links' `E_i` on the
+/// toward its borders (`exchange::bounce::reconstruct`): the links' `E_i` on the
 /// Cornell box comes out dark on average, by more than the reference's
 /// noise allows; the gradient correction moves the mean at least half of
 /// the way to the reference's and not past it. 1024 rays a vertex,
@@ -261,7 +263,7 @@ fn gradient_correction_shrinks_the_dark_bias() {
                 &|_, _| {},
             );
             if let Some(c) = solver.reconstruction() {
-                c.validate(solver.scene.vertex_count()).expect("correction valid");
+                c.validate(solver.scene().vertex_count()).expect("correction valid");
             }
             let sol = solver.solve();
             assert!(sol.e_indirect_raw.iter().all(|e| e.is_finite() && e.min_element() >= 0.0));

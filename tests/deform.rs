@@ -144,13 +144,13 @@ fn refitted_deformation_equals_a_fresh_solve() {
         moved.normals = normals;
         let (next, refitted) = solver.deformed(moved.clone(), params, &|_, _| {});
         refits += refitted as usize;
-        next.accel.validate().expect("refitted BVH valid");
-        next.links.validate().expect("links valid");
+        next.accel().validate().expect("refitted BVH valid");
+        next.links().validate().expect("links valid");
         let fresh = Solver::new(moved, params, &|_, _| {});
-        assert_eq!(next.links.offsets, fresh.links.offsets, "t = {t}");
-        assert_eq!(next.links.packed, fresh.links.packed, "t = {t}");
-        assert_eq!(next.links.weights, fresh.links.weights, "t = {t}");
-        assert_eq!(next.light_links.factors, fresh.light_links.factors, "t = {t}");
+        assert_eq!(next.links().offsets, fresh.links().offsets, "t = {t}");
+        assert_eq!(next.links().packed, fresh.links().packed, "t = {t}");
+        assert_eq!(next.links().weights, fresh.links().weights, "t = {t}");
+        assert_eq!(next.light_links().factors, fresh.light_links().factors, "t = {t}");
         solver = next;
     }
     assert!(refits >= 1, "small deformations refit the BVH");

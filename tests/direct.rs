@@ -261,7 +261,7 @@ fn light_preview_is_exact_outside_penumbrae_and_refines() {
     let full = LightLinks::compute(&scene, &kd, &params);
     assert!(preview_rays > 0 && preview_rays * 5 < full.shadow_rays, "{preview_rays} vs {}", full.shadow_rays);
     let g = |v: usize| {
-        linkgi::exchange::light_links::geometry(&scene.lights[0], scene.positions[v], scene.normals[v], 1e-6)
+        linkgi::exchange::sources::light_links::geometry(&scene.lights[0], scene.positions[v], scene.normals[v], 1e-6)
     };
     let (mut lit, mut dark) = (0, 0);
     for v in 0..441 {

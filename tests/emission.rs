@@ -39,7 +39,7 @@ fn emissive_furnace_irradiance_is_emission_over_one_minus_albedo() {
         assert!(mean < 1e-3 && max_err < 1e-3, "rho {rho}: mean error {mean}, per vertex {max_err}");
         // Emission is not direct light: no lights, no sky.
         assert!(sol.e_direct.iter().chain(&sol.e_sky).all(|e| *e == Vec3::ZERO));
-        assert_eq!(solver.scene.emission.len(), solver.scene.vertex_count());
+        assert_eq!(solver.scene().emission.len(), solver.scene().vertex_count());
     }
 }
 
@@ -47,10 +47,10 @@ fn emissive_furnace_irradiance_is_emission_over_one_minus_albedo() {
 /// add up to both solved together, and doubling the emission doubles its
 /// part (energy is neither created nor lost by mixing sources). One
 /// solver, its sources edited: the emitter groups' control variate
-/// ([`linkgi::exchange::emitter_cv`]) is part of the estimator, and it
+/// ([`linkgi::exchange::sources::emitter_cv`]) is part of the estimator, and it
 /// exists only where the links were built with an emitter. The radiosity
 /// correction is off: its clamp to its neighbours' range
-/// ([`linkgi::exchange::reconstruct`]) is not linear.
+/// ([`linkgi::exchange::bounce::reconstruct`]) is not linear.
 #[test]
 fn emission_adds_linearly_to_light() {
     let mut glowing = common::with_settings(builtin::builtin("cornell").unwrap(), 64, Bounces::Fixed(4), 0.0);
@@ -63,13 +63,13 @@ fn emission_adds_linearly_to_light() {
     };
     let (mut solver, both) = common::solve_with(scene, params);
     assert!(both.e_cv.iter().any(|d| *d != Vec3::ZERO), "the box's control variate is on");
-    let (lights, emission) = (solver.scene.lights.clone(), solver.scene.emission.clone());
-    solver.scene.lights.clear();
+    let (lights, emission) = (solver.scene().lights.clone(), solver.scene().emission.clone());
+    solver.set_lights(vec![]);
     let b = solver.solve();
-    solver.scene.emission.iter_mut().for_each(|e| *e *= 2.0);
+    solver.set_emission(emission.iter().map(|e| *e * 2.0).collect());
     let b2 = solver.solve();
-    solver.scene.lights = lights;
-    solver.scene.emission = emission.iter().map(|_| Vec3::ZERO).collect();
+    solver.set_lights(lights);
+    solver.set_emission(emission.iter().map(|_| Vec3::ZERO).collect());
     let a = solver.solve();
     let scale = common::mean(&both.e_indirect_raw).max_element();
     for v in 0..a.e_indirect_raw.len() {
@@ -159,7 +159,7 @@ fn the_dive_band_by_lambert_matches_dense_sampling() {
 }
 
 /// The emitter groups as a control variate of the first bounce
-/// ([`linkgi::exchange::emitter_cv`]) on `window` (its lamp shade glows
+/// ([`linkgi::exchange::sources::emitter_cv`]) on `window` (its lamp shade glows
 /// and reflects much of what it receives) at 64 rays: between two seeds,
 /// the shade's unsmoothed `E_i` differs far less with it than without
 /// (the link rays' count of hits on the shade is replaced by its form
@@ -186,7 +186,7 @@ fn the_emitter_control_variate_cuts_the_shades_noise_without_bias() {
     let cv = s1.emitter_cv();
     assert!(!cv.is_empty() && s0.emitter_cv().is_empty());
     assert!(a1.e_cv.iter().any(|d| *d != Vec3::ZERO) && b1.e_cv.is_empty());
-    let shade: Vec<usize> = (0..s1.scene.vertex_count()).filter(|&v| s1.emitter_links.covered[v]).collect();
+    let shade: Vec<usize> = (0..s1.scene().vertex_count()).filter(|&v| s1.emitter_links().covered[v]).collect();
     assert!(shade.len() > 100, "{} shade vertices", shade.len());
     let spread = |x: &linkgi::solver::Solution, y: &linkgi::solver::Solution| {
         shade.iter().map(|&v| (x.e_indirect_raw[v] - y.e_indirect_raw[v]).length_squared() as f64).sum::<f64>()
@@ -206,8 +206,8 @@ fn the_emitter_control_variate_cuts_the_shades_noise_without_bias() {
     assert!((m_with - m_without).abs() < 3.0 * stderr, "means {m_with} / {m_without}, standard error {stderr}");
     // The coefficients' sum against the form factors'.
     let c_sum: f64 = cv.coefficients.iter().map(|c| *c as f64).sum();
-    let f_sum: f64 = (0..s1.scene.vertex_count())
-        .flat_map(|v| s1.emitter_links.of(v).map(|(_, f)| std::f64::consts::PI * f as f64))
+    let f_sum: f64 = (0..s1.scene().vertex_count())
+        .flat_map(|v| s1.emitter_links().of(v).map(|(_, f)| std::f64::consts::PI * f as f64))
         .sum();
     eprintln!("coefficients sum {c_sum:.3} against pi F {f_sum:.3}");
     assert!(f_sum > 0.0 && c_sum.abs() < 0.03 * f_sum, "{c_sum} against {f_sum}");

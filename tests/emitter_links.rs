@@ -76,14 +76,14 @@ fn solver(desc: &SceneDesc, samples: Option<u32>, max_pairs: Option<u64>) -> Sol
         params.emitter.max_pairs = m;
     }
     let s = Solver::new(scene, params, &|_, _| {});
-    s.accel.validate().expect("acceleration structure valid");
-    s.links.validate().expect("links valid");
-    s.emitter_links.validate(s.scene.vertex_count()).expect("emitter links valid");
+    s.accel().validate().expect("acceleration structure valid");
+    s.links().validate().expect("links valid");
+    s.emitter_links().validate(s.scene().vertex_count()).expect("emitter links valid");
     s
 }
 
 fn floor_vertices(s: &Solver) -> std::ops::Range<usize> {
-    let m = &s.scene.meshes[0];
+    let m = &s.scene().meshes[0];
     m.vertices.start as usize..m.vertices.end as usize
 }
 
@@ -98,7 +98,7 @@ fn unshaded_panel_gives_the_analytic_form_factor() {
     let sol = nee.solve();
     let mut worst = 0f64;
     for v in floor_vertices(&nee) {
-        let p = nee.scene.positions[v];
+        let p = nee.scene().positions[v];
         let f = panel_form_factor(p.x as f64, p.z as f64);
         let e = sol.e_emitter[v];
         for c in 0..3 {
@@ -109,18 +109,18 @@ fn unshaded_panel_gives_the_analytic_form_factor() {
     }
     assert!(worst < 1e-4, "worst relative error against the analytic factor {worst}");
     // The panel's own vertices see no emitter (it is flat), and its exitance is not in the first radiosity.
-    let panel = &nee.scene.meshes[1];
+    let panel = &nee.scene().meshes[1];
     for v in panel.vertices.clone() {
-        assert!(nee.emitter_links.covered[v as usize]);
+        assert!(nee.emitter_links().covered[v as usize]);
         assert_eq!(sol.e_emitter[v as usize], Vec3::ZERO);
     }
     // The vertex links alone: the same light on average, with noise per vertex.
     let links_only = solver(&desc, Some(0), None);
-    assert!(!links_only.emitter_links.is_active());
+    assert!(!links_only.emitter_links().is_active());
     let lo = links_only.solve();
     let (mut nee_sum, mut lo_sum, mut nee_err, mut lo_err) = (0f64, 0f64, 0f64, 0f64);
     for v in floor_vertices(&nee) {
-        let p = nee.scene.positions[v];
+        let p = nee.scene().positions[v];
         let want = M_E.x as f64 * panel_form_factor(p.x as f64, p.z as f64);
         // First bounce off the floor does not reach the floor (it is flat): E_i on the floor is
         // the panel's light plus what the panel reflects back, in both.
@@ -149,8 +149,8 @@ fn shaded_panel_matches_brute_force_visibility() {
     let cell = (2.0 * HALF / k as f32).powi(2);
     let (mut sum_err, mut worst, mut shaded) = (0f64, 0f64, 0);
     for v in floor_vertices(&s) {
-        let (p, n) = (s.scene.positions[v], s.scene.normals[v]);
-        let origin = linkgi::links::shoot::ray_origin(&s.scene, v, s.params.emitter.nudge);
+        let (p, n) = (s.scene().positions[v], s.scene().normals[v]);
+        let origin = linkgi::links::shoot::ray_origin(&s.scene(), v, s.params().emitter.nudge);
         let (mut seen, mut all) = (0f64, 0f64);
         for i in 0..k {
             for j in 0..k {
@@ -166,7 +166,7 @@ fn shaded_panel_matches_brute_force_visibility() {
                 let to = y - origin;
                 let dist = to.length();
                 let ray = Ray { origin, dir: to / dist, tmin: 1e-5, tmax: dist * (1.0 - 1e-4), skip: v as u32 };
-                if !s.accel.occluded(&ray) {
+                if !s.accel().occluded(&ray) {
                     seen += w;
                 }
             }
@@ -188,11 +188,11 @@ fn shaded_panel_matches_brute_force_visibility() {
     assert!(sum_err / count < 2e-3, "mean error {}", sum_err / count);
     // Determinism.
     let again = solver(&desc, None, None);
-    assert_eq!(again.emitter_links.factors, s.emitter_links.factors);
+    assert_eq!(again.emitter_links().factors, s.emitter_links().factors);
     let mut other = desc.clone();
     other.settings.seed += 1;
     let other = solver(&other, None, None);
-    assert_ne!(other.emitter_links.factors, s.emitter_links.factors, "the seed must move the samples");
+    assert_ne!(other.emitter_links().factors, s.emitter_links().factors, "the seed must move the samples");
 }
 
 /// Above the pair budget there are no emitter links: the emitters' light
@@ -201,8 +201,12 @@ fn shaded_panel_matches_brute_force_visibility() {
 fn above_the_pair_budget_emitters_travel_through_links() {
     let desc = scene(false, 64);
     let s = solver(&desc, None, Some(10));
-    assert!(!s.emitter_links.is_active());
-    assert!(s.emitter_links.fallback.as_deref().is_some_and(|w| w.contains("pairs")), "{:?}", s.emitter_links.fallback);
+    assert!(!s.emitter_links().is_active());
+    assert!(
+        s.emitter_links().fallback.as_deref().is_some_and(|w| w.contains("pairs")),
+        "{:?}",
+        s.emitter_links().fallback
+    );
     let sol = s.solve();
     assert!(sol.e_emitter.iter().all(|e| *e == Vec3::ZERO));
     let floor = floor_vertices(&s);

@@ -302,8 +302,8 @@ fn a_sky_on_a_scene_without_one_traces_its_rays_once() {
     let c0 = e.counters();
     let fresh = |scene: &prep::PreparedScene| {
         let s = Solver::new(scene.clone(), SolveParams::from_settings(&scene.settings), &|_, _| {});
-        s.near_sky.validate(s.scene.vertex_count()).expect("near-hit sky samples valid");
-        assert!(s.near_sky.traced && s.near_sky.shadow_rays > 0);
+        s.validate().expect("every structure valid");
+        assert!(s.near().sky.traced && s.near().sky.cost.rays > 0);
         s.solve()
     };
     let mut edited = scene.clone();

@@ -63,7 +63,7 @@ fn parallel_squares_match_the_analytic_form_factor() {
         warnings: vec![],
     };
     let (solver, sol) = common::solve(&desc);
-    let s = &solver.scene;
+    let s = &solver.scene();
     let e_a = e0 * (-dir).dot(Vec3::Y);
     let b_range = s.meshes[1].vertices.clone();
     // A is lit uniformly (the light passes beside B), B not at all.

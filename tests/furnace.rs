@@ -16,7 +16,7 @@ use linkgi::scene::{builtin, Bounces};
 fn furnace_error(rho: f32, light: Vec3, intensity: f32, bounces: Bounces) -> (f32, f32, u32) {
     let desc = common::with_settings(builtin::furnace(rho, 4, light, intensity), 256, bounces, 30.0);
     let (solver, sol) = common::solve(&desc);
-    let r2 = common::mesh_area(&solver.scene) / (4.0 * std::f32::consts::PI);
+    let r2 = common::mesh_area(&solver.scene()) / (4.0 * std::f32::consts::PI);
     let expect = rho / (1.0 - rho) * intensity / r2;
     let mut max_err = 0f32;
     for e in &sol.e_indirect {
@@ -25,7 +25,7 @@ fn furnace_error(rho: f32, light: Vec3, intensity: f32, bounces: Bounces) -> (f3
         max_err = max_err.max((e.x / expect - 1.0).abs());
     }
     let mean = common::mean(&sol.e_indirect).x;
-    let st = solver.links.stats;
+    let st = solver.links().stats;
     assert!(st.misses as f64 <= 1e-5 * st.rays as f64, "{} of {} rays escaped the closed sphere", st.misses, st.rays);
     ((mean / expect - 1.0).abs(), max_err, sol.gather.bounces)
 }
@@ -55,7 +55,7 @@ fn fixed_bounces_truncate_the_series() {
     let rho = 0.5f32;
     let desc = common::with_settings(builtin::furnace(rho, 3, Vec3::ZERO, 2.0), 64, Bounces::Fixed(3), 30.0);
     let (solver, sol) = common::solve(&desc);
-    let r2 = common::mesh_area(&solver.scene) / (4.0 * std::f32::consts::PI);
+    let r2 = common::mesh_area(&solver.scene()) / (4.0 * std::f32::consts::PI);
     let expect = rho * (1.0 - rho.powi(3)) / (1.0 - rho) * 2.0 / r2;
     let mean = common::mean(&sol.e_indirect).x;
     assert!((mean / expect - 1.0).abs() < 0.02, "mean {mean} expected {expect}");

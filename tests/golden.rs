@@ -71,13 +71,17 @@ fn built_in_scenes_keep_their_answers() {
     for (name, tracer, rays, seed) in cases() {
         let got = solve_hashes(name, tracer, rays, seed);
         if print {
-            println!("    (\"{name}\", TracerKind::{tracer:?}, {rays}, {seed}, [{:#018x}, {:#018x}, {:#018x}, {:#018x}]),",
-                got[0], got[1], got[2], got[3]);
+            println!(
+                "    (\"{name}\", TracerKind::{tracer:?}, {rays}, {seed}, [{:#018x}, {:#018x}, {:#018x}, {:#018x}]),",
+                got[0], got[1], got[2], got[3]
+            );
         }
         let want = GOLDEN.iter().find(|g| g.0 == name && g.1 == tracer && g.2 == rays && g.3 == seed);
         match want {
             Some(w) if w.4 == got => {}
-            Some(w) => failures.push(format!("{name} ({tracer:?}, {rays} rays, seed {seed}): {:x?} != golden {:x?}", got, w.4)),
+            Some(w) => {
+                failures.push(format!("{name} ({tracer:?}, {rays} rays, seed {seed}): {:x?} != golden {:x?}", got, w.4))
+            }
             None => failures.push(format!("{name} ({tracer:?}, {rays} rays, seed {seed}): no golden value")),
         }
     }

@@ -7,7 +7,7 @@
 mod common;
 
 use glam::Vec3;
-use linkgi::exchange::{self, gather::drive, GatherParams, LightLinks};
+use linkgi::exchange::{self, bounce::gather::drive, GatherParams, LightLinks};
 use linkgi::gpu::{self, schedule, GpuDevice, GpuLinks, GpuTracer};
 use linkgi::links::{LinkParams, RaySetup};
 use linkgi::scene::TracerKind;
@@ -99,9 +99,10 @@ fn agree_on_within(name: &str, share: f64) {
     let cpu =
         Solver::new(scene.clone(), SolveParams { kd: params.kd_gpu, tracer: TracerKind::Kd, ..params }, &|_, _| {});
     let gpu = Solver::new_on(scene.clone(), params, &gpu_compute(&dev, 1), &|_, _| {}).expect("GPU solver");
-    gpu.accel.validate().expect("kd valid");
-    let (cpu_kd, gpu_kd) = (cpu.accel.kd().expect("kd tracer"), gpu.accel.kd().expect("the GPU path walks a kd-tree"));
-    gpu.links.validate().expect("GPU links valid");
+    gpu.accel().validate().expect("kd valid");
+    let (cpu_kd, gpu_kd) =
+        (cpu.accel().kd().expect("kd tracer"), gpu.accel().kd().expect("the GPU path walks a kd-tree"));
+    gpu.links().validate().expect("GPU links valid");
     assert_eq!(cpu_kd.nodes, gpu_kd.nodes, "the tree is built on the CPU either way");
 
     let vertex_same = compare_rays(name, &dev, &scene, cpu_kd);
@@ -114,8 +115,8 @@ fn agree_on_within(name: &str, share: f64) {
             continue;
         }
         candidates += 1;
-        let (ct, cw) = cpu.links.group(v);
-        let (gt, gw) = gpu.links.group(v);
+        let (ct, cw) = cpu.links().group(v);
+        let (gt, gw) = gpu.links().group(v);
         if ct == gt && cw.iter().zip(gw).all(|(a, b)| (a.to_f32() - b.to_f32()).abs() <= 2e-3 * a.to_f32().abs() + 1e-7)
         {
             equal += 1;
@@ -123,13 +124,13 @@ fn agree_on_within(name: &str, share: f64) {
     }
     eprintln!("{name}: {equal}/{candidates} link groups equal");
     assert!(equal as f64 >= 0.999 * candidates as f64, "{name}: {equal}/{candidates} link groups equal");
-    let (cs, gs) = (cpu.links.stats, gpu.links.stats);
+    let (cs, gs) = (cpu.links().stats, gpu.links().stats);
     assert_eq!((cs.rays, cs.misses), (gs.rays, gs.misses), "{name}: ray counts");
     assert!((cs.merged_links as f64 - gs.merged_links as f64).abs() <= 1e-3 * cs.merged_links as f64);
 
     // Near hits: recorded from the GPU's hits by the same merge; where all
     // of a vertex's rays met the same triangles, the same near hits.
-    let (cn, gn) = (&cpu.links.near, &gpu.links.near);
+    let (cn, gn) = (&cpu.links().near, &gpu.links().near);
     gn.validate(scene.vertex_count(), scene.triangles.len()).expect("GPU near hits valid");
     assert_eq!(cn.is_empty(), gn.is_empty(), "{name}: near hits on one path only");
     let near_same: Vec<bool> = (0..scene.vertex_count())
@@ -149,7 +150,7 @@ fn agree_on_within(name: &str, share: f64) {
     }
 
     // Light links: the GPU's visibility rays give the same factors.
-    for (l, (c, g)) in cpu.light_links.factors.iter().zip(&gpu.light_links.factors).enumerate() {
+    for (l, (c, g)) in cpu.light_links().factors.iter().zip(&gpu.light_links().factors).enumerate() {
         let bad = c.iter().zip(g).filter(|(a, b)| (*a - *b).abs() > 1e-5 * a.abs().max(1e-6)).count();
         assert!(bad as f64 <= 1e-3 * c.len() as f64, "{name}: light {l}: {bad} vertices differ");
     }
@@ -164,8 +165,9 @@ fn agree_on_within(name: &str, share: f64) {
     let (cs, gs) = (cpu.solve(), gpu.solve());
     let mean = common::mean(&cs.e_indirect).max_element().max(1e-30);
     let same = |v: usize| vertex_same[v] && near_same[v];
-    let unaffected: Vec<bool> =
-        (0..scene.vertex_count()).map(|v| same(v) && cpu.links.group(v).0.iter().all(|&u| same(u as usize))).collect();
+    let unaffected: Vec<bool> = (0..scene.vertex_count())
+        .map(|v| same(v) && cpu.links().group(v).0.iter().all(|&u| same(u as usize)))
+        .collect();
     let errs: Vec<f32> = (0..scene.vertex_count())
         .filter(|&v| unaffected[v])
         .map(|v| rel(cs.e_indirect_raw[v], gs.e_indirect_raw[v], 1e-2 * mean))
@@ -220,7 +222,7 @@ fn gpu_agrees_window() {
 
 /// Both bounce kernels from the same first radiosity with emission and
 /// sky light (`source_radiosity`), the same links, with and without the
-/// radiosity correction (`exchange::reconstruct`, the WGSL
+/// radiosity correction (`exchange::bounce::reconstruct`, the WGSL
 /// `reconstruct_radiosity` against `Reconstruction::at`): within 1e-5;
 /// the correction itself moves some vertex by more than 100 times that,
 /// and a second kernel with the same correction reuses its upload.
@@ -229,16 +231,16 @@ fn gpu_gather_with_emission_matches_cpu() {
     let Some(dev) = device() else { return };
     let desc = common::with_settings(scene::load("window").expect("built-in"), 64, Bounces::Fixed(5), 0.0);
     let (solver, sol) = common::solve(&desc);
-    let s = &solver.scene;
-    let b0 = exchange::gather::source_radiosity(&sol.e_source, &s.albedo, &s.emission);
+    let s = &solver.scene();
+    let b0 = exchange::bounce::gather::source_radiosity(&sol.e_source, &s.albedo, &s.emission);
     let params = GatherParams { bounces: Bounces::Fixed(5), ..Default::default() };
     let correction = std::sync::Arc::new(exchange::Reconstruction::new(s));
     correction.validate(s.vertex_count()).expect("correction valid");
-    let gl = GpuLinks::new(dev.clone(), &solver.links, &s.albedo).expect("upload");
+    let gl = GpuLinks::new(dev.clone(), &solver.links(), &s.albedo).expect("upload");
     let mut plain = Vec::new();
     for r in [None, Some(&correction)] {
         let cpu = drive(
-            &mut exchange::gather::CpuBounces::from_radiosity(&solver.links, &s.albedo, &b0)
+            &mut exchange::bounce::gather::CpuBounces::from_radiosity(&solver.links(), &s.albedo, &b0)
                 .with_reconstruction(r.map(|r| &**r)),
             &params,
         )
@@ -273,11 +275,11 @@ fn gpu_gather_matches_cpu_gather() {
     for (albedo, bounces) in [(0.8, Bounces::Fixed(6)), (0.99, Bounces::Auto)] {
         let desc = scene::builtin::furnace(albedo, 2, Vec3::new(0.2, -0.1, 0.3), 5.0);
         let (solver, _) = common::solve(&common::with_settings(desc, 64, bounces, 0.0));
-        let e_d = solver.light_links.direct(&solver.scene.lights, solver.scene.vertex_count());
+        let e_d = solver.light_links().direct(&solver.scene().lights, solver.scene().vertex_count());
         let params = GatherParams { bounces, ..Default::default() };
-        let cpu = exchange::gather(&solver.links, &solver.scene.albedo, &e_d, &params);
-        let gl = GpuLinks::new(dev.clone(), &solver.links, &solver.scene.albedo).expect("upload");
-        let gpu = drive(&mut gl.kernel(&e_d, &solver.scene.albedo).expect("kernel"), &params).expect("gather");
+        let cpu = exchange::gather(&solver.links(), &solver.scene().albedo, &e_d, &params);
+        let gl = GpuLinks::new(dev.clone(), &solver.links(), &solver.scene().albedo).expect("upload");
+        let gpu = drive(&mut gl.kernel(&e_d, &solver.scene().albedo).expect("kernel"), &params).expect("gather");
         assert!(cpu.bounces.abs_diff(gpu.bounces) <= 1, "bounces {} vs {}", cpu.bounces, gpu.bounces);
         if cpu.bounces == gpu.bounces {
             for (a, b) in cpu.e_indirect.iter().zip(&gpu.e_indirect) {
@@ -298,16 +300,16 @@ fn segmented_links_gather_the_same() {
     let Some(dev) = device() else { return };
     let desc = common::with_settings(scene::load("cornell").expect("built-in"), 16, Bounces::Fixed(3), 0.0);
     let (solver, _) = common::solve(&desc);
-    let e_d = solver.light_links.direct(&solver.scene.lights, solver.scene.vertex_count());
+    let e_d = solver.light_links().direct(&solver.scene().lights, solver.scene().vertex_count());
     let params = GatherParams { bounces: Bounces::Fixed(3), ..Default::default() };
     let run = |max_links: usize| {
-        let gl =
-            GpuLinks::with_segment_links(dev.clone(), &solver.links, &solver.scene.albedo, max_links).expect("upload");
-        let r = drive(&mut gl.kernel(&e_d, &solver.scene.albedo).expect("kernel"), &params).expect("gather");
+        let gl = GpuLinks::with_segment_links(dev.clone(), &solver.links(), &solver.scene().albedo, max_links)
+            .expect("upload");
+        let r = drive(&mut gl.kernel(&e_d, &solver.scene().albedo).expect("kernel"), &params).expect("gather");
         (gl.segment_count(), r.e_indirect)
     };
     let (one, a) = run(usize::MAX / 8);
-    let (many, b) = run(solver.links.link_count() / 7);
+    let (many, b) = run(solver.links().link_count() / 7);
     assert_eq!(one, 1);
     assert!(many >= 7, "{many} segments");
     assert_eq!(a, b);
@@ -321,13 +323,13 @@ fn gpu_decodes_the_packed_targets_bit_for_bit() {
     for name in ["cornell", "window"] {
         let desc = common::with_settings(scene::load(name).expect("built-in"), 64, Bounces::Fixed(1), 0.0);
         let (solver, _) = common::solve(&desc);
-        solver.links.validate().expect("valid links");
-        for max_links in [usize::MAX / 8, solver.links.link_count() / 5] {
-            let gl = GpuLinks::with_segment_links(dev.clone(), &solver.links, &solver.scene.albedo, max_links)
+        solver.links().validate().expect("valid links");
+        for max_links in [usize::MAX / 8, solver.links().link_count() / 5] {
+            let gl = GpuLinks::with_segment_links(dev.clone(), &solver.links(), &solver.scene().albedo, max_links)
                 .expect("upload");
             let decoded = gl.decode_targets().expect("decode");
-            assert_eq!(decoded.len(), solver.links.link_count());
-            let differ = decoded.iter().zip(&solver.links.targets()).filter(|(a, b)| a != b).count();
+            assert_eq!(decoded.len(), solver.links().link_count());
+            let differ = decoded.iter().zip(&solver.links().targets()).filter(|(a, b)| a != b).count();
             assert_eq!(differ, 0, "{name}: {differ} targets differ ({} segments)", gl.segment_count());
         }
     }
@@ -366,7 +368,7 @@ fn scheduler_splits_by_speed_and_loses_nothing() {
         schedule: gpu::ScheduleParams { target_batch_seconds: 0.02, first_batch_vertices: 32 },
     });
     let split = Solver::new_on(scene.clone(), params, &three, &|_, _| {}).expect("three devices");
-    let shares = &split.gpu.as_ref().expect("gpu state").shares;
+    let shares = &split.gpu().as_ref().expect("gpu state").shares;
     for s in shares {
         eprintln!("{}: {} batches, {} vertices", s.label, s.batches, s.vertices);
     }
@@ -380,10 +382,10 @@ fn scheduler_splits_by_speed_and_loses_nothing() {
     assert!(covered.iter().all(|&c| c == 1), "every vertex traced exactly once");
     assert!(shares[2].vertices < shares[0].vertices && shares[2].vertices < shares[1].vertices, "slow device got less");
     assert!(shares[2].vertices * 2 < shares[0].vertices.min(shares[1].vertices), "share roughly follows speed");
-    assert_eq!(one.links.offsets, split.links.offsets);
-    assert_eq!(one.links.targets(), split.links.targets());
-    assert_eq!(one.links.packed, split.links.packed);
-    assert_eq!(one.links.weights, split.links.weights);
+    assert_eq!(one.links().offsets, split.links().offsets);
+    assert_eq!(one.links().targets(), split.links().targets());
+    assert_eq!(one.links().packed, split.links().packed);
+    assert_eq!(one.links().weights, split.links().weights);
 }
 
 /// Light links computed with the GPU's `light_visibility` equal the CPU's
@@ -397,12 +399,13 @@ fn gpu_light_links_follow_a_moved_light() {
         Solver::new_on(scene, SolveParams::from_settings(&desc.settings), &gpu_compute(&dev, 1), &|_, _| {})
             .expect("GPU solver");
     let before = solver.solve();
-    if let linkgi::scene::Light::Point { position, .. } = &mut solver.scene.lights[0] {
+    let mut lights = solver.scene().lights.clone();
+    if let linkgi::scene::Light::Point { position, .. } = &mut lights[0] {
         *position += Vec3::new(0.3, -0.4, 0.2);
     }
-    solver.update_lights();
-    let cpu = LightLinks::compute(&solver.scene, &solver.accel, &solver.params.light);
-    for (c, g) in cpu.factors[0].iter().zip(&solver.light_links.factors[0]) {
+    solver.set_lights(lights);
+    let cpu = LightLinks::compute(solver.scene(), solver.accel(), &solver.params().light);
+    for (c, g) in cpu.factors[0].iter().zip(&solver.light_links().factors[0]) {
         assert!((c - g).abs() <= 1e-5 * c.abs().max(1e-6), "{c} vs {g}");
     }
     let after = solver.solve();

@@ -5,7 +5,7 @@
 mod common;
 
 use glam::Vec3;
-use linkgi::exchange::gather::{gather, gather_bounce, GatherParams};
+use linkgi::exchange::bounce::gather::{gather, gather_bounce, GatherParams};
 use linkgi::scene::{builtin, Bounces};
 use std::f32::consts::PI;
 
@@ -18,20 +18,20 @@ fn auto_bounces_stop_at_the_tolerance() {
         let desc = common::with_settings(builtin::closed_room(4, rho), 64, Bounces::Auto, 0.0);
         let (solver, sol) = common::solve(&desc);
         let params = GatherParams { bounces: Bounces::Auto, tolerance: tol, ..Default::default() };
-        let result = gather(&solver.links, &solver.scene.albedo, &sol.e_source, &params);
+        let result = gather(&solver.links(), &solver.scene().albedo, &sol.e_source, &params);
         // Manual: bounce until the newest adds less than tol of the running total.
         let n = sol.e_source.len();
-        let mut b: Vec<Vec3> = sol.e_source.iter().zip(&solver.scene.albedo).map(|(e, r)| *e * *r / PI).collect();
+        let mut b: Vec<Vec3> = sol.e_source.iter().zip(&solver.scene().albedo).map(|(e, r)| *e * *r / PI).collect();
         let mut e = vec![Vec3::ZERO; n];
         let mut running = 0f64;
         let mut expected = 0;
         let mut newest_rel = Vec::new();
         for bounce in 1..=200u32 {
-            gather_bounce(&solver.links, &b, &mut e);
+            gather_bounce(&solver.links(), &b, &mut e);
             let t: f64 = e.iter().map(|v| v.x as f64).sum();
             running += t;
             newest_rel.push(t / running);
-            b = e.iter().zip(&solver.scene.albedo).map(|(e, r)| *e * *r / PI).collect();
+            b = e.iter().zip(&solver.scene().albedo).map(|(e, r)| *e * *r / PI).collect();
             if bounce >= 2 && t / running < tol as f64 {
                 expected = bounce;
                 break;
@@ -44,8 +44,8 @@ fn auto_bounces_stop_at_the_tolerance() {
         assert!(newest_rel[expected as usize - 2] >= tol as f64);
         // A tighter tolerance needs more bounces, a looser one fewer.
         let tighter = gather(
-            &solver.links,
-            &solver.scene.albedo,
+            &solver.links(),
+            &solver.scene().albedo,
             &sol.e_source,
             &GatherParams { tolerance: tol / 10.0, ..params },
         );

@@ -125,7 +125,7 @@ fn batch_size_does_not_change_links() {
 /// vertex 2.4e-5 (furnace) to 1.7e-3 (conference, 16 rays).
 #[test]
 fn stored_links_keep_the_exact_weights_light() {
-    use linkgi::exchange::gather::{gather, GatherParams};
+    use linkgi::exchange::bounce::gather::{gather, GatherParams};
     use linkgi::scene::Bounces;
     for &name in builtin::NAMES {
         let mut desc = linkgi::scene::load(name).expect("built-in");

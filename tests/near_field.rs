@@ -1,4 +1,4 @@
-//! Near hits and the exact direct light at them ([`linkgi::exchange::near_field`]):
+//! Near hits and the exact direct light at them ([`linkgi::exchange::near::light`]):
 //! a plate just above a floor of two big triangles against the reference
 //! path tracer (under a point light, a glowing panel and the sky), light
 //! moves against fresh solves, and the documented
@@ -7,6 +7,7 @@
 mod common;
 
 use glam::Vec3;
+use linkgi::exchange::near::NearTerm;
 use linkgi::reference::{self, ReferenceParams};
 use linkgi::scene::shapes::MeshBuilder;
 use linkgi::scene::{prep, Bounces, Light, SceneDesc};
@@ -38,16 +39,16 @@ fn solver(desc: &SceneDesc, near_factor: f32) -> Solver {
     let mut params = SolveParams::from_settings(&scene.settings);
     params.links.near.factor = near_factor;
     let s = Solver::new(scene, params, &|_, _| {});
-    s.accel.validate().expect("acceleration structure valid");
-    s.links.validate().expect("links valid");
-    s.links.near.validate(s.scene.vertex_count(), s.scene.triangles.len()).expect("near hits valid");
+    s.accel().validate().expect("acceleration structure valid");
+    s.links().validate().expect("links valid");
+    s.links().near.validate(s.scene().vertex_count(), s.scene().triangles.len()).expect("near hits valid");
     s
 }
 
 /// The plate's underside vertices (facing down, below 6 mm), at least 9.
 fn plate_underside(s: &Solver) -> Vec<usize> {
-    let under: Vec<usize> = (0..s.scene.vertex_count())
-        .filter(|&v| s.scene.normals[v].y < -0.99 && s.scene.positions[v].y < 0.006)
+    let under: Vec<usize> = (0..s.scene().vertex_count())
+        .filter(|&v| s.scene().normals[v].y < -0.99 && s.scene().positions[v].y < 0.006)
         .collect();
     assert!(under.len() >= 9, "{} underside vertices", under.len());
     under
@@ -57,7 +58,7 @@ fn plate_underside(s: &Solver) -> Vec<usize> {
 /// paths), in `with` and in `without` (two solutions of `s`'s scene).
 fn underside_means(s: &Solver, with: &linkgi::solver::Solution, without: &linkgi::solver::Solution) -> (f64, f64, f64) {
     let r = reference::compute_cached(
-        &s.scene,
+        &s.scene(),
         &ReferenceParams { samples_per_vertex: 1024, ..Default::default() },
         &reference::cache::default_dir(),
     );
@@ -73,7 +74,7 @@ fn underside_means(s: &Solver, with: &linkgi::solver::Solution, without: &linkgi
 /// the mean was 15% low (0.37, the same at 1024 rays and against a
 /// 16384-path reference): the light going back and forth in the 5 mm gap,
 /// which the floor's corners cannot represent; with the final gather from
-/// the near hits for the later bounces ([`linkgi::exchange::near_gather`])
+/// the near hits for the later bounces ([`linkgi::exchange::near::gather`])
 /// 0.462 (+5%). Held: within 10%, and at least 3x closer than the links
 /// alone.
 #[test]
@@ -81,14 +82,14 @@ fn plate_underside_agrees_with_the_reference() {
     let desc = plate_scene(256);
     let with = solver(&desc, 1.0);
     let without = solver(&desc, 0.0);
-    assert!(!with.links.near.is_empty() && without.links.near.is_empty());
+    assert!(!with.links().near.is_empty() && without.links().near.is_empty());
     let (a, b) = (with.solve(), without.solve());
     let (m_ref, m_with, m_without) = underside_means(&with, &a, &b);
     let under = plate_underside(&with);
     let mean = |e: &[Vec3]| under.iter().map(|&v| e[v].x as f64).sum::<f64>() / under.len() as f64;
     eprintln!(
         "underside mean E_i: reference {m_ref:.4}, near hits {m_with:.4}, links alone {m_without:.4}; {} near hits",
-        with.links.near.hits.len()
+        with.links().near.hits.len()
     );
     assert!((m_with - m_ref).abs() < 0.1 * m_ref, "with near hits: {m_with} vs {m_ref}");
     assert!((m_without - m_ref).abs() > 3.0 * (m_with - m_ref).abs(), "links alone {m_without} vs {m_ref}");
@@ -99,7 +100,7 @@ fn plate_underside_agrees_with_the_reference() {
 
 /// The plate of [`plate_scene`] lit by a glowing 0.5 x 0.5 m panel 2 m
 /// above instead of the point light: the emitters' light at near hits
-/// ([`linkgi::exchange::near_emitters`]) takes the floor's lit corners out
+/// ([`linkgi::exchange::near::emitters`]) takes the floor's lit corners out
 /// of the shadow under the plate as the point light's near field does:
 /// measured 0.1435 against the reference's 0.1431 W/m^2 (0.116 before the
 /// final gather at near hits took the light going back and forth in the
@@ -123,8 +124,8 @@ fn plate_underside_under_an_emitter_agrees_with_the_reference() {
         common::solve_with(scene.clone(), params)
     };
     let ((with, a), (without, b)) = (solve(4), solve(0));
-    assert!(!with.near_emitters.is_empty() && without.near_emitters.is_empty());
-    assert!(with.near_emitters.shadow_rays > 0);
+    assert!(!with.near().emitters.is_empty() && without.near().emitters.is_empty());
+    assert!(with.near().emitters.cost.rays > 0);
     let (m_ref, m_with, m_without) = underside_means(&with, &a, &b);
     eprintln!("underside mean E_i under the panel: reference {m_ref:.4}, with {m_with:.4}, without {m_without:.4}");
     assert!((m_with - m_ref).abs() < 0.1 * m_ref, "with the emitters' near field: {m_with} vs {m_ref}");
@@ -132,12 +133,14 @@ fn plate_underside_under_an_emitter_agrees_with_the_reference() {
     assert!(a.e_indirect.iter().chain(&a.e_indirect_raw).all(|e| e.min_element() >= 0.0 && e.is_finite()));
     // Twice the exitance: twice the correction, from the same coefficients.
     let mut brighter = with;
-    let panel = brighter.scene.meshes.len() - 1;
-    let range = brighter.scene.meshes[panel].vertices.clone();
-    brighter.scene.emission[range.start as usize..range.end as usize].fill(Vec3::splat(80.0));
-    let rays = brighter.near_emitters.shadow_rays;
+    let panel = brighter.scene().meshes.len() - 1;
+    let range = brighter.scene().meshes[panel].vertices.clone();
+    let mut emission = brighter.scene().emission.clone();
+    emission[range.start as usize..range.end as usize].fill(Vec3::splat(80.0));
+    let rays = brighter.near().emitters.cost.rays;
+    assert!(!brighter.set_emission(emission), "the panel's emitter links cover it");
     let twice = brighter.solve();
-    assert_eq!(brighter.near_emitters.shadow_rays, rays, "an emission edit traces nothing");
+    assert_eq!(brighter.near().emitters.cost.rays, rays, "an emission edit traces nothing");
     for (x, y) in twice.e_near.iter().zip(&a.e_near) {
         assert!((*x - 2.0 * *y).abs().max_element() <= 1e-4 * y.abs().max_element().max(1e-6), "{x} vs 2 x {y}");
     }
@@ -147,7 +150,7 @@ fn plate_underside_under_an_emitter_agrees_with_the_reference() {
 /// light: the floor's corners see the whole sky while the floor under the
 /// plate sees a thin slit of it, so the links alone bring the plate's
 /// underside the open floor's sky light. The sky's light at near hits
-/// ([`linkgi::exchange::near_sky`]) takes it out as the lights' and
+/// ([`linkgi::exchange::near::sky`]) takes it out as the lights' and
 /// emitters' near fields do: 0.765 against the reference's 0.736 W/m^2
 /// (0.596 before the final gather at near hits), 2.51 without. Held:
 /// within 10% of the reference and at
@@ -167,8 +170,8 @@ fn plate_underside_under_the_sky_agrees_with_the_reference() {
         common::solve_with(scene.clone(), params)
     };
     let ((with, a), (without, b)) = (solve(true), solve(false));
-    assert!(!with.near_sky.is_empty() && without.near_sky.is_empty());
-    assert!(with.near_sky.shadow_rays > 0 && !with.near_sky.dirs.is_empty());
+    assert!(!with.near().sky.is_empty() && without.near().sky.is_empty());
+    assert!(with.near().sky.cost.rays > 0 && !with.near().sky.rows.items.is_empty());
     let (m_ref, m_with, m_without) = underside_means(&with, &a, &b);
     eprintln!("underside mean E_i under the sky: reference {m_ref:.4}, with {m_with:.4}, without {m_without:.4}");
     assert!((m_with - m_ref).abs() < 0.1 * m_ref, "with the sky's near field: {m_with} vs {m_ref}");
@@ -176,17 +179,18 @@ fn plate_underside_under_the_sky_agrees_with_the_reference() {
     assert!(a.e_indirect.iter().chain(&a.e_indirect_raw).all(|e| e.min_element() >= 0.0 && e.is_finite()));
     // Twice the sky: twice the correction, from the same directions.
     let mut brighter = with;
-    brighter.scene.sky.as_mut().unwrap().intensity = 2.0;
-    let rays = brighter.near_sky.shadow_rays;
-    assert!(!brighter.update_portals(), "the same portals and a traced sky: nothing to trace");
+    let mut sky = brighter.scene().sky.clone().unwrap();
+    sky.intensity = 2.0;
+    let rays = brighter.near().sky.cost.rays;
+    assert!(!brighter.set_sky(Some(sky)), "the same portals and a traced sky: nothing to trace");
     let twice = brighter.solve();
-    assert_eq!(brighter.near_sky.shadow_rays, rays);
+    assert_eq!(brighter.near().sky.cost.rays, rays);
     for (x, y) in twice.e_near.iter().zip(&a.e_near) {
         assert!((*x - 2.0 * *y).abs().max_element() <= 1e-4 * y.abs().max_element().max(1e-6), "{x} vs 2 x {y}");
     }
 }
 
-/// The final gather from near hits ([`linkgi::exchange::near_gather`]) on
+/// The final gather from near hits ([`linkgi::exchange::near::gather`]) on
 /// the plate of [`plate_scene`] under its point light: the later bounces'
 /// light under the plate, interpolated from the floor's corners (lit) and
 /// the plate's underside, read 15% low (0.37 against the reference's 0.44
@@ -204,7 +208,7 @@ fn the_final_gather_at_near_hits_brings_the_light_in_the_gap() {
         common::solve_with(scene.clone(), params)
     };
     let ((with, a), (without, b)) = (solve(4), solve(0));
-    assert!(!with.near_gather.is_empty() && without.near_gather.is_empty());
+    assert!(with.near().gather.per_hit > 0 && without.near().gather.per_hit == 0);
     assert!(a.e_near_gather.iter().any(|d| *d != Vec3::ZERO) && b.e_near_gather.is_empty());
     let (m_ref, m_with, m_without) = underside_means(&with, &a, &b);
     eprintln!("underside mean E_i: reference {m_ref:.4}, with the final gather {m_with:.4}, without {m_without:.4}");
@@ -212,14 +216,16 @@ fn the_final_gather_at_near_hits_brings_the_light_in_the_gap() {
     assert!((m_without - m_ref).abs() > 2.0 * (m_with - m_ref).abs(), "without {m_without} vs {m_ref}");
     // Twice the light: twice the correction, from the same gather rays.
     let mut brighter = with;
-    let rays = brighter.near_gather.rays;
-    for l in &mut brighter.scene.lights {
+    let rays = brighter.near().gather.cost.rays;
+    let mut lights = brighter.scene().lights.clone();
+    for l in &mut lights {
         if let Light::Point { intensity, .. } = l {
             *intensity *= 2.0;
         }
     }
+    brighter.set_lights(lights);
     let twice = brighter.solve();
-    assert_eq!(brighter.near_gather.rays, rays);
+    assert_eq!(brighter.near().gather.cost.rays, rays);
     for (x, y) in twice.e_near_gather.iter().zip(&a.e_near_gather) {
         assert!((*x - 2.0 * *y).abs().max_element() <= 1e-3 * y.abs().max_element().max(1e-4), "{x} vs 2 x {y}");
     }
@@ -233,22 +239,20 @@ fn light_moves_update_the_near_columns() {
     let mut s = solver(&desc, 1.0);
     let _ = s.solve();
     let moved = Light::Point { position: Vec3::new(-0.6, 1.5, 0.4), intensity: Vec3::splat(10.0) };
-    s.scene.lights[0] = moved;
-    s.update_lights();
-    assert!(s.near_light.shadow_rays > 0);
+    s.set_lights(vec![moved]);
+    assert!(s.near().light.cost.rays > 0);
     let mut fresh_desc = desc.clone();
     fresh_desc.lights[0] = moved;
     let fresh = solver(&fresh_desc, 1.0);
-    assert_eq!(s.near_light.columns, fresh.near_light.columns);
+    assert_eq!(s.near().light.columns, fresh.near().light.columns);
     assert_eq!(s.solve().e_near, fresh.solve().e_near);
-    s.scene.lights[0] = Light::Point { position: Vec3::new(-0.6, 1.5, 0.4), intensity: Vec3::splat(30.0) };
-    s.update_lights();
-    assert_eq!(s.near_light.shadow_rays, 0, "a new intensity traces nothing");
+    s.set_lights(vec![Light::Point { position: Vec3::new(-0.6, 1.5, 0.4), intensity: Vec3::splat(30.0) }]);
+    assert_eq!(s.near().light.cost.rays, 0, "a new intensity traces nothing");
     let e = s.solve().e_near;
     let f = fresh.solve().e_near;
     // Within 1e-3: `e_near` is a small difference of its exact and
     // interpolated terms, and the corner terms pass through the radiosity
-    // correction's f32 arithmetic (`exchange::reconstruct`; measured 8e-5).
+    // correction's f32 arithmetic (`exchange::bounce::reconstruct`; measured 8e-5).
     for (x, y) in e.iter().zip(&f) {
         assert!((*x - 3.0 * *y).abs().max_element() <= 1e-3 * y.abs().max_element().max(1e-6), "{x} vs 3 x {y}");
     }
@@ -263,9 +267,9 @@ fn near_hits_follow_the_budget_and_the_seed() {
     let mut params = SolveParams::from_settings(&scene.settings);
     params.links.near.max_rays = 100;
     let s = Solver::new(scene, params, &|_, _| {});
-    assert!(s.links.near.is_empty());
+    assert!(s.links().near.is_empty());
     assert!(s.solve().e_near.iter().all(|e| *e == Vec3::ZERO));
     let (a, b) = (solver(&desc, 1.0), solver(&desc, 1.0));
-    assert_eq!(a.links.near, b.links.near);
-    assert_eq!(a.near_light.columns, b.near_light.columns);
+    assert_eq!(a.links().near, b.links().near);
+    assert_eq!(a.near().light.columns, b.near().light.columns);
 }

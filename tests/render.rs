@@ -73,8 +73,8 @@ enum Class {
 
 /// Classifies each pixel by what its primary ray meets.
 fn classify(c: &Cornell) -> Vec<Vec<Class>> {
-    let s = &c.solver.scene;
-    let kd = &c.solver.accel;
+    let s = &c.solver.scene();
+    let kd = &c.solver.accel();
     let frame = Frame::of(s, &c.sol.e_indirect, c.camera);
     let extent = frame.extent();
     let Light::Point { position: light, .. } = s.lights[0] else { panic!() };
@@ -179,8 +179,8 @@ fn save(name: &str, img: &HdrImage) {
 #[test]
 fn cpu_fallback_image() {
     let c = cornell();
-    let frame = Frame::of(&c.solver.scene, &c.sol.e_indirect, c.camera);
-    let (comb, dir, ind) = render_views(|v| render_cpu(&frame, &params(v), Some(&c.solver.accel)).unwrap().0);
+    let frame = Frame::of(&c.solver.scene(), &c.sol.e_indirect, c.camera);
+    let (comb, dir, ind) = render_views(|v| render_cpu(&frame, &params(v), Some(c.solver.accel())).unwrap().0);
     save("cornell-cpu.png", &comb);
     check_image("cpu", &comb, &dir, &ind);
 }
@@ -190,20 +190,20 @@ fn gpu_image_and_agreement_with_cpu() {
     let Some(dev) = device() else { return };
     let c = cornell();
     let r = GpuRenderer::new(dev).unwrap();
-    let frame = Frame::of(&c.solver.scene, &c.sol.e_indirect, c.camera);
+    let frame = Frame::of(&c.solver.scene(), &c.sol.e_indirect, c.camera);
     let (comb, dir, ind) = render_views(|v| r.render(&frame, &params(v)).unwrap().0);
     save("cornell-gpu.png", &comb);
     save("cornell-gpu-indirect.png", &ind);
     check_image("gpu", &comb, &dir, &ind);
     // CPU and GPU agree after tone mapping (shadow edges and PCF differ a little).
-    let cpu = render_cpu(&frame, &params(View::Combined), Some(&c.solver.accel)).unwrap().0;
+    let cpu = render_cpu(&frame, &params(View::Combined), Some(c.solver.accel())).unwrap().0;
     let (a, b) = (render::tone_map(&comb, 0.6), render::tone_map(&cpu, 0.6));
     let diff: f64 = a.as_raw().iter().zip(b.as_raw()).map(|(&x, &y)| (x as f64 - y as f64).abs()).sum::<f64>()
         / a.as_raw().len() as f64
         / 255.0;
     assert!(diff < 0.03, "mean abs difference GPU vs CPU {diff:.4}");
     // Indirect-only views agree more closely (no shadows involved).
-    let cpu_ind = render_cpu(&frame, &params(View::Indirect), Some(&c.solver.accel)).unwrap().0;
+    let cpu_ind = render_cpu(&frame, &params(View::Indirect), Some(c.solver.accel())).unwrap().0;
     let d: f32 = ind.pixels.iter().zip(&cpu_ind.pixels).map(|(a, b)| (*a - *b).abs().element_sum()).sum::<f32>()
         / ind.pixels.iter().map(|a| a.element_sum()).sum::<f32>();
     assert!(d < 0.05, "indirect views differ by {d:.4} relative");
@@ -215,7 +215,7 @@ fn directional_lights_make_no_cube_shadow_maps() {
     let c = cornell();
     let r = GpuRenderer::new(dev).unwrap();
     let sun = [Light::Directional { direction: Vec3::new(0.3, -1.0, -0.2).normalize(), irradiance: Vec3::ONE }];
-    let mut frame = Frame::of(&c.solver.scene, &c.sol.e_indirect, c.camera);
+    let mut frame = Frame::of(&c.solver.scene(), &c.sol.e_indirect, c.camera);
     frame.lights = &sun;
     let (img, stats) = r.render(&frame, &params(View::Direct)).unwrap();
     save("cornell-sun.png", &img);
@@ -226,7 +226,7 @@ fn directional_lights_make_no_cube_shadow_maps() {
     let lit = img.pixels.iter().filter(|p| p.max_element() > 1e-3).count();
     assert!(lit * 100 < img.pixels.len(), "sunlight leaked into the closed room: {lit} pixels lit");
     // Point lights: one cube (six layers) each.
-    let both = [c.solver.scene.lights[0], sun[0]];
+    let both = [c.solver.scene().lights[0], sun[0]];
     frame.lights = &both;
     let (_, stats) = r.render(&frame, &params(View::Direct)).unwrap();
     assert_eq!((stats.cube_shadow_maps, stats.shadow_maps_2d, stats.shadow_layers), (1, 1, 7));
@@ -236,10 +236,10 @@ fn directional_lights_make_no_cube_shadow_maps() {
 fn kd_tree_of_frame_matches_solver() {
     // The CPU renderer builds its own tree when none is given: same image.
     let c = cornell();
-    let frame = Frame::of(&c.solver.scene, &c.sol.e_indirect, c.camera);
+    let frame = Frame::of(&c.solver.scene(), &c.sol.e_indirect, c.camera);
     let p = RenderParams { width: 40, height: 30, ..params(View::Combined) };
     let own = render_cpu(&frame, &p, None).unwrap().0;
-    let kd = KdTree::build(&c.solver.scene.positions, &c.solver.scene.triangles, &KdBuildParams::default());
+    let kd = KdTree::build(&c.solver.scene().positions, &c.solver.scene().triangles, &KdBuildParams::default());
     let given = render_cpu(&frame, &p, Some(&kd)).unwrap().0;
     assert_eq!(own, given);
     assert!(own.pixels.iter().any(|p| p.max_element() > 0.01), "the image is black");
@@ -257,15 +257,15 @@ fn default_camera_frames_the_whole_box() {
     let c = cornell();
     let camera = builtin::builtin("cornell").unwrap().camera;
     let (w, h) = (80, 60);
-    let frame = Frame::of(&c.solver.scene, &c.sol.e_indirect, camera);
+    let frame = Frame::of(&c.solver.scene(), &c.sol.e_indirect, camera);
     let p = RenderParams { width: w, height: h, ..params(View::Combined) };
-    let img = render_cpu(&frame, &p, Some(&c.solver.accel)).unwrap().0;
+    let img = render_cpu(&frame, &p, Some(c.solver.accel())).unwrap().0;
     save("cornell-default-camera.png", &img);
     let ldr = render::tone_map(&img, RenderParams::default().exposure);
     let rgb = |x: u32, y: u32| ldr.get_pixel(x, y).0.map(|v| v as f32);
     let extent = frame.extent();
-    let accel = &c.solver.accel;
-    let Light::Point { position: light, .. } = c.solver.scene.lights[0] else { panic!() };
+    let accel = &c.solver.accel();
+    let Light::Point { position: light, .. } = c.solver.scene().lights[0] else { panic!() };
     let hit = |x: u32, y: u32| {
         let ray = render::pixel_ray(&camera, w, h, extent, x, y);
         accel.intersect(&ray).map(|hit| ray.origin + ray.dir * hit.t).expect("every primary ray meets the closed room")
@@ -368,15 +368,15 @@ fn exr_holds_linear_radiance() {
 #[test]
 fn bad_frames_are_errors() {
     let c = cornell();
-    let mut frame = Frame::of(&c.solver.scene, &c.sol.e_indirect, c.camera);
-    let many = vec![c.solver.scene.lights[0]; 9];
+    let mut frame = Frame::of(&c.solver.scene(), &c.sol.e_indirect, c.camera);
+    let many = vec![c.solver.scene().lights[0]; 9];
     frame.lights = &many;
     let p = RenderParams { width: 8, height: 6, ..params(View::Combined) };
     let e = render_cpu(&frame, &p, None).unwrap_err().to_string();
     assert!(e.contains("9 lights") && e.contains("at most 8"), "{e}");
     let short = vec![Vec3::ZERO; 5];
-    let mut frame = Frame::of(&c.solver.scene, &short, c.camera);
-    frame.lights = &c.solver.scene.lights;
+    let mut frame = Frame::of(&c.solver.scene(), &short, c.camera);
+    frame.lights = &c.solver.scene().lights;
     let e = render_cpu(&frame, &p, None).unwrap_err().to_string();
     assert!(e.contains("5 indirect"), "{e}");
     if let Some(dev) = device() {
@@ -394,7 +394,7 @@ fn gpu_display_pass_matches_cpu_tone_map() {
     let Some(dev) = device() else { return };
     let c = cornell();
     let r = GpuRenderer::new(dev.clone()).unwrap();
-    let frame = Frame::of(&c.solver.scene, &c.sol.e_indirect, c.camera);
+    let frame = Frame::of(&c.solver.scene(), &c.sol.e_indirect, c.camera);
     for exposure in [0.6f32, 4.0] {
         let p = RenderParams { exposure, ..params(View::Combined) };
         let cpu = render::tone_map(&r.render(&frame, &p).unwrap().0, exposure);
@@ -429,7 +429,7 @@ fn shadow_maps_are_reused_only_while_lights_and_geometry_stand_still() {
     let c = cornell();
     let fresh = GpuRenderer::new(dev.clone()).unwrap();
     let r = GpuRenderer::new(dev).unwrap();
-    let frame = Frame::of(&c.solver.scene, &c.sol.e_indirect, c.camera);
+    let frame = Frame::of(&c.solver.scene(), &c.sol.e_indirect, c.camera);
     let p = params(View::Combined);
     let (first, s1) = r.render(&frame, &p).unwrap();
     assert!(!s1.shadow_maps_reused);
@@ -444,7 +444,7 @@ fn shadow_maps_are_reused_only_while_lights_and_geometry_stand_still() {
     assert!(!s3.shadow_maps_reused);
     assert_eq!(reused, expect, "reused shadow maps gave another image");
     // A moved light or moved geometry redraws them.
-    let light = [match c.solver.scene.lights[0] {
+    let light = [match c.solver.scene().lights[0] {
         Light::Point { position, intensity } => {
             Light::Point { position: position + Vec3::new(0.3, 0.0, 0.0), intensity }
         }
@@ -455,7 +455,7 @@ fn shadow_maps_are_reused_only_while_lights_and_geometry_stand_still() {
     let (other, s4) = r.render(&moved_light, &p).unwrap();
     assert!(!s4.shadow_maps_reused);
     assert_ne!(other, first);
-    let shifted: Vec<Vec3> = c.solver.scene.positions.iter().map(|p| *p + Vec3::new(0.0, 1e-3, 0.0)).collect();
+    let shifted: Vec<Vec3> = c.solver.scene().positions.iter().map(|p| *p + Vec3::new(0.0, 1e-3, 0.0)).collect();
     let mut moved_geo = moved_light;
     moved_geo.positions = &shifted;
     assert!(!r.render(&moved_geo, &p).unwrap().1.shadow_maps_reused);
@@ -479,9 +479,9 @@ fn window_draws_emitters_and_sky() {
     );
     let sol = solver.solve();
     let p = RenderParams { width: 96, height: 72, ..params(View::Combined) };
-    let frame = Frame::of(&solver.scene, &sol.e_indirect, desc.camera).with_sky(&sol.e_sky);
+    let frame = Frame::of(&solver.scene(), &sol.e_indirect, desc.camera).with_sky(&sol.e_sky);
     let (img, _) = render_cpu(&frame, &p, None).unwrap();
-    let sky = solver.scene.sky.as_ref().unwrap();
+    let sky = solver.scene().sky.as_ref().unwrap();
     let extent = frame.extent();
     let sky_pixels: Vec<(usize, Vec3)> = (0..p.height)
         .flat_map(|y| (0..p.width).map(move |x| (x, y)))
@@ -504,7 +504,7 @@ fn window_draws_emitters_and_sky() {
         assert!(close as f64 >= 0.9 * sky_pixels.len() as f64, "GPU sky pass: {close}/{}", sky_pixels.len());
     }
     assert!(brightest >= 30.0 / std::f32::consts::PI, "the glowing shade is not drawn with its radiance");
-    let mut dark = solver.scene.clone();
+    let mut dark = solver.scene().clone();
     dark.emission.iter_mut().for_each(|e| *e = Vec3::ZERO);
     dark.sky = None;
     let zeros = vec![Vec3::ZERO; dark.vertex_count()];

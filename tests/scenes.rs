@@ -62,11 +62,11 @@ fn written_scene_reads_back() {
 fn ply_export_carries_the_solution() {
     let desc = common::with_settings(builtin::builtin("cornell").unwrap(), 16, Bounces::Fixed(2), 30.0);
     let (solver, sol) = common::solve(&desc);
-    let bytes = linkgi::export::ply_bytes(&solver.scene, &sol);
+    let bytes = linkgi::export::ply_bytes(&solver.scene(), &sol);
     let header_end = bytes.windows(11).position(|w| w == b"end_header\n").unwrap() + 11;
     let header = std::str::from_utf8(&bytes[..header_end]).unwrap();
-    let n = solver.scene.vertex_count();
-    let t = solver.scene.triangles.len();
+    let n = solver.scene().vertex_count();
+    let t = solver.scene().triangles.len();
     assert!(header.starts_with("ply\nformat binary_little_endian 1.0\n"));
     assert!(header.contains(&format!("element vertex {n}\n")));
     assert!(header.contains(&format!("element face {t}\nproperty list uchar uint vertex_indices\n")));
@@ -82,7 +82,7 @@ fn ply_export_carries_the_solution() {
     // Vertex 7's indirect red and the last face read back.
     let rec = header_end + 7 * stride;
     let f = |i: usize| f32::from_le_bytes(bytes[rec + 4 * i..rec + 4 * i + 4].try_into().unwrap());
-    assert_eq!(f(0), solver.scene.positions[7].x);
+    assert_eq!(f(0), solver.scene().positions[7].x);
     assert_eq!(f(12), sol.e_indirect[7].x);
     // Every vertex's colour is its radiance from the record's own floats,
     // tone mapped as renders are.
@@ -107,8 +107,8 @@ fn ply_export_carries_the_solution() {
     assert!(sums[0][0] > 1.5 * sums[0][1] && sums[1][1] > 1.5 * sums[1][0], "wall colours {sums:?}");
     let last = &bytes[bytes.len() - 13..];
     assert_eq!(last[0], 3);
-    assert_eq!(u32::from_le_bytes(last[9..13].try_into().unwrap()), solver.scene.triangles[t - 1][2]);
-    let json = linkgi::export::scene_json(&solver.scene, &solver.stats(&sol, 0.0));
+    assert_eq!(u32::from_le_bytes(last[9..13].try_into().unwrap()), solver.scene().triangles[t - 1][2]);
+    let json = linkgi::export::scene_json(&solver.scene(), &solver.stats(&sol, 0.0));
     assert_eq!(json["lights"][0]["kind"], "point");
     assert_eq!(json["stats"]["vertices"], n);
     assert_eq!(json["settings"]["rays_per_vertex"], 16);

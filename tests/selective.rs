@@ -37,10 +37,10 @@ fn moved_by(scene: &PreparedScene, f: impl Fn(Vec3) -> Vec3) -> PreparedScene {
 
 /// Asserts the selectively updated solver equals a fresh solve of its scene.
 fn assert_equals_fresh(updated: &Solver, what: &str) {
-    updated.accel.validate().expect("acceleration structure valid");
-    updated.links.validate().expect("links valid");
-    let fresh = Solver::new(updated.scene.clone(), updated.params, &|_, _| {});
-    let (a, b) = (&updated.links, &fresh.links);
+    updated.accel().validate().expect("acceleration structure valid");
+    updated.links().validate().expect("links valid");
+    let fresh = Solver::new(updated.scene().clone(), *updated.params(), &|_, _| {});
+    let (a, b) = (&updated.links(), &fresh.links());
     assert_eq!(a.offsets.len(), b.offsets.len());
     for v in 0..a.vertex_count() {
         let (ta, wa) = a.group(v);
@@ -55,10 +55,10 @@ fn assert_equals_fresh(updated: &Solver, what: &str) {
     assert_eq!(a.stats.back_hits, b.stats.back_hits, "{what}: back hits");
     assert_eq!(a.stats.misses, b.stats.misses, "{what}: misses");
     assert_eq!(a.stats.merged_links, b.stats.merged_links, "{what}: merged links");
-    assert_eq!(updated.ray_hits, fresh.ray_hits, "{what}: per-ray state");
+    assert_eq!(updated.ray_hits(), fresh.ray_hits(), "{what}: per-ray state");
     assert_eq!(a.sky, b.sky, "{what}: sky visibility (miss masks)");
-    let (fa, fb) = (&updated.light_links.factors, &fresh.light_links.factors);
-    let (pa, pb) = (&updated.light_links.point, &fresh.light_links.point);
+    let (fa, fb) = (&updated.light_links().factors, &fresh.light_links().factors);
+    let (pa, pb) = (&updated.light_links().point, &fresh.light_links().point);
     assert_eq!(fa.len(), fb.len());
     assert_eq!(pa.len(), fa.len());
     for (l, (ca, cb)) in fa.iter().zip(fb).chain(pa.iter().zip(pb)).enumerate() {
@@ -66,10 +66,10 @@ fn assert_equals_fresh(updated: &Solver, what: &str) {
             assert!((x - y).abs() <= 1e-6 * y.abs(), "{what}: light {l} vertex {v}: {x} vs {y}");
         }
     }
-    assert_eq!(updated.links.near, fresh.links.near, "{what}: near hits");
-    assert_eq!(updated.near_light.columns, fresh.near_light.columns, "{what}: near hits' light columns");
-    let (ea, eb) = (&updated.emitter_links, &fresh.emitter_links);
-    ea.validate(updated.scene.vertex_count()).expect("emitter links valid");
+    assert_eq!(updated.links().near, fresh.links().near, "{what}: near hits");
+    assert_eq!(updated.near().light.columns, fresh.near().light.columns, "{what}: near hits' light columns");
+    let (ea, eb) = (&updated.emitter_links(), &fresh.emitter_links());
+    ea.validate(updated.scene().vertex_count()).expect("emitter links valid");
     assert_eq!((&ea.offsets, &ea.groups, &ea.factors), (&eb.offsets, &eb.groups, &eb.factors), "{what}: emitter links");
     let (sa, sb) = (updated.solve(), fresh.solve());
     assert_eq!(sa.e_direct, sb.e_direct, "{what}: exact direct light");
@@ -80,7 +80,7 @@ fn assert_equals_fresh(updated: &Solver, what: &str) {
 }
 
 fn deform(solver: Solver, scene: PreparedScene) -> (Solver, DeformStats) {
-    let params = solver.params;
+    let params = *solver.params();
     solver.deform(scene, params, None, &|_, _| {})
 }
 
@@ -109,7 +109,7 @@ fn deformer_sequence_on_dancer_equals_full_solves() {
         let (next, stats) = deform(solver, at_time(&rest, t));
         assert!(stats.selective);
         assert!(stats.static_rays_fraction() < 0.5, "t = {t}: {stats:?}");
-        assert!(stats.light_links_recomputed < (next.scene.vertex_count() * next.scene.lights.len()) as u64);
+        assert!(stats.light_links_recomputed < (next.scene().vertex_count() * next.scene().lights.len()) as u64);
         assert_equals_fresh(&next, &format!("dancer t = {t}"));
         solver = next;
     }
@@ -127,7 +127,7 @@ fn large_motion_through_the_room_equals_a_full_solve() {
     assert!(stats.selective && stats.links.static_rays_reshot > 0);
     assert_equals_fresh(&next, "moved 1.8 m");
     let q = glam::Quat::from_rotation_y(2.0);
-    let back = moved_by(&next.scene, |p| q * Vec3::new(p.x - 2.6, p.y, p.z + 2.2));
+    let back = moved_by(&next.scene(), |p| q * Vec3::new(p.x - 2.6, p.y, p.z + 2.2));
     let (next, _) = deform(next, back);
     assert_equals_fresh(&next, "moved back, turned");
     solver = next;
@@ -150,7 +150,7 @@ fn scenes_without_dynamic_meshes_keep_no_ray_state() {
     let scene = prepared("cornell", 16);
     assert!(scene.meshes.iter().all(|m| !m.dynamic));
     let solver = Solver::new(scene, SolveParams::from_settings(&prepared("cornell", 16).settings), &|_, _| {});
-    assert!(solver.ray_hits.is_none());
+    assert!(solver.ray_hits().is_none());
     assert_eq!(solver.ray_state_bytes(), 0);
     let sol = solver.solve();
     assert_eq!(solver.stats(&sol, 0.0).ray_state_bytes, 0);
@@ -160,31 +160,31 @@ fn scenes_without_dynamic_meshes_keep_no_ray_state() {
 fn preview_shows_remade_vertices_at_few_rays() {
     let rest = prepared("torso", 64);
     let solver = Solver::new(rest.clone(), SolveParams::from_settings(&rest.settings), &|_, _| {});
-    let before = solver.links.clone();
+    let before = solver.links().clone();
     let moved = at_time(&rest, 0.7);
     let figure = rest.meshes.iter().find(|m| m.dynamic).unwrap().vertices.clone();
     let mut seen = 0;
     let mut preview_direct = Vec::new();
     let mut show = |s: &Solver| {
         seen += 1;
-        s.links.validate().expect("spliced preview links are valid");
+        s.links().validate().expect("spliced preview links are valid");
         // Remade vertices have groups from 16 rays: weights are multiples
         // of pi/16 times barycentrics, so rows sum to at most pi with few links.
         let v = figure.start as usize + 10;
-        assert!(s.links.group(v).0.len() <= 3 * 16, "preview group of {} links", s.links.group(v).0.len());
+        assert!(s.links().group(v).0.len() <= 3 * 16, "preview group of {} links", s.links().group(v).0.len());
         // A static room vertex keeps its group.
-        assert_eq!(s.links.group(0), before.group(0));
+        assert_eq!(s.links().group(0), before.group(0));
         // Preview columns are coarse only where oversampling is on (then the full update refines them).
-        assert!(s.light_links.coarse.iter().all(|&c| c == s.params.light.oversample));
+        assert!(s.light_links().coarse.iter().all(|&c| c == s.params().light.oversample));
         let sol = s.solve();
         assert!(sol.e_indirect.iter().all(|e| e.is_finite()));
         preview_direct = sol.e_direct;
     };
-    let params = solver.params;
+    let params = *solver.params();
     let (next, stats) = solver.deform(moved, params, Some((16, &mut show)), &|_, _| {});
     assert_eq!(seen, 1);
     assert!(stats.preview_ms > 0.0 && stats.preview_ms <= stats.ms);
-    assert!(next.light_links.coarse.iter().all(|&c| !c), "the full update replaces the preview columns");
+    assert!(next.light_links().coarse.iter().all(|&c| !c), "the full update replaces the preview columns");
     // The preview's exact direct light at the remade vertices is the full update's.
     let full_direct = next.solve().e_direct;
     for v in figure.start as usize..figure.end as usize {
@@ -242,7 +242,7 @@ fn kd_tracer_and_a_light_moved_with_the_deformation() {
     }
     let (next, stats) = solver.deform(moved, params, None, &|_, _| {});
     assert!(stats.selective && !stats.refitted);
-    let n = next.scene.vertex_count() as u64;
+    let n = next.scene().vertex_count() as u64;
     assert!(stats.light_links_recomputed >= n && stats.light_links_recomputed < 2 * n, "{stats:?}");
     assert_equals_fresh(&next, "kd tracer, light 0 moved");
 }
@@ -261,13 +261,13 @@ fn deforming_in_an_open_scene_updates_the_sky_visibility() {
     desc.settings.bounces = Bounces::Fixed(3);
     let rest = prep::prepare(&desc).unwrap();
     let mut solver = Solver::new(rest.clone(), SolveParams::from_settings(&rest.settings), &|_, _| {});
-    assert!(!solver.links.sky.is_empty());
-    let before = solver.links.sky.clone();
+    assert!(!solver.links().sky.is_empty());
+    let before = solver.links().sky.clone();
     for t in [0.6, 1.7] {
         let (s, stats) = deform(solver, at_time(&rest, t));
         assert!(stats.links.groups_patched > 0);
         assert_equals_fresh(&s, &format!("window with a figure at t = {t}"));
         solver = s;
     }
-    assert_ne!(solver.links.sky, before, "the figure's motion changed no miss mask");
+    assert_ne!(solver.links().sky, before, "the figure's motion changed no miss mask");
 }

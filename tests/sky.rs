@@ -57,7 +57,7 @@ fn opening_form_factor(px: f64, pz: f64, h: f64) -> f64 {
 fn open_plane_under_a_uniform_sky_gets_pi_l() {
     let l = Vec3::new(1.5, 0.7, 0.2);
     let (solver, sol) = common::solve(&scene_of("plane", vec![plane()], Sky::uniform(l), 64));
-    assert_eq!(solver.links.stats.misses, solver.links.stats.rays, "every ray leaves the plane");
+    assert_eq!(solver.links().stats.misses, solver.links().stats.rays, "every ray leaves the plane");
     for (v, e) in sol.e_sky.iter().enumerate() {
         assert!((*e / (PI * l) - Vec3::ONE).abs().max_element() < 1e-5, "vertex {v}: {e} vs {}", PI * l);
     }
@@ -117,7 +117,7 @@ fn bottom_form_factors(
     l: Vec3,
     h: f32,
 ) -> Vec<(f64, f64)> {
-    let s = &solver.scene;
+    let s = &solver.scene();
     (0..s.vertex_count())
         .filter(|&v| {
             let p = s.positions[v];
@@ -152,7 +152,7 @@ fn sky_refinement_sharpens_the_opening_without_bias() {
             (n, sum, sum2, sum_f) = (n + 1, sum + d, sum2 + d * d, sum_f + f);
         }
         let (mean_f, bias, rms) = (sum_f / n as f64, sum / n as f64, (sum2 / n as f64).sqrt());
-        (solver.sky_refine.clone(), rms, bias / mean_f)
+        (solver.sky_rays().refine.clone(), rms, bias / mean_f)
     };
     let (none, rms_plain, bias_plain) = errors(0);
     let (refined, rms_refined, bias_refined) = errors(3);
@@ -198,12 +198,12 @@ fn tmp(name: &str) -> PathBuf {
 /// `E_sky` at every vertex from its rays traced again, the full sky
 /// evaluated along every missed direction: `pi / n sum L(w_k)`.
 fn reshoot_sky(solver: &Solver, sky: &Sky) -> Vec<(Vec3, f32)> {
-    let setup = RaySetup::new(&solver.scene, &solver.params.links);
+    let setup = RaySetup::new(&solver.scene(), &solver.params().links);
     let n = setup.directions.len() as f32;
     let mut records = Vec::new();
-    (0..solver.scene.vertex_count())
+    (0..solver.scene().vertex_count())
         .map(|v| {
-            setup.trace_vertex(&solver.accel, v, &mut records);
+            setup.trace_vertex(solver.accel(), v, &mut records);
             let mut e = Vec3::ZERO;
             let mut missed = 0;
             for (r, d) in records.iter().zip(setup.world_directions(v)) {
@@ -249,14 +249,14 @@ fn rotated_image_sky_equals_reshooting() {
             assert!(err.cmple(want * 1e-5).all(), "vertex {v}: {} vs re-shot {want}", e_sky[v]);
             seen += (missed > 0.0) as usize;
         }
-        assert!(seen > solver.scene.vertex_count() / 2, "only {seen} vertices see the sky");
+        assert!(seen > solver.scene().vertex_count() / 2, "only {seen} vertices see the sky");
     };
     check(&solver, &sol.e_sky, &sky);
     // Turned again on the same solver: a gather-only update.
     let mut turned = solver;
     let mut sky2 = sky.clone();
     sky2.rotate_deg = -40.0;
-    turned.scene.sky = Some(sky2.clone());
+    assert!(!turned.set_sky(Some(sky2.clone())));
     let sol2 = turned.solve();
     check(&turned, &sol2.e_sky, &sky2);
     let moved = sol.e_sky.iter().zip(&sol2.e_sky).map(|(a, b)| (*a - *b).abs().max_element()).fold(0.0, f32::max);
@@ -264,11 +264,11 @@ fn rotated_image_sky_equals_reshooting() {
     // With refined cells (the default): turning is gather-only, and bit for
     // bit a fresh solve with the turned sky.
     let (mut refined, _) = common::solve(&desc);
-    assert!(!refined.sky_refine.is_empty());
-    refined.scene.sky = Some(sky2.clone());
-    let rays = refined.sky_refine.rays;
+    assert!(!refined.sky_rays().refine.is_empty());
+    assert!(!refined.set_sky(Some(sky2.clone())));
+    let rays = refined.sky_rays().refine.rays;
     let turned_refined = refined.solve();
-    assert_eq!(refined.sky_refine.rays, rays);
+    assert_eq!(refined.sky_rays().refine.rays, rays);
     let mut fresh_desc = desc.clone();
     fresh_desc.sky = Some(sky2.clone());
     let (_, fresh) = common::solve(&fresh_desc);
@@ -283,18 +283,19 @@ fn rotated_image_sky_equals_reshooting() {
     let desc = linkgi::scene::load(dir.join("portal.toml").to_str().unwrap()).unwrap();
     assert_eq!(desc.sky.as_ref().unwrap().portals.len(), 1);
     let (mut portal, _) = common::solve(&desc);
-    let rays = portal.sky_portals.rays;
+    let rays = portal.sky_rays().portals.rays;
     assert!(rays > 0);
     let mut sky3 = desc.sky.clone().unwrap();
     sky3.rotate_deg = -40.0;
-    portal.scene.sky = Some(sky3.clone());
+    assert!(!portal.set_sky(Some(sky3.clone())));
     let turned_portal = portal.solve();
-    assert_eq!(portal.sky_portals.rays, rays, "no new portal rays");
+    assert_eq!(portal.sky_rays().portals.rays, rays, "no new portal rays");
     let mut fresh_desc = desc.clone();
     fresh_desc.sky = Some(sky3.clone());
     let (_, fresh) = common::solve(&fresh_desc);
     assert_eq!(fresh.e_sky, turned_portal.e_sky);
-    let bottom: Vec<usize> = (0..portal.scene.vertex_count()).filter(|&v| portal.scene.positions[v].y == 0.0).collect();
+    let bottom: Vec<usize> =
+        (0..portal.scene().vertex_count()).filter(|&v| portal.scene().positions[v].y == 0.0).collect();
     let reshot = reshoot_sky(&portal, &sky3);
     let mean = |f: &dyn Fn(usize) -> Vec3| bottom.iter().map(|&v| f(v)).sum::<Vec3>() / bottom.len() as f32;
     let (ours, theirs) = (mean(&|v| turned_portal.e_sky[v]), mean(&|v| reshot[v].0));
@@ -363,7 +364,7 @@ fn window_scene_agrees_with_the_reference_path_tracer() {
         desc.settings.bounces = Bounces::Auto;
         let (solver, sol) = common::solve(&desc);
         let params = ReferenceParams { samples_per_vertex: 4096, ..Default::default() };
-        let r = reference::compute_cached(&solver.scene, &params, &reference::cache::default_dir());
+        let r = reference::compute_cached(&solver.scene(), &params, &reference::cache::default_dir());
         let total = error_stats(&sol.total(), &r.total(), &r.e_total_stderr);
         let sky = error_stats(&sol.e_sky, &r.e_sky, &[]);
         eprintln!("window, {rays} rays: total {total:?}\n sky {sky:?}");
@@ -421,7 +422,7 @@ fn a_portal_over_an_open_plane_keeps_pi_l() {
         let mut params = linkgi::solver::SolveParams::from_settings(&scene.settings);
         params.smoothing_angle_deg = 0.0;
         let (solver, sol) = common::solve_with(scene, params);
-        assert_eq!(solver.sky_portals.portals.len(), 1);
+        assert_eq!(solver.sky_rays().portals.portals.len(), 1);
         let ratios: Vec<f64> = sol.e_sky.iter().map(|e| (e.x / (PI * l.x)) as f64).collect();
         let mean = ratios.iter().sum::<f64>() / ratios.len() as f64;
         let rms = (ratios.iter().map(|r| (r - 1.0).powi(2)).sum::<f64>() / ratios.len() as f64).sqrt();
@@ -465,7 +466,7 @@ fn a_portal_over_the_opening_cuts_its_noise_without_bias() {
         }
         let rms = (sum2 / n as f64).sqrt();
         // Relative bias of the mean and three standard errors of it.
-        (rms, sum / sum_f, 3.0 * rms * n as f64 / sum_f / (n as f64).sqrt(), solver.sky_portals.rays)
+        (rms, sum / sum_f, 3.0 * rms * n as f64 / sum_f / (n as f64).sqrt(), solver.sky_rays().portals.rays)
     };
     let (rms_links, bias_links, tol_links, none) = errors(vec![]);
     let (rms_portal, bias_portal, tol_portal, rays) = errors(vec![portal(1.0)]);

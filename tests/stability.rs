@@ -6,7 +6,7 @@
 mod common;
 
 use glam::Vec3;
-use linkgi::exchange::gather::gather_bounce;
+use linkgi::exchange::bounce::gather::gather_bounce;
 use linkgi::scene::{
     builtin, prep, shapes::MeshBuilder, Bounces, Camera, Light, Material, MeshDesc, SceneDesc, Settings,
 };
@@ -54,12 +54,12 @@ fn stationary(links: &linkgi::links::Links) -> (Vec<f64>, f64) {
 /// auto bounces (with the estimated tail) reach that within 1%, and that the
 /// area-weighted total stays below `E_d / (1 - rho)` (area mean of `E_d`).
 fn assert_closed_energy(solver: &Solver, sol: &Solution, rho: f32, what: &str) {
-    let (s, lambda) = stationary(&solver.links);
+    let (s, lambda) = stationary(&solver.links());
     let dot = |e: &[Vec3]| -> f64 { e.iter().zip(&s).map(|(e, s)| e.x as f64 * s).sum() };
     let (sd, si) = (dot(&sol.e_direct), dot(&sol.e_indirect_raw));
     let expect = sd / (1.0 - rho as f64 * lambda);
-    let ed = area_weighted_mean(&solver.scene, &sol.e_direct).x;
-    let ei = area_weighted_mean(&solver.scene, &sol.e_indirect_raw).x;
+    let ed = area_weighted_mean(&solver.scene(), &sol.e_direct).x;
+    let ei = area_weighted_mean(&solver.scene(), &sol.e_indirect_raw).x;
     let bound = ed / (1.0 - rho);
     eprintln!(
         "{what}: lambda {lambda:.6}, s.E {:.4} expected {expect:.4}; area mean E_d + E_i {:.4}, E_d/(1-rho) {bound:.4}, {} bounces",
@@ -75,13 +75,13 @@ fn assert_closed_energy(solver: &Solver, sol: &Solution, rho: f32, what: &str) {
 /// Every vertex: `E_i <= rho_max / (1 - rho_max) * max E_d` (links carry at
 /// most the cosine-weighted hemisphere, row sums <= pi), and row sums <= pi.
 fn assert_open_energy(solver: &Solver, sol: &Solution, what: &str) {
-    let rho = solver.scene.albedo.iter().map(|a| a.max_element()).fold(0.0, f32::max);
+    let rho = solver.scene().albedo.iter().map(|a| a.max_element()).fold(0.0, f32::max);
     let max_d = sol.e_direct.iter().map(|e| e.max_element()).fold(0.0, f32::max);
     let max_i = sol.e_indirect_raw.iter().map(|e| e.max_element()).fold(0.0, f32::max);
     let bound = rho / (1.0 - rho) * max_d;
     assert!(max_i <= bound * 1.001 + f32::MIN_POSITIVE, "{what}: max E_i {max_i} exceeds {bound}");
-    for v in 0..solver.links.vertex_count() {
-        let s = solver.links.row_sum(v);
+    for v in 0..solver.links().vertex_count() {
+        let s = solver.links().row_sum(v);
         assert!(s <= std::f64::consts::PI * 1.002, "{what}: vertex {v} link row sum {s} > pi");
     }
 }
@@ -94,7 +94,7 @@ fn stiff_albedo_furnace_and_closed_room() {
         let (solver, sol) = common::solve(&desc);
         assert_closed_energy(&solver, &sol, rho, &format!("furnace rho {rho}"));
         // The link operator's own balance holds for the plain gather; the
-        // radiosity correction (`exchange::reconstruct`) changes the
+        // radiosity correction (`exchange::bounce::reconstruct`) changes the
         // operator, checked below against the continuous balance.
         let desc = common::with_settings(builtin::closed_room(6, rho), 64, Bounces::Auto, 30.0);
         let scene = prep::prepare(&desc).expect("scene prepares");
@@ -118,9 +118,9 @@ fn stiff_albedo_furnace_and_closed_room() {
 /// 90%).
 fn closer_to_the_closed_balance(plain: &Solver, a: &Solution, corrected: &Solver, b: &Solution, rho: f32) {
     let total = |s: &Solver, x: &Solution| {
-        (area_weighted_mean(&s.scene, &x.e_direct).x + area_weighted_mean(&s.scene, &x.e_indirect_raw).x) as f64
+        (area_weighted_mean(&s.scene(), &x.e_direct).x + area_weighted_mean(&s.scene(), &x.e_indirect_raw).x) as f64
     };
-    let bound = area_weighted_mean(&plain.scene, &a.e_direct).x as f64 / (1.0 - rho as f64);
+    let bound = area_weighted_mean(&plain.scene(), &a.e_direct).x as f64 / (1.0 - rho as f64);
     let (ta, tb) = (total(plain, a), total(corrected, b));
     eprintln!("closed room rho {rho}: area mean E_d + E_i {ta:.4} plain, {tb:.4} corrected, balance {bound:.4}");
     assert!(b.e_indirect_raw.iter().all(|e| e.is_finite() && e.min_element() >= 0.0));
@@ -168,7 +168,7 @@ fn with_light(mut desc: SceneDesc, light: Light) -> SceneDesc {
 
 /// A light 1e-6 m above the floor and one exactly on a floor vertex: finite
 /// everywhere, energy bounded; the vertex under the first is clamped at
-/// `I / (min_distance l)^2` (documented in exchange::light_links), the one
+/// `I / (min_distance l)^2` (documented in exchange::sources::light_links), the one
 /// under the second has the light in its tangent plane and gets nothing.
 #[test]
 fn light_touching_a_surface() {
@@ -192,14 +192,14 @@ fn light_touching_a_surface() {
         if pos == p {
             assert_eq!(ed, 0.0, "a light in the tangent plane lights nothing");
             let floor_lit = (0..sol.e_direct.len())
-                .filter(|&u| solver.scene.normals[u].y > 0.99 && sol.e_direct[u].x > 0.0)
+                .filter(|&u| solver.scene().normals[u].y > 0.99 && sol.e_direct[u].x > 0.0)
                 .count();
             assert_eq!(floor_lit, 0, "the light lies in the floor's plane");
             assert!(sol.e_direct.iter().any(|e| e.x > 0.0), "the walls are lit");
         } else {
             assert!(ed > 0.0, "{what}: the vertex under the light gets nothing");
         }
-        let d = solver.params.light.min_distance * solver.scene.mean_edge_length(v);
+        let d = solver.params().light.min_distance * solver.scene().mean_edge_length(v);
         assert!(ed <= 1.0 / (d * d) * 1.0001, "{what}: E_d {ed} above the clamp {}", 1.0 / (d * d));
         assert_open_energy(&solver, &sol, what);
     }
@@ -308,7 +308,7 @@ fn sliver_triangles() {
         above(LIGHT),
     );
     let (solver, sol) = solve_open(&desc, "sliver");
-    assert_eq!(solver.scene.dropped_triangles, 0, "slivers have area and are kept");
+    assert_eq!(solver.scene().dropped_triangles, 0, "slivers have area and are kept");
     // The floor sees the sliver's underside (lit by nothing but the floor): E_i > 0 somewhere.
     assert!(sol.e_indirect_raw.iter().any(|e| e.x > 0.0));
 }
@@ -323,8 +323,8 @@ fn zero_area_triangles_are_dropped() {
         above(LIGHT),
     );
     let (solver, sol) = solve_open(&desc, "zero-area");
-    assert_eq!(solver.scene.triangles.len(), 2, "only the floor remains");
-    assert!(solver.scene.dropped_triangles >= 1);
+    assert_eq!(solver.scene().triangles.len(), 2, "only the floor remains");
+    assert!(solver.scene().dropped_triangles >= 1);
     // A flat floor alone: nothing to bounce from.
     assert!(sol.e_indirect.iter().all(|e| *e == Vec3::ZERO));
 }
@@ -340,7 +340,7 @@ fn duplicated_vertices_weld_to_the_same_answer() {
     m.triangles[1] = [4, 5, 3];
     let (a_solver, a) = solve_open(&plain, "plain");
     let (b_solver, b) = solve_open(&dup, "duplicated");
-    assert_eq!(a_solver.scene.vertex_count(), b_solver.scene.vertex_count(), "duplicates are welded");
+    assert_eq!(a_solver.scene().vertex_count(), b_solver.scene().vertex_count(), "duplicates are welded");
     for (x, y) in a.e_direct.iter().zip(&b.e_direct) {
         assert!((*x - *y).abs().max_element() <= 1e-6 * y.max_element());
     }
@@ -357,7 +357,7 @@ fn non_manifold_edge() {
     m.triangles.push([2, 0, top + 1]);
     m.triangle_material.extend([0, 0]);
     let (solver, sol) = solve_open(&custom(vec![m], above(LIGHT)), "non-manifold");
-    assert_eq!(solver.scene.triangles.len(), 4);
+    assert_eq!(solver.scene().triangles.len(), 4);
     // The fins and the floor light each other.
     assert!(sol.e_indirect_raw.iter().filter(|e| e.x > 0.0).count() >= 3);
 }
@@ -368,8 +368,8 @@ fn non_manifold_edge() {
 fn single_triangle() {
     let desc = custom(vec![grey("tri", vec![Vec3::ZERO, Vec3::Z, Vec3::X], vec![[0, 1, 2]])], above(LIGHT));
     let (solver, sol) = solve_open(&desc, "single triangle");
-    for v in 0..solver.scene.vertex_count() {
-        let d = LIGHT - solver.scene.positions[v];
+    for v in 0..solver.scene().vertex_count() {
+        let d = LIGHT - solver.scene().positions[v];
         let g = d.y / d.length().powi(3);
         assert!((sol.e_direct[v].x / g - 1.0).abs() < 1e-5, "vertex {v}: E_d {} expected {g}", sol.e_direct[v].x);
         assert_eq!(sol.e_indirect[v], Vec3::ZERO);

@@ -22,11 +22,11 @@ fn agree_on(name: &str) {
     params.tracer = TracerKind::Kd;
     let kd_solver = Solver::new(scene.clone(), params, &|_, _| {});
     for s in [&bvh_solver, &kd_solver] {
-        s.accel.validate().expect("structure valid");
-        s.links.validate().expect("links valid");
+        s.accel().validate().expect("structure valid");
+        s.links().validate().expect("links valid");
     }
-    let bvh = bvh_solver.accel.bvh().expect("bvh");
-    let kd = kd_solver.accel.kd().expect("kd");
+    let bvh = bvh_solver.accel().bvh().expect("bvh");
+    let kd = kd_solver.accel().kd().expect("kd");
 
     // Ray by ray.
     let setup = RaySetup::new(&scene, &params.links);
@@ -57,7 +57,7 @@ fn agree_on(name: &str) {
     assert!(differ as f64 <= 1e-5 * rays as f64 + 1.0, "{name}: {differ} of {rays} rays differ");
 
     // Link groups.
-    let (l1, l2) = (&bvh_solver.links, &kd_solver.links);
+    let (l1, l2) = (&bvh_solver.links(), &kd_solver.links());
     let mut compared = 0;
     for v in 0..scene.vertex_count() {
         if vertex_same[v] {

@@ -61,14 +61,13 @@ pub fn score(scene: &PreparedScene, smoothing_deg: f32) -> Option<PreviewRow> {
     settings.bounces = Bounces::Auto;
     settings.smoothing_angle_deg = smoothing_deg;
     let mut solver = Solver::new(scene.clone(), SolveParams::from_settings(&settings), &|_, _| {});
-    solver.scene.lights = moved;
     let t = Instant::now();
-    solver.preview_lights();
-    let (preview_light_links_ms, preview_shadow_rays) = (solver.light_links.ms, solver.light_links.shadow_rays);
+    solver.preview_lights(moved.clone());
+    let (preview_light_links_ms, preview_shadow_rays) = (solver.light_links().ms, solver.light_links().shadow_rays);
     let preview = solver.solve();
     let preview_ms = t.elapsed().as_secs_f64() * 1e3;
     let t = Instant::now();
-    solver.update_lights();
+    solver.set_lights(moved);
     let full = solver.solve();
     let full_ms = t.elapsed().as_secs_f64() * 1e3;
     let total = |s: &crate::solver::Solution| -> Vec<Vec3> { s.total() };
@@ -79,7 +78,7 @@ pub fn score(scene: &PreparedScene, smoothing_deg: f32) -> Option<PreviewRow> {
         preview_ms,
         full_ms,
         preview_shadow_rays,
-        full_shadow_rays: solver.light_links.shadow_rays,
+        full_shadow_rays: solver.light_links().shadow_rays,
         e_indirect: error_stats(&preview.e_indirect, &full.e_indirect, &[]),
         e_direct: error_stats(&preview.e_direct, &full.e_direct, &[]),
         e_total: error_stats(&total(&preview), &total(&full), &[]),

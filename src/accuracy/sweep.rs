@@ -94,38 +94,35 @@ pub fn sweep(
         let t = Instant::now();
         let solver = Solver::new(scene.clone(), solve_params, &|_, _| {});
         let build_ms = t.elapsed().as_secs_f64() * 1e3;
-        let (kd_ms, links_ms) = (solver.accel_build_ms(), solver.links.stats.shoot_ms);
+        let (kd_ms, links_ms) = (solver.accel_build_ms(), solver.links().stats.shoot_ms);
         // Everything else the build traced or computed, timed as a whole.
         let light_ms = (build_ms - kd_ms - links_ms).max(0.0);
-        let n = solver.scene.vertex_count();
+        let n = solver.scene().vertex_count();
         let src = solver.sources();
         let (e_direct, e_sky, e_source) = (&src.e_direct, &src.e_sky, &src.e_source);
         let ed_err = error_stats(e_direct, &reference.e_direct, &[]);
         for &b in &params.bounces {
             let gp = exchange::GatherParams { bounces: b, ..solve_params.gather };
             let t = Instant::now();
-            let mut g = solver.gather_corrected(e_source, &gp);
-            src.add_control_variate(&mut g.e_indirect);
-            let d = solver.near_gather_correction(&src, &g.e_indirect, &solver.stand_ins());
-            g.e_indirect.iter_mut().zip(&d).for_each(|(e, d)| *e += *d);
-            g.ms = t.elapsed().as_secs_f64() * 1e3;
+            let g = solver.gathered(&src, &gp, false);
+            let gather_ms = t.elapsed().as_secs_f64() * 1e3;
             for smoothing in [angle, 0.0] {
                 let t = Instant::now();
-                let mut e_i = solver.smooth_gathered(e_source, &g.e_indirect, smoothing);
+                let mut e_i = solver.smooth(e_source, &g.e, smoothing);
                 src.add_outside_links(&mut e_i);
                 let smooth_ms = t.elapsed().as_secs_f64() * 1e3;
                 let total: Vec<Vec3> = (0..n).map(|v| e_direct[v] + e_sky[v] + e_i[v]).collect();
                 rows.push(SweepRow {
                     rays,
                     bounces: label(b),
-                    bounces_used: g.bounces,
+                    bounces_used: g.bounces.bounces,
                     smoothing_deg: smoothing,
                     kd_ms,
                     links_ms,
                     light_links_ms: light_ms,
-                    gather_ms: g.ms,
+                    gather_ms,
                     smooth_ms,
-                    total_ms: kd_ms + links_ms + light_ms + g.ms + smooth_ms,
+                    total_ms: kd_ms + links_ms + light_ms + gather_ms + smooth_ms,
                     e_indirect: error_stats(&e_i, &reference.e_indirect, &reference.e_indirect_stderr),
                     e_direct: ed_err,
                     e_total: error_stats(&total, &total_ref, &reference.e_total_stderr),

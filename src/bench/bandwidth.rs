@@ -1,7 +1,7 @@
 //! Memory traffic of a gather bounce against the machine's read bandwidth
 //! (the target: one bounce at >= 50% of it).
 //!
-//! A CPU bounce ([`crate::exchange::gather::gather_bounce_padded`]) streams
+//! A CPU bounce ([`crate::exchange::bounce::gather::gather_bounce_padded`]) streams
 //! every link once as the gathers store it ([`Links::gather_bytes`]: packed
 //! targets, f16 weights, row offsets), reads the source radiosity (16 bytes a vertex, padded,
 //! counted once: a lower bound, repeated reads hit the cache) and writes the

@@ -119,9 +119,9 @@ pub struct RunTimes {
     pub rays_per_s: f64,
     pub light_links_ms: f64,
     pub shadow_rays_per_s: f64,
-    /// The near hits' light columns, all lights ([`crate::exchange::near_field`]), ms.
+    /// The near hits' light columns, all lights ([`crate::exchange::near::light`]), ms.
     pub near_ms: f64,
-    /// The emitter links ([`crate::exchange::emitter_links`]), ms.
+    /// The emitter links ([`crate::exchange::sources::emitter_links`]), ms.
     pub emitter_links_ms: f64,
     pub bounces_ms: f64,
     /// From the prepared scene to smoothed `E_i`: kd + links + light links
@@ -286,7 +286,8 @@ pub struct Sizes {
 /// Moves light 0 a little and times the preview and the full update, each
 /// with its gather and smoothing, ms; NaN without lights.
 fn time_light_move(solver: &mut Solver) -> (f64, f64) {
-    let Some(light) = solver.scene.lights.first_mut() else {
+    let mut lights = solver.scene().lights.clone();
+    let Some(light) = lights.first_mut() else {
         return (f64::NAN, f64::NAN);
     };
     match light {
@@ -296,11 +297,11 @@ fn time_light_move(solver: &mut Solver) -> (f64, f64) {
         }
     }
     let t = Instant::now();
-    solver.preview_lights();
+    solver.preview_lights(lights.clone());
     let _ = solver.solve_quick();
     let preview = t.elapsed().as_secs_f64() * 1e3;
     let t = Instant::now();
-    solver.update_lights();
+    solver.set_lights(lights);
     let _ = solver.solve();
     (preview, t.elapsed().as_secs_f64() * 1e3)
 }
@@ -308,9 +309,10 @@ fn time_light_move(solver: &mut Solver) -> (f64, f64) {
 /// Turns the sky by 30 degrees and times the gather-only update (sky
 /// light from the miss masks, bounces, smoothing), ms; NaN without a sky.
 fn time_sky_turn(solver: &mut Solver) -> f64 {
-    let Some(sky) = solver.scene.sky.as_mut() else { return f64::NAN };
+    let Some(mut sky) = solver.scene().sky.clone() else { return f64::NAN };
     sky.rotate_deg += 30.0;
     let t = Instant::now();
+    solver.set_sky(Some(sky));
     let _ = solver.solve();
     t.elapsed().as_secs_f64() * 1e3
 }
@@ -339,13 +341,13 @@ pub struct DeformTimes {
 /// bounces and smoothing. `None` without deformers or on the GPU path.
 pub fn time_deformation(solver: Solver) -> (Solver, Option<DeformTimes>) {
     use crate::scene::deform::{deform_scene, has_deformers};
-    if !has_deformers(&solver.scene) || solver.gpu.is_some() {
+    if !has_deformers(solver.scene()) || solver.gpu().is_some() {
         return (solver, None);
     }
-    let rest = solver.scene.clone();
+    let rest = solver.scene().clone();
     let (positions, normals) = deform_scene(&rest, &rest.positions, &rest.normals, DEFORM_TIME_S);
     let moved = prep::PreparedScene { positions, normals, ..rest.clone() };
-    let params = solver.params;
+    let params = *solver.params();
     let t = Instant::now();
     let (solver, _) = solver.deformed(moved.clone(), params, &|_, _| {});
     let _ = solver.solve();
@@ -376,23 +378,26 @@ pub fn run_once(
     let solution = solver.solve();
     let first_solution_ms = t0.elapsed().as_secs_f64() * 1e3;
     // Read before the light move below replaces them.
-    let (light_links_ms, shadow_rays) = (solver.light_links.ms, solver.light_links.shadow_rays);
-    let near_ms = solver.near_light.ms;
-    let emitter_links_ms = if solver.emitter_links.is_active() { solver.emitter_links.ms } else { f64::NAN };
+    let (light_links_ms, shadow_rays) = (solver.light_links().ms, solver.light_links().shadow_rays);
+    let near_ms = crate::exchange::near::NearTerm::cost(&solver.near().light).ms;
+    let emitter_links_ms = if solver.emitter_links().is_active() { solver.emitter_links().ms } else { f64::NAN };
     let (light_preview_ms, light_move_ms) = time_light_move(&mut solver);
     let sky_turn_ms = time_sky_turn(&mut solver);
-    let l = solver.links.stats;
+    let l = solver.links().stats;
     let sizes = Sizes {
-        vertices: solver.scene.vertex_count(),
-        triangles: solver.scene.triangles.len(),
-        kd_nodes: solver.accel.kd().map_or_else(|| solver.accel.bvh().map_or(0, |b| b.stats.nodes), |k| k.stats.nodes),
+        vertices: solver.scene().vertex_count(),
+        triangles: solver.scene().triangles.len(),
+        kd_nodes: solver
+            .accel()
+            .kd()
+            .map_or_else(|| solver.accel().bvh().map_or(0, |b| b.stats.nodes), |k| k.stats.nodes),
         links_raw: l.raw_links,
         links_merged: l.merged_links,
         bytes_raw: l.raw_bytes,
         bytes_merged: l.merged_bytes,
-        gather_bytes: bandwidth::gather_bytes(&solver.links),
+        gather_bytes: bandwidth::gather_bytes(solver.links()),
         ray_state_bytes: solver.ray_state_bytes(),
-        near_hits: solver.links.near.hits.len() as u64,
+        near_hits: solver.links().near.hits.len() as u64,
     };
     let accel_build_ms = solver.accel_build_ms();
     let (_, deform) = time_deformation(solver);

@@ -139,7 +139,11 @@ pub(super) struct Stack {
 impl Stack {
     #[inline(always)]
     pub(super) fn new() -> Stack {
-        Stack { child: [const { MaybeUninit::uninit() }; STACK + 8], t: [const { MaybeUninit::uninit() }; STACK + 8], sp: 0 }
+        Stack {
+            child: [const { MaybeUninit::uninit() }; STACK + 8],
+            t: [const { MaybeUninit::uninit() }; STACK + 8],
+            sp: 0,
+        }
     }
 
     /// Pushes child `c` entered at distance `t`.

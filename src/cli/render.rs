@@ -56,7 +56,7 @@ pub fn run(args: RenderArgs) -> Result<()> {
     let gi_ms = t0.elapsed().as_secs_f64() * 1e3;
     let renderer = Renderer::open(settings.backend);
     let params = RenderParams { width, height, view: args.view, exposure: args.exposure, ..Default::default() };
-    let frame = Frame::of(&solver.scene, &sol.e_indirect, desc.camera).with_sky(&sol.e_sky);
+    let frame = Frame::of(&solver.scene(), &sol.e_indirect, desc.camera).with_sky(&sol.e_sky);
     let (img, stats) = renderer.render(&frame, &params)?;
     write_png(&img, args.exposure, &args.out)?;
     if let Some(exr) = &args.exr {
@@ -65,7 +65,7 @@ pub fn run(args: RenderArgs) -> Result<()> {
     }
     println!(
         "rendered {} ({}x{}, {:?}) on {} in {:.1} ms (GI {:.0} ms on {}); wrote {}",
-        solver.scene.name,
+        solver.scene().name,
         width,
         height,
         args.view,

@@ -78,7 +78,7 @@ pub fn run(args: SolveArgs) -> Result<()> {
     let stats = solver.stats(&solution, solve_ms - solution.gather.ms);
     let s = &stats;
     let mb = |b: u64| b as f64 / 1e6;
-    println!("scene            {}", solver.scene.name);
+    println!("scene            {}", solver.scene().name);
     println!("backend          {}", s.backend);
     println!("vertices         {}", s.vertices);
     println!("triangles        {}", s.triangles);
@@ -115,16 +115,16 @@ pub fn run(args: SolveArgs) -> Result<()> {
             mb(s.ray_state_bytes)
         );
     }
-    if let Some(sky) = &solver.scene.sky {
+    if let Some(sky) = &solver.scene().sky {
         let seeing = solution.e_sky.iter().filter(|e| **e != glam::Vec3::ZERO).count();
         println!(
             "sky              {} ({} vertices see it, mean E_sky {:.3} W/m^2, visibility {:.2} MB)",
             sky.describe(),
             seeing,
             solution.e_sky.iter().map(|e| e.element_sum() / 3.0).sum::<f32>() / solution.e_sky.len().max(1) as f32,
-            mb(solver.links.sky.bytes())
+            mb(solver.links().sky.bytes())
         );
-        let r = &solver.sky_refine;
+        let r = &solver.sky_rays().refine;
         if !r.is_empty() {
             println!(
                 "sky refinement   {} cells with an edge, {} rays ({}x{} a cell) in {:.1} ms, {:.2} MB",
@@ -136,7 +136,7 @@ pub fn run(args: SolveArgs) -> Result<()> {
                 mb(r.bytes())
             );
         }
-        let p = &solver.sky_portals;
+        let p = &solver.sky_rays().portals;
         if !p.is_empty() {
             println!(
                 "sky portals      {} portal(s), {} rays ({} a vertex and portal) in {:.1} ms, {:.2} MB",
@@ -148,20 +148,20 @@ pub fn run(args: SolveArgs) -> Result<()> {
             );
         }
     }
-    let check = &solver.noise_check;
+    let check = &solver.noise_check();
     if !check.is_empty() && solution.smoothed {
         println!(
             "noise check      {} vertices, {} rays in {:.1} ms: actual / independent-ray variance {:.3} (model {:.3})",
             check.vertices.len(),
             check.rays,
             check.ms,
-            solver.noise_ratio(&solution.e_source, &solution.e_indirect_raw),
-            solver.params.smoothing.noise.ratio(solver.params.links.rays_per_vertex)
+            solver.noise_ratio(&solution.e_source, &solution.e_gathered),
+            solver.params().smoothing.noise.ratio(solver.params().links.rays_per_vertex)
         );
     }
-    let emitters = solver.scene.emission.iter().filter(|e| **e != glam::Vec3::ZERO).count();
+    let emitters = solver.scene().emission.iter().filter(|e| **e != glam::Vec3::ZERO).count();
     if emitters > 0 {
-        let e = &solver.emitter_links;
+        let e = &solver.emitter_links();
         let mean = solution.e_emitter.iter().map(|e| e.element_sum() / 3.0).sum::<f32>()
             / solution.e_emitter.len().max(1) as f32;
         match &e.fallback {
@@ -215,10 +215,10 @@ pub fn run(args: SolveArgs) -> Result<()> {
             s.near_emitter_ms,
             s.near_sky_rays,
             s.near_sky_ms,
-            mb(solver.near_sky.bytes()),
+            mb(solver.near().sky.cost.bytes),
             s.near_gather_rays,
             s.near_gather_ms,
-            mb(solver.near_gather.bytes())
+            mb(solver.near().gather.cost.bytes)
         );
     }
     println!(
@@ -234,7 +234,7 @@ pub fn run(args: SolveArgs) -> Result<()> {
         println!("peak memory MB   {:.0}", b as f64 / 1e6);
     }
     if let Some(dir) = export {
-        linkgi::export::export(&dir, &solver.scene, &solution, &stats)?;
+        linkgi::export::export(&dir, &solver.scene(), &solution, &stats)?;
         println!("wrote            {} and {}", dir.join("mesh.ply").display(), dir.join("scene.json").display());
     }
     Ok(())

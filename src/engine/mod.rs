@@ -207,14 +207,14 @@ fn publish(shared: &Shared, s: &Solver, c: &mut Counters, t0: Instant, preview: 
     let version = total.published + 1;
     let result = Arc::new(GiResult {
         version,
-        links: s.links.stats.merged_links,
+        links: s.links().stats.merged_links,
         bounces: sol.gather.bounces,
         e_indirect: sol.e_indirect,
         e_direct: sol.e_direct,
         e_sky: sol.e_sky,
-        emission: s.scene.emission.clone(),
-        sky: s.scene.sky.clone(),
-        lights: s.scene.lights.clone(),
+        emission: s.scene().emission.clone(),
+        sky: s.scene().sky.clone(),
+        lights: s.scene().lights.clone(),
         published: Instant::now(),
         update_ms,
         preview,

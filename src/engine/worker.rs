@@ -71,7 +71,7 @@ impl Worker {
     /// columns, or a solver is rebuilt from the last good scene.
     fn settle(&mut self) {
         let shows_preview = lock(&self.shared.latest).as_ref().is_some_and(|r| r.preview);
-        let coarse = self.solver.as_ref().is_some_and(|s| s.light_links.coarse.contains(&true));
+        let coarse = self.solver.as_ref().is_some_and(|s| s.lights_preview());
         if coarse {
             let scene = self.current().clone();
             self.update(scene, Dirty { lights: true, ..Dirty::default() }, 0, &|| false);
@@ -82,7 +82,7 @@ impl Worker {
     }
 
     fn current(&self) -> &PreparedScene {
-        self.solver.as_ref().map(|s| &s.scene).unwrap_or(&self.good)
+        self.solver.as_ref().map(|s| s.scene()).unwrap_or(&self.good)
     }
 
     /// Applies a batch of changes to a copy of the current scene.
@@ -176,7 +176,7 @@ impl Worker {
     /// not refined now: the next batch refines it).
     fn update(&mut self, scene: PreparedScene, mut dirty: Dirty, changes: u64, more_waiting: &dyn Fn() -> bool) {
         // Preview columns left by the last batch are refined by this one.
-        if self.solver.as_ref().is_some_and(|s| s.light_links.coarse.contains(&true)) {
+        if self.solver.as_ref().is_some_and(|s| s.lights_preview()) {
             dirty.lights = true;
         }
         if !(dirty.geometry || dirty.lights || dirty.gather || dirty.panic) {
@@ -204,7 +204,7 @@ impl Worker {
             let mut s = match solver.take() {
                 Some(s) if !dirty.geometry => s,
                 // A deformation on the CPU: refit the BVH, re-shoot what moved.
-                Some(s) if matches!(compute, crate::solver::Compute::Cpu) && s.gpu.is_none() => {
+                Some(s) if matches!(compute, crate::solver::Compute::Cpu) && s.gpu().is_none() => {
                     let t = Instant::now();
                     let mut show = |p: &Solver| {
                         c.preview_ms = t0.elapsed().as_secs_f64() * 1e3;
@@ -231,25 +231,22 @@ impl Worker {
                     c.kd_builds += 1;
                     c.link_builds += 1;
                     c.light_link_updates += 1;
-                    c.light_links_ms = s.light_links.ms;
+                    c.light_links_ms = s.light_links().ms;
                     s
                 }
             };
-            s.params = params;
-            s.scene.settings = scene.settings;
-            s.scene.emission = scene.emission.clone();
-            if s.update_emitters() {
+            s.set_params(params).map_err(|e| e.to_string())?;
+            s.set_settings(scene.settings);
+            if s.set_emission(scene.emission.clone()) {
                 c.emitter_link_updates += 1;
             }
-            s.scene.sky = scene.sky.clone();
-            if s.update_portals() {
+            if s.set_sky(scene.sky.clone()) {
                 c.portal_updates += 1;
             }
             if dirty.lights && c.light_link_updates == 0 {
-                s.scene.lights = scene.lights.clone();
                 if light_preview {
                     let t = Instant::now();
-                    if s.preview_lights() {
+                    if s.preview_lights(scene.lights.clone()) {
                         c.light_links_ms = t.elapsed().as_secs_f64() * 1e3;
                         c.light_link_updates += 1;
                         let waiting = more_waiting();
@@ -260,7 +257,7 @@ impl Worker {
                     }
                 }
                 let t = Instant::now();
-                s.update_lights();
+                s.set_lights(scene.lights.clone());
                 c.light_links_ms = t.elapsed().as_secs_f64() * 1e3;
                 c.light_link_updates += 1;
             }
@@ -270,7 +267,7 @@ impl Worker {
         match outcome {
             Ok(Ok((s, full))) => {
                 self.pending = if full { 0 } else { pending + changes };
-                self.good = s.scene.clone();
+                self.good = s.scene().clone();
                 self.solver = Some(s);
             }
             Ok(Err(e)) => {

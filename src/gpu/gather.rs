@@ -3,7 +3,7 @@
 //! submission with no read-back between bounces. `auto` reads back only
 //! the per-workgroup sums of each bounce (16 bytes per 256 vertices) to
 //! decide whether to stop. With the radiosity correction
-//! ([`crate::exchange::reconstruct`]) a `reconstruct_radiosity` dispatch
+//! ([`crate::exchange::bounce::reconstruct`]) a `reconstruct_radiosity` dispatch
 //! before every bounce after the first writes the radiosity the gather
 //! reads. Irradiance in W/m^2.
 //!
@@ -18,7 +18,7 @@ use super::buffers::{checked, compute_pipelines, dispatch_size, read_back, stora
 use super::context::GpuDevice;
 use super::layout::{GatherUniforms, GATHER_WGSL};
 use crate::error::Result;
-use crate::exchange::gather::{source_radiosity, BounceKernel};
+use crate::exchange::bounce::gather::{source_radiosity, BounceKernel};
 use crate::links::packed::PAD;
 use crate::links::Links;
 use glam::Vec3;
@@ -177,8 +177,8 @@ impl GpuLinks {
     }
 
     /// A bounce kernel starting from radiosity `b0`
-    /// ([`crate::exchange::gather::source_radiosity`]), as the CPU's
-    /// [`crate::exchange::gather::CpuBounces::from_radiosity`].
+    /// ([`crate::exchange::bounce::gather::source_radiosity`]), as the CPU's
+    /// [`crate::exchange::bounce::gather::CpuBounces::from_radiosity`].
     pub fn kernel_from_radiosity(&self, b0: &[Vec3], albedo: &[Vec3]) -> Result<GpuBounces<'_>> {
         checked(&self.dev, "gather setup", || self.make_kernel(b0, albedo))
     }
@@ -318,7 +318,7 @@ fn vec4s(v: &[Vec3]) -> Vec<[f32; 4]> {
 /// The per-solve state of the GPU bounce loop.
 pub struct GpuBounces<'a> {
     links: &'a GpuLinks,
-    /// With the radiosity correction ([`crate::exchange::reconstruct`]):
+    /// With the radiosity correction ([`crate::exchange::bounce::reconstruct`]):
     /// the corrected radiosity the gather reads and the
     /// `reconstruct_radiosity` bind group that writes it from `radiosity`
     /// before every bounce after the first (the first gathers `b0`, copied).
@@ -332,24 +332,24 @@ pub struct GpuBounces<'a> {
     update_group: wgpu::BindGroup,
     group_count: usize,
     /// Hidden vertices and their linkers
-    /// ([`crate::exchange::hidden::stand_ins`]); when set, bounces run one
+    /// ([`crate::exchange::bounce::hidden::stand_ins`]); when set, bounces run one
     /// per submission and the host writes each hidden vertex's radiosity
     /// (`rho/pi` times its linkers' irradiance of the bounce)
     /// before the next, as the CPU kernel does.
-    stand_ins: Vec<crate::exchange::hidden::StandIn>,
+    stand_ins: Vec<crate::exchange::bounce::hidden::StandIn>,
     albedo: Vec<Vec3>,
 }
 
 impl GpuBounces<'_> {
     /// Applies the hidden-vertex substitution in every bounce (see `stand_ins`).
-    pub fn with_stand_ins(mut self, stand_ins: Vec<crate::exchange::hidden::StandIn>) -> Self {
+    pub fn with_stand_ins(mut self, stand_ins: Vec<crate::exchange::bounce::hidden::StandIn>) -> Self {
         self.stand_ins = stand_ins;
         self
     }
 
     /// Gathers, from the second bounce on, the radiosity corrected by `r`
-    /// ([`crate::exchange::reconstruct`], as
-    /// [`crate::exchange::gather::CpuBounces::with_reconstruction`]);
+    /// ([`crate::exchange::bounce::reconstruct`], as
+    /// [`crate::exchange::bounce::gather::CpuBounces::with_reconstruction`]);
     /// uploads its weights. `None`: unchanged.
     pub fn with_reconstruction(mut self, r: Option<&Arc<crate::exchange::Reconstruction>>) -> Result<Self> {
         let Some(r) = r else { return Ok(self) };
@@ -466,7 +466,8 @@ impl GpuBounces<'_> {
         let enc = l.dev.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("read E^(b)") });
         let e: Vec<[f32; 4]> = read_back(&l.dev, enc, &self.bounce, "bounce irradiance")?;
         for (h, linkers) in &self.stand_ins {
-            let mean = crate::exchange::hidden::stand_in_irradiance(linkers, |u| Vec3::new(e[u][0], e[u][1], e[u][2]));
+            let mean =
+                crate::exchange::bounce::hidden::stand_in_irradiance(linkers, |u| Vec3::new(e[u][0], e[u][1], e[u][2]));
             let b = mean * self.albedo[*h] / PI;
             l.dev.queue.write_buffer(&self.radiosity, (*h * 16) as u64, bytemuck::cast_slice(&[b.x, b.y, b.z, 0.0f32]));
         }

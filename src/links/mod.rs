@@ -37,9 +37,9 @@ use crate::sky::SkyVisibility;
 use half::f16;
 
 pub use assemble::{assemble, CsrBuilder, GroupRun};
+pub use merge::RayHits;
 pub use merge::{merge_vertex, HitRecord, MergeScratch, HIT_BACK, HIT_MISS};
 pub use near::{NearHit, NearHits, NearParams};
-pub use merge::RayHits;
 pub use selective::ReshootStats;
 pub use shoot::{shoot_links, shoot_links_recording, LinkParams, RaySetup, TraceScratch, Wedge};
 

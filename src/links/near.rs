@@ -2,7 +2,7 @@
 //! `near_factor` times that triangle's longest edge, kept per vertex as
 //! (triangle, barycentrics) so that the first bounce can use the exact
 //! direct light at the hit point instead of the one the links interpolate
-//! from the triangle's corners ([`crate::exchange::near_field`]).
+//! from the triangle's corners ([`crate::exchange::near::light`]).
 //!
 //! Why: a link carries the radiosity of the hit triangle's corners. Where
 //! an object stands close to a large triangle (a plate 3 mm above a table,

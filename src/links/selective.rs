@@ -37,8 +37,8 @@
 //! gives, bit for bit. Remade vertices merge all their rays anew.
 
 use super::merge::{
-    RayHits, corner_weights, fixed_scale, merge_vertex, merge_vertex_sums, requantize, HitRecord, MergeScratch, HIT_BACK,
-    HIT_MISS,
+    corner_weights, fixed_scale, merge_vertex, merge_vertex_sums, requantize, HitRecord, MergeScratch, RayHits,
+    HIT_BACK, HIT_MISS,
 };
 use super::near::{near_limits, push_near, NearHit, NearHits};
 use super::shoot::{RaySetup, TraceScratch};

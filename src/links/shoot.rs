@@ -18,8 +18,8 @@
 //! next to its origin, where the radiosity is the vertex's own.
 
 use super::assemble::{CsrBuilder, GroupRun};
-use super::merge::{HitRecord, HIT_BACK, HIT_MISS};
 use super::merge::RayHits;
+use super::merge::{HitRecord, HIT_BACK, HIT_MISS};
 use super::Links;
 use crate::kdtree::Hit;
 use crate::sampling::{vertex_frame, vertex_rotations_and_sets, world_direction, DirectionSet};
@@ -89,7 +89,7 @@ impl Wedge {
     /// ([`Wedge::dives_under`]): the spherical triangle `(a, b, -normal)`
     /// (`a`, `b` the edge directions), clipped to `n . d >= 0`, by
     /// Lambert's formula `1/(2 pi) |sum_k gamma_k n . c_k|` (as
-    /// [`crate::exchange::emitter_links`]). In f64: the share is small
+    /// [`crate::exchange::sources::emitter_links`]). In f64: the share is small
     /// beside the terms that cancel in the sum.
     pub fn dive_share(&self, n: Vec3) -> f32 {
         let (a, b, t) = (self.edge_a.as_dvec3(), self.edge_b.as_dvec3(), self.normal.as_dvec3());

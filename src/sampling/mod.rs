@@ -21,7 +21,8 @@ pub mod stream;
 mod warp;
 pub use stream::{splitmix64, Stream};
 pub use warp::{
-    basis, concentric_disk, concentric_disk_inverse, cosine_hemisphere, cosine_hemisphere_inverse, cosine_hemisphere_pdf,
+    basis, concentric_disk, concentric_disk_inverse, cosine_hemisphere, cosine_hemisphere_inverse,
+    cosine_hemisphere_pdf,
 };
 
 /// The grid cells of a `k*k` grid in 4*4-block order.

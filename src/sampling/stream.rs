@@ -58,15 +58,15 @@ impl Stream {
     /// ([`super::vertex_rotations_and_sets`], a PCG seeded with `seed ^ salt`).
     pub const ROTATIONS: Stream = Stream(0x9e37_79b9_7f4a_7c15);
     /// The vertices drawn for the noise check and their second ray set
-    /// ([`crate::exchange::noise_check`]).
+    /// ([`crate::exchange::denoise::noise_check`]).
     pub const NOISE_CHECK: Stream = Stream(0xd1b5_4a32_d192_ed03);
     /// Jitter of the vertices' portal samples ([`crate::sky::portal`]).
     pub const PORTALS: Stream = Stream(0x5be0_cd19_137e_2179);
-    /// Points on emitters from near hits ([`crate::exchange::near_emitters`]).
+    /// Points on emitters from near hits ([`crate::exchange::near::emitters`]).
     pub const NEAR_EMITTERS: Stream = Stream(0x2545_f491_4f6c_dd1d);
-    /// Sky directions and portal points from near hits ([`crate::exchange::near_sky`]).
+    /// Sky directions and portal points from near hits ([`crate::exchange::near::sky`]).
     pub const NEAR_SKY: Stream = Stream(0x3c6e_f372_fe94_f82b);
-    /// Final-gather directions from near hits ([`crate::exchange::near_gather`]).
+    /// Final-gather directions from near hits ([`crate::exchange::near::gather`]).
     pub const NEAR_GATHER: Stream = Stream(0x9b05_688c_2b3e_6c1f);
 
     /// `seed` with the stream's salt: the seed of this stream.

@@ -28,11 +28,13 @@
 
 pub mod envmap;
 pub mod portal;
+pub mod rays;
 pub mod refine;
 pub mod visibility;
 
 pub use envmap::EnvMap;
 pub use portal::{Portal, PortalParams, PortalSamples};
+pub use rays::SkyRays;
 pub use refine::{SkyRefineParams, SkyRefinement};
 pub use visibility::SkyVisibility;
 

@@ -154,7 +154,7 @@ impl SkyVisibility {
     /// [`SkyVisibility::irradiance`] with each vertex's second moment of
     /// its ray estimates, `mean_k X_k^2` ((W/m^2)^2 per channel) with
     /// `X_k = pi L(w_k)` for a missed ray and 0 for one that hit: the
-    /// input of the sky's noise estimate ([`crate::exchange::smooth::pooled_variance`]).
+    /// input of the sky's noise estimate ([`crate::exchange::denoise::smooth::pooled_variance`]).
     pub fn irradiance_and_moment(&self, sky: Option<&Sky>, frames: &RayFrames, n: usize) -> Vec<(Vec3, Vec3)> {
         let Some(sky) = sky.filter(|_| !self.is_empty()) else { return vec![(Vec3::ZERO, Vec3::ZERO); n] };
         let radiance = sky.radiance_fn();

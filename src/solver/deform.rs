@@ -2,7 +2,7 @@
 //! refits the acceleration structure, then redoes only what the motion can
 //! have changed ([`crate::links::selective`] for the vertex links,
 //! [`crate::exchange::LightLinks::update_deformed`] for the light links;
-//! the emitter links, [`crate::exchange::emitter_links`], are traced anew), optionally after
+//! the emitter links, [`crate::exchange::sources::emitter_links`], are traced anew), optionally after
 //! a preview in which the remade vertices' links are shot at
 //! [`PREVIEW_RAYS`] rays and their light links from the vertices alone.
 //!
@@ -12,6 +12,7 @@
 //! is a full one ([`Solver::deformed`]). Either way the result equals a
 //! full solve of the deformed scene with the same seed. Times in ms.
 
+use super::traced::Part;
 use super::{SolveParams, Solver};
 use crate::links::selective::{reshoot, shoot_groups};
 use crate::links::splice::splice_groups;
@@ -94,8 +95,8 @@ impl Solver {
                     ..Default::default()
                 },
                 light_links_recomputed: (s.scene.vertex_count() * s.scene.lights.len()) as u64,
-                light_links_ms: s.light_links.ms,
-                emitter_links_ms: s.emitter_links.ms,
+                light_links_ms: s.traced.light_links.ms,
+                emitter_links_ms: s.traced.emitter_links.ms,
                 ray_state_bytes: s.ray_state_bytes(),
                 ms: start.elapsed().as_secs_f64() * 1e3,
                 ..Default::default()
@@ -130,28 +131,15 @@ impl Solver {
         stats.links = link_stats;
         let t = Instant::now();
         stats.light_links_recomputed = self
+            .traced
             .light_links
             .update_deformed(&self.scene, &self.accel, &params.light, &motion)
             .expect("a CPU tracer cannot fail");
         stats.light_links_ms = t.elapsed().as_secs_f64() * 1e3;
-        // Emitter links: any motion can move an emitter or what shades it; all are traced anew.
-        self.emitter_links = crate::exchange::EmitterLinks::compute(&self.scene, &self.accel, &params.emitter)
-            .expect("a CPU tracer cannot fail");
-        stats.emitter_links_ms = self.emitter_links.ms;
-        self.emitters_changed();
-        // The emitters' light at the new near hits.
-        self.refresh_near_emitters();
-        // The sky's refined cells follow the new links' misses, the portals' rays the new positions, the near hits' sky rays the new hits: all traced anew.
-        (self.sky_refine, self.sky_portals, self.near_sky) =
-            super::sky_rays(&self.scene, &self.accel, &self.links, &params).expect("a CPU tracer cannot fail");
-        // The final gather from the new near hits, traced anew.
-        self.near_gather =
-            super::near_gather(&self.scene, &self.links, &self.accel, &params).expect("a CPU tracer cannot fail");
-        // The noise check's rays: a few hundred vertices, traced anew.
-        self.noise_check =
-            crate::exchange::NoiseCheck::compute(&self.scene, &self.accel, &params.links, &params.smoothing.noise);
         // The near hits' light columns: those the motion can have changed traced again.
-        self.near_light
+        self.traced
+            .near
+            .light
             .update_deformed(
                 &self.scene,
                 &near_before,
@@ -162,9 +150,44 @@ impl Solver {
                 &params.light,
             )
             .expect("a CPU tracer cannot fail");
+        // Everything else is traced anew: any motion can move an emitter or
+        // what shades it; the sky's refined cells follow the new links'
+        // misses, the portals' rays the new positions, the near hits' sky
+        // and gather rays the new hits; the noise check is a few hundred vertices.
+        self.retrace(&[Part::Emitters, Part::Sky, Part::NearGather, Part::NoiseCheck]);
+        stats.emitter_links_ms = self.traced.emitter_links.ms;
         stats.ray_state_bytes = self.ray_state_bytes();
         stats.ms = start.elapsed().as_secs_f64() * 1e3;
         (self, stats)
+    }
+
+    /// The solver of `scene`, a deformation of this solver's scene (same
+    /// vertices and triangles, new positions), with `params`, rebuilt in
+    /// full: on the CPU path with an unchanged tracer and triangles, the BVH
+    /// is refitted ([`crate::bvh::Bvh::update`], which rebuilds when the
+    /// refit's SAH cost has grown past `rebuild_factor`), the kd-tree
+    /// rebuilt, then links and every traced part are traced anew. Anything
+    /// else builds from scratch ([`Solver::new`]). Returns the solver and
+    /// whether the BVH was refitted.
+    pub fn deformed(
+        self,
+        scene: PreparedScene,
+        params: SolveParams,
+        progress: &(dyn Fn(usize, usize) + Sync),
+    ) -> (Solver, bool) {
+        let same_mesh = self.gpu.is_none()
+            && self.scene.triangles == scene.triangles
+            && params.tracer == self.params.tracer
+            && params.bvh == self.params.bvh
+            && params.kd == self.params.kd;
+        let Accel::Bvh(mut bvh) = self.accel else {
+            return (Solver::new(scene, params, progress), false);
+        };
+        if !same_mesh {
+            return (Solver::new(scene, params, progress), false);
+        }
+        let refitted = bvh.update(&scene.positions, &scene.triangles) == crate::bvh::refit::Update::Refit;
+        (Solver::on_cpu(scene, params, Accel::Bvh(bvh), progress), refitted)
     }
 
     /// Calls `show` with the preview state of the module doc, then restores
@@ -173,16 +196,16 @@ impl Solver {
         let remade: Vec<u32> = (0..self.scene.vertex_count() as u32).filter(|&v| motion.remade[v as usize]).collect();
         let coarse = LinkParams { rays_per_vertex: rays, ..self.params.links };
         let groups = shoot_groups(&self.scene, &self.accel, &coarse, &remade);
-        let mut light = self.light_links.clone();
+        let mut light = self.traced.light_links.clone();
         light
             .preview_deformed(&self.scene, &self.accel, &self.params.light, &remade)
             .expect("a CPU tracer cannot fail");
         let saved = splice_groups(&mut self.links, &groups);
         self.links_changed();
-        std::mem::swap(&mut self.light_links, &mut light);
+        std::mem::swap(&mut self.traced.light_links, &mut light);
         show(self);
         saved.restore(&mut self.links);
         self.links_changed();
-        std::mem::swap(&mut self.light_links, &mut light);
+        std::mem::swap(&mut self.traced.light_links, &mut light);
     }
 }

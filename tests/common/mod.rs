@@ -14,23 +14,7 @@ pub fn solve(desc: &SceneDesc) -> (Solver, Solution) {
 
 pub fn solve_with(scene: prep::PreparedScene, params: SolveParams) -> (Solver, Solution) {
     let solver = Solver::new(scene, params, &|_, _| {});
-    solver.accel.validate().expect("acceleration structure valid");
-    solver.links.validate().expect("links valid");
-    solver.emitter_links.validate(solver.scene.vertex_count()).expect("emitter links valid");
-    let rays = solver.params.links.rays_per_vertex as usize;
-    solver.sky_refine.validate(solver.scene.vertex_count(), rays).expect("sky refinement valid");
-    solver.sky_portals.validate(solver.scene.vertex_count()).expect("sky portal samples valid");
-    solver
-        .near_emitters
-        .validate(solver.scene.vertex_count(), solver.emitter_links.group_vertex.len())
-        .expect("near-hit emitter coefficients valid");
-    solver.near_sky.validate(solver.scene.vertex_count()).expect("near-hit sky samples valid");
-    solver.emitter_cv().validate(solver.scene.vertex_count()).expect("emitter control variate valid");
-    solver
-        .near_gather
-        .validate(solver.links.near.hits.len(), solver.scene.triangles.len())
-        .expect("near-hit gather rays valid");
-    solver.noise_check.validate(solver.scene.vertex_count()).expect("noise check valid");
+    solver.validate().expect("every structure and table valid");
     let sol = solver.solve();
     for v in sol.e_direct.iter().chain(&sol.e_indirect).chain(&sol.e_indirect_raw) {
         assert!(v.is_finite(), "non-finite irradiance {v}");

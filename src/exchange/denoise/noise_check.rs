@@ -1,5 +1,5 @@
 //! Noise check: the scene's own calibration of the noise estimate
-//! ([`super::noise`]), from a second, independent estimate of `E_i` at a
+//! ([`crate::exchange::denoise::noise`]), from a second, independent estimate of `E_i` at a
 //! sample of vertices.
 //!
 //! The noise model turns the independent-ray variance `var_iid(x)` of a
@@ -74,7 +74,7 @@
 //! m))` picked by a hash of the seed (spread over the scene and its
 //! meshes, the same for the same seed); every vertex when `n <= m`.
 
-use super::noise::{iid_variance, vertex_moments, NoiseParams};
+use crate::exchange::denoise::noise::{iid_variance, vertex_moments, NoiseParams};
 use crate::links::{merge_vertex, LinkParams, Links, MergeScratch, RaySetup, TraceScratch};
 use crate::scene::prep::PreparedScene;
 use crate::trace::CpuTracer;
@@ -216,7 +216,7 @@ impl NoiseCheck {
     /// Per sampled vertex: half the squared difference of its two
     /// estimates and its independent-ray variance ([`iid_variance`]),
     /// channels summed, for radiosity moments `b`
-    /// ([`super::noise::radiosity_moments`]); `None` without a check or
+    /// ([`crate::exchange::denoise::noise::radiosity_moments`]); `None` without a check or
     /// when the check was shot at another ray count than `links`'.
     fn sample_terms(&self, links: &Links, b: &[[Vec4; 2]], rays_per_vertex: u32) -> Option<Vec<(f64, f64)>> {
         if self.is_empty() || self.rays_per_vertex != rays_per_vertex {

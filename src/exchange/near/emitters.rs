@@ -1,5 +1,5 @@
 //! Exact emitter light at near hits: the emitters' counterpart of
-//! [`super::near_field`]. A link ray of vertex `x` that meets a triangle
+//! [`crate::exchange::near::light`]. A link ray of vertex `x` that meets a triangle
 //! close by ([`crate::links::near`]) brings, in its first bounce, the
 //! emitters' direct light interpolated from the triangle's corners,
 //! `sum_c beta_c rho_c E_em(c)`; where an object stands close to a large
@@ -26,12 +26,13 @@
 //! `window` (16384-path reference, total relative RMSE): see
 //! [`NearEmitterParams::samples`].
 
-use super::emitter_links::{emitters, Emitter};
-use super::EmitterLinks;
+use super::{hit_albedo, hit_frame, rank_on_triangle, trace_by_vertex, Bounce, Cost, Fields, NearTerm, Shape};
+use crate::csr::{Csr, RowBuilder};
+use crate::exchange::sources::emitter_links::{emitters, Emitter, EmitterLinks};
 use crate::kdtree::traverse::{Ray, NO_SKIP};
-use crate::links::NearHits;
-use crate::sampling::splitmix64;
-use crate::scene::prep::{check_offsets, PreparedScene};
+use crate::links::{NearHit, NearHits};
+use crate::sampling::stream::{splitmix64, unit, Stream};
+use crate::scene::prep::PreparedScene;
 use crate::trace::Tracer;
 use glam::Vec3;
 use rayon::prelude::*;
@@ -48,25 +49,22 @@ pub struct NearEmitterParams {
     pub samples: u32,
     /// Shadow rays start `eps * l` off the hit's triangle (l: its longest edge).
     pub eps: f32,
-    pub seed: u64,
 }
 
 impl Default for NearEmitterParams {
     fn default() -> Self {
-        Self { samples: 4, eps: 1e-4, seed: 1 }
+        Self { samples: 4, eps: 1e-4 }
     }
 }
 
 /// Per vertex and emitter group the coefficient `C_xg` of `D_em(x) = sum_g M_g C_xg`.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct NearEmitters {
-    /// Vertex `v`'s entries are `offsets[v]..offsets[v + 1]` (empty: none anywhere).
-    pub offsets: Vec<u32>,
-    pub groups: Vec<u32>,
-    /// Unitless per channel (W/m^2 of irradiance per W/m^2 of exitance); of either sign.
-    pub coefficients: Vec<Vec3>,
-    pub shadow_rays: u64,
-    pub ms: f64,
+    /// Per vertex, `(group, C_xg)` with groups ascending; `C_xg` unitless
+    /// per channel (W/m^2 of irradiance per W/m^2 of exitance), of either
+    /// sign (empty: none anywhere).
+    pub rows: Csr<(u32, Vec3)>,
+    pub cost: Cost,
 }
 
 /// Each group's triangles with the cumulative share of its area, and its area.
@@ -94,7 +92,6 @@ fn groups(emitters: &[Emitter], count: usize) -> Vec<Group> {
 
 /// A point drawn uniformly on `group` from the hash `h`.
 fn point_on(group: &Group, h: u64) -> ([Vec3; 3], Vec3) {
-    let unit = |x: u64| (x >> 40) as f32 / (1u64 << 24) as f32;
     let pick = unit(h);
     let i = group.cdf.partition_point(|&c| c < pick).min(group.triangles.len() - 1);
     let h2 = splitmix64(h);
@@ -123,6 +120,7 @@ impl NearEmitters {
         links: &EmitterLinks,
         tracer: &dyn Tracer,
         params: &NearEmitterParams,
+        seed: u64,
         rays_per_vertex: u32,
     ) -> crate::Result<NearEmitters> {
         let start = Instant::now();
@@ -133,105 +131,95 @@ impl NearEmitters {
         let (tris, _) = emitters(scene);
         let groups = groups(&tris, links.group_vertex.len());
         let inv = 1.0 / rays_per_vertex.max(1) as f32;
-        let mut out = NearEmitters { offsets: vec![0; n + 1], ..Default::default() };
-        let mut rows: Vec<Vec<(u32, Vec3)>> = Vec::with_capacity(n);
-        // Batches of vertices, so the shadow rays of the whole scene are never held at once.
-        for batch_range in near.vertex_batches(n, 1 << 16) {
-            let (v0, v1) = (batch_range.start, batch_range.end);
-            let samples: Vec<Vec<HitSamples>> = (v0..v1)
-                .into_par_iter()
-                .map(|v| {
-                    let hits = near.of(v);
-                    let rank = |i| super::near_field::rank_on_triangle(hits, i);
-                    hits.iter().enumerate().map(|(i, h)| hit_samples(scene, h, &groups, params, v, rank(i))).collect()
-                })
+        let mut rows = RowBuilder::new();
+        let samples = |v: usize, hits: &[NearHit]| {
+            let per_hit: Vec<HitSamples> = (0..hits.len())
+                .map(|i| hit_samples(scene, &hits[i], &groups, params, seed, v, rank_on_triangle(hits, i)))
                 .collect();
-            let rays: Vec<Ray> = samples.iter().flatten().flat_map(|s| s.rays.iter().copied()).collect();
-            out.shadow_rays += rays.len() as u64;
-            let visible = tracer.visible(&rays)?;
+            let rays = per_hit.iter().flat_map(|s| s.rays.iter().copied()).collect();
+            (per_hit, rays)
+        };
+        let rays = trace_by_vertex(near, n, tracer, samples, |v, per_hit: Vec<HitSamples>, visible: &[bool]| {
+            let mut row: Vec<(u32, Vec3)> = Vec::new();
+            let mut add = |g: u32, c: Vec3| match row.iter_mut().find(|e| e.0 == g) {
+                Some(e) => e.1 += c,
+                None => row.push((g, c)),
+            };
             let mut at = 0usize;
-            for (k, per_hit) in samples.iter().enumerate() {
-                let v = v0 + k;
-                let mut row: Vec<(u32, Vec3)> = Vec::new();
-                let mut add = |g: u32, c: Vec3| match row.iter_mut().find(|e| e.0 == g) {
-                    Some(e) => e.1 += c,
-                    None => row.push((g, c)),
-                };
-                for (h, s) in near.of(v).iter().zip(per_hit) {
-                    let tri = scene.triangles[h.tri as usize];
-                    let beta = [1.0 - h.u - h.v, h.u, h.v];
-                    let rho = super::near_field::hit_albedo(scene, h);
-                    for (g, scale, weights) in &s.parts {
-                        let seen: f32 = weights
-                            .iter()
-                            .zip(&visible[at..at + weights.len()])
-                            .filter(|(_, &v)| v)
-                            .map(|(w, _)| *w)
-                            .sum();
-                        at += weights.len();
-                        add(*g, rho * (scale * seen * inv));
-                    }
-                    // Minus what the corners bring (their emitter links' factors).
-                    for c in 0..3 {
-                        let cv = tri[c] as usize;
-                        for (g, f) in links.of(cv) {
-                            add(g, -scene.albedo[cv] * (beta[c] * f * inv));
-                        }
+            for (h, s) in near.of(v).iter().zip(&per_hit) {
+                let tri = scene.triangles[h.tri as usize];
+                let beta = [1.0 - h.u - h.v, h.u, h.v];
+                let rho = hit_albedo(scene, h);
+                for (g, scale, weights) in &s.parts {
+                    let seen: f32 =
+                        weights.iter().zip(&visible[at..at + weights.len()]).filter(|(_, &v)| v).map(|(w, _)| *w).sum();
+                    at += weights.len();
+                    add(*g, rho * (scale * seen * inv));
+                }
+                // Minus what the corners bring (their emitter links' factors).
+                for c in 0..3 {
+                    let cv = tri[c] as usize;
+                    for (g, f) in links.of(cv) {
+                        add(g, -scene.albedo[cv] * (beta[c] * f * inv));
                     }
                 }
-                row.sort_by_key(|e| e.0);
-                rows.push(row);
             }
-        }
-        for (v, row) in rows.into_iter().enumerate() {
-            out.groups.extend(row.iter().map(|e| e.0));
-            out.coefficients.extend(row.iter().map(|e| e.1));
-            out.offsets[v + 1] = out.groups.len() as u32;
-        }
-        out.ms = start.elapsed().as_secs_f64() * 1e3;
-        Ok(out)
+            row.sort_by_key(|e| e.0);
+            rows.extend(row);
+            rows.end_row();
+        })?;
+        let rows = rows.finish();
+        let bytes = rows.bytes();
+        Ok(NearEmitters { rows, cost: Cost { rays, ms: start.elapsed().as_secs_f64() * 1e3, bytes } })
+    }
+}
+
+impl NearTerm for NearEmitters {
+    fn name(&self) -> &'static str {
+        "emitters"
+    }
+
+    fn bounce(&self) -> Bounce {
+        Bounce::First
     }
 
     /// True when no vertex has a coefficient.
-    pub fn is_empty(&self) -> bool {
-        self.groups.is_empty()
+    fn is_empty(&self) -> bool {
+        self.rows.items.is_empty()
     }
 
-    /// `D_em` of every vertex, W/m^2, with `emission` the current exitance
-    /// per vertex and `group_vertex` each group's vertex ([`EmitterLinks::group_vertex`]).
-    pub fn correction(&self, emission: &[Vec3], group_vertex: &[u32], n: usize) -> Vec<Vec3> {
+    /// `D_em` of every vertex, W/m^2, with the fields' current exitance per
+    /// vertex and each group's vertex ([`EmitterLinks::group_vertex`]).
+    fn correction(&self, f: &Fields) -> Option<Vec<Vec3>> {
         if self.is_empty() {
-            return vec![Vec3::ZERO; n];
+            return None;
         }
-        let m: Vec<Vec3> = group_vertex.iter().map(|&v| emission[v as usize]).collect();
-        (0..n)
-            .into_par_iter()
-            .map(|v| {
-                let r = self.offsets[v] as usize..self.offsets[v + 1] as usize;
-                self.groups[r.clone()].iter().zip(&self.coefficients[r]).map(|(&g, c)| m[g as usize] * *c).sum()
-            })
-            .collect()
+        let m: Vec<Vec3> = f.group_vertex.iter().map(|&v| f.emission[v as usize]).collect();
+        Some(
+            (0..f.scene.vertex_count())
+                .into_par_iter()
+                .map(|v| self.rows.row(v).iter().map(|&(g, c)| m[g as usize] * c).sum())
+                .collect(),
+        )
     }
 
-    /// Checks the structure against `n` vertices and `groups` emitter
-    /// groups: CSR offsets, groups in range and ascending per vertex,
-    /// finite coefficients.
-    pub fn validate(&self, n: usize, groups: usize) -> Result<(), String> {
-        if self.offsets.is_empty() && self.groups.is_empty() && self.coefficients.is_empty() {
-            return Ok(());
-        }
-        check_offsets(&self.offsets, n, self.groups.len())?;
-        if self.groups.len() != self.coefficients.len() {
-            return Err(format!("{} groups, {} coefficients", self.groups.len(), self.coefficients.len()));
-        }
-        for v in 0..n {
-            let row = &self.groups[self.offsets[v] as usize..self.offsets[v + 1] as usize];
-            if row.iter().any(|&g| g as usize >= groups) || row.windows(2).any(|w| w[0] >= w[1]) {
-                return Err(format!("vertex {v}: groups out of range or order"));
+    fn cost(&self) -> Cost {
+        self.cost
+    }
+
+    /// CSR rows over the vertices, groups in range and ascending per
+    /// vertex, finite coefficients.
+    fn validate(&self, shape: &Shape) -> Result<(), String> {
+        self.rows.validate(shape.vertices, |_, &(g, c)| {
+            if g as usize >= shape.groups || !c.is_finite() {
+                return Err(format!("group {g} of {}, coefficient {c}", shape.groups));
             }
-        }
-        if let Some(c) = self.coefficients.iter().find(|c| !c.is_finite()) {
-            return Err(format!("coefficient {c}"));
+            Ok(())
+        })?;
+        for v in 0..self.rows.rows() {
+            if self.rows.row(v).windows(2).any(|w| w[0].0 >= w[1].0) {
+                return Err(format!("vertex {v}: groups out of order"));
+            }
         }
         Ok(())
     }
@@ -239,25 +227,25 @@ impl NearEmitters {
 
 /// The points and shadow rays of near hit `h` (vertex `v`'s `rank`-th on
 /// its triangle: the points hash from the vertex, the triangle and the
-/// rank, as [`super::near_sky`]'s, so a near hit more or less elsewhere,
+/// rank, as [`crate::exchange::near::sky`]'s, so a near hit more or less elsewhere,
 /// where the CPU and GPU tracers differ, keeps this hit's points) toward
 /// every group. The rays start `eps * l` off the surface (see
-/// [`super::near_field::hit_origin`] for why not also into the triangle).
+/// [`crate::exchange::near::hit_origin`] for why not also into the triangle).
 fn hit_samples(
     scene: &PreparedScene,
     h: &crate::links::NearHit,
     groups: &[Group],
     params: &NearEmitterParams,
+    seed: u64,
     v: usize,
     rank: usize,
 ) -> HitSamples {
-    let (p, normal, l) = super::near_field::hit_frame(scene, h);
+    let (p, normal, l) = hit_frame(scene, h);
     let eps = params.eps * l;
     let origin = p + normal * eps;
     let mut out = HitSamples { rays: Vec::new(), parts: Vec::new() };
     let m = params.samples;
-    let hit = u64::from(h.tri) | (rank as u64) << 32;
-    let key = splitmix64(splitmix64(splitmix64(params.seed ^ 0x2545_f491_4f6c_dd1d) ^ v as u64) ^ hit) << 20;
+    let key = Stream::NEAR_EMITTERS.hit_key(seed, v, h.tri, rank) << 20;
     for (g, group) in groups.iter().enumerate() {
         if group.triangles.is_empty() {
             continue;

@@ -1,6 +1,6 @@
 //! The indirect light at near hits: a final gather from the hit point.
-//! The near fields ([`super::near_field`], [`super::near_emitters`],
-//! [`super::near_sky`]) make a near hit's first bounce exact; what it
+//! The near fields ([`crate::exchange::near::light`], [`crate::exchange::near::emitters`],
+//! [`crate::exchange::near::sky`]) make a near hit's first bounce exact; what it
 //! brings of the later bounces is still the hit triangle's corners'
 //! gathered irradiance `G(c)`, interpolated. Under an overhang that is
 //! wrong: `tearoom`'s bowls stand on feet 3 mm above the table, whose 5 cm
@@ -17,7 +17,7 @@
 //!
 //! with `B_H = rho/pi (E_src + G_H) + M_e/pi` the total radiosity the links
 //! carry (W/(m^2 sr)) and `G_H` the gathered irradiance with a hidden
-//! vertex's replaced by its stand-ins' ([`super::hidden`]), as the bounce
+//! vertex's replaced by its stand-ins' ([`crate::exchange::bounce::hidden`]), as the bounce
 //! kernels do. It is added to the gathered `E_i` after the bounces (it is
 //! not carried on through them: a second-order term) and smoothed with it.
 //!
@@ -36,12 +36,16 @@
 //! renderers do at the hit points of their first rays, here only where
 //! the links' interpolation is known to fail (near hits).
 
+use super::{
+    albedo_and_interpolated, hit_origin, rank_on_triangle, trace_by_vertex, Bounce, Cost, Fields, NearTerm, Shape,
+};
 use crate::kdtree::traverse::{Ray, NO_SKIP};
+use crate::kdtree::Hit;
 use crate::links::{NearHit, NearHits};
-use crate::sampling::{basis, cosine_hemisphere, splitmix64};
+use crate::sampling::stream::{cosine_direction, splitmix64, Stream};
 use crate::scene::prep::PreparedScene;
 use crate::trace::Tracer;
-use glam::{Vec2, Vec3};
+use glam::Vec3;
 use rayon::prelude::*;
 use std::time::Instant;
 
@@ -72,12 +76,11 @@ pub struct NearGatherParams {
     pub rays: u32,
     /// Rays start `eps * l` off and into the hit's triangle (l: its longest edge).
     pub eps: f32,
-    pub seed: u64,
 }
 
 impl Default for NearGatherParams {
     fn default() -> Self {
-        Self { rays: 2, eps: 1e-4, seed: 1 }
+        Self { rays: 2, eps: 1e-4 }
     }
 }
 
@@ -108,8 +111,7 @@ pub struct NearGather {
     /// `hits[k * per_hit..(k + 1) * per_hit]`; 0 when there is nothing.
     pub per_hit: u32,
     pub hits: Vec<GatherHit>,
-    pub rays: u64,
-    pub ms: f64,
+    pub cost: Cost,
 }
 
 impl NearGather {
@@ -119,6 +121,7 @@ impl NearGather {
         near: &NearHits,
         tracer: &dyn Tracer,
         params: &NearGatherParams,
+        seed: u64,
     ) -> crate::Result<NearGather> {
         let start = Instant::now();
         let n = scene.vertex_count();
@@ -128,26 +131,19 @@ impl NearGather {
         }
         out.per_hit = params.rays;
         out.hits.reserve(near.hits.len() * params.rays as usize);
-        for range in near.vertex_batches(n, 1 << 16) {
-            // Per ray of the batch's near hits in order, its ray (none: a direction under the surface).
-            let batch: Vec<Option<Ray>> = range
-                .into_par_iter()
-                .flat_map_iter(|v| {
-                    let hits = near.of(v);
-                    hits.iter()
-                        .enumerate()
-                        .flat_map(|(i, h)| {
-                            gather_rays(scene, h, params, v, super::near_field::rank_on_triangle(hits, i))
-                        })
-                        .collect::<Vec<_>>()
-                })
+        // Per ray of the vertex's near hits in order, its ray (none: a direction under the surface).
+        let samples = |v: usize, hits: &[NearHit]| -> (Vec<bool>, Vec<Ray>) {
+            let all: Vec<Option<Ray>> = (0..hits.len())
+                .flat_map(|i| gather_rays(scene, &hits[i], params, seed, v, rank_on_triangle(hits, i)))
                 .collect();
-            let rays: Vec<Ray> = batch.iter().flatten().copied().collect();
-            out.rays += rays.len() as u64;
-            let mut found = tracer.closest_hits(&rays)?.into_iter();
-            out.hits.extend(batch.iter().map(|r| match r {
-                None => GatherHit::NONE,
-                Some(_) => match found.next().expect("one answer per ray") {
+            (all.iter().map(Option::is_some).collect(), all.into_iter().flatten().collect())
+        };
+        let hits = &mut out.hits;
+        let rays = trace_by_vertex(near, n, tracer, samples, |_, traced: Vec<bool>, found: &[Option<Hit>]| {
+            let mut found = found.iter();
+            hits.extend(traced.iter().map(|&t| match t {
+                false => GatherHit::NONE,
+                true => match found.next().expect("one answer per ray") {
                     Some(y) if y.front => GatherHit {
                         tri: y.tri,
                         u: (y.u.clamp(0.0, 1.0) * 65535.0).round() as u16,
@@ -156,69 +152,78 @@ impl NearGather {
                     _ => GatherHit::NONE,
                 },
             }));
-        }
-        out.ms = start.elapsed().as_secs_f64() * 1e3;
+        })?;
+        out.cost = Cost {
+            rays,
+            ms: start.elapsed().as_secs_f64() * 1e3,
+            bytes: std::mem::size_of_val(out.hits.as_slice()) as u64,
+        };
         Ok(out)
     }
+}
 
-    /// True when it holds nothing.
-    pub fn is_empty(&self) -> bool {
+impl NearTerm for NearGather {
+    fn name(&self) -> &'static str {
+        "gather"
+    }
+
+    fn bounce(&self) -> Bounce {
+        Bounce::Later
+    }
+
+    fn is_empty(&self) -> bool {
         self.per_hit == 0
     }
 
-    /// Bytes held.
-    pub fn bytes(&self) -> u64 {
-        std::mem::size_of_val(self.hits.as_slice()) as u64
-    }
-
-    /// `D_g` of every vertex (module doc), W/m^2, for the radiosity `b_h`
-    /// (W/(m^2 sr)) and gathered irradiance `g_h` (W/m^2) with hidden
-    /// vertices' stand-ins applied, over the near hits `near` the rays
-    /// were traced from (zero when they are not those).
-    pub fn correction(
-        &self,
-        scene: &PreparedScene,
-        near: &NearHits,
-        b_h: &[Vec3],
-        g_h: &[Vec3],
-        rays_per_vertex: u32,
-    ) -> Vec<Vec3> {
+    /// `D_g` of every vertex (module doc), W/m^2, for the fields' radiosity
+    /// `b_later` (W/(m^2 sr)) and gathered irradiance `g_later` (W/m^2)
+    /// with hidden vertices' stand-ins applied, over the near hits the rays
+    /// were traced from (`None` when they are not those).
+    fn correction(&self, f: &Fields) -> Option<Vec<Vec3>> {
+        let (scene, near) = (f.scene, f.near);
         let n = scene.vertex_count();
         let m = self.per_hit as usize;
         if self.is_empty() || near.offsets.len() != n + 1 || self.hits.len() != near.hits.len() * m {
-            return vec![Vec3::ZERO; n];
+            return None;
         }
-        let inv = 1.0 / rays_per_vertex.max(1) as f32;
+        let (b_h, g_h) = (f.b_later, f.g_later);
+        let inv = 1.0 / f.rays_per_vertex.max(1) as f32;
         let per_ray = std::f32::consts::PI / m as f32;
         let at = |tri: u32, beta: [f32; 3], x: &[Vec3]| -> Vec3 {
             let t = scene.triangles[tri as usize];
             (0..3).map(|c| x[t[c] as usize] * beta[c]).sum()
         };
-        (0..n)
-            .into_par_iter()
-            .map(|v| {
-                let first = near.offsets[v] as usize;
-                let mut d = Vec3::ZERO;
-                for (i, h) in near.of(v).iter().enumerate() {
-                    let k = first + i;
-                    let gathered: Vec3 = self.hits[k * m..(k + 1) * m]
-                        .iter()
-                        .filter(|y| y.tri != GatherHit::NONE.tri)
-                        .map(|y| at(y.tri, y.barycentrics(), b_h))
-                        .sum::<Vec3>()
-                        * per_ray;
-                    let (rho, interpolated) = super::near_field::albedo_and_interpolated(scene, h, g_h);
-                    d += rho * gathered - interpolated;
-                }
-                d * inv
-            })
-            .collect()
+        Some(
+            (0..n)
+                .into_par_iter()
+                .map(|v| {
+                    let first = near.offsets[v] as usize;
+                    let mut d = Vec3::ZERO;
+                    for (i, h) in near.of(v).iter().enumerate() {
+                        let k = first + i;
+                        let gathered: Vec3 = self.hits[k * m..(k + 1) * m]
+                            .iter()
+                            .filter(|y| y.tri != GatherHit::NONE.tri)
+                            .map(|y| at(y.tri, y.barycentrics(), b_h))
+                            .sum::<Vec3>()
+                            * per_ray;
+                        let (rho, interpolated) = albedo_and_interpolated(scene, h, g_h);
+                        d += rho * gathered - interpolated;
+                    }
+                    d * inv
+                })
+                .collect(),
+        )
     }
 
-    /// Checks the structure against `near_hits` near hits of a scene of
-    /// `triangles` triangles: `per_hit` slots a hit, triangles in range,
-    /// barycentrics inside the triangle.
-    pub fn validate(&self, near_hits: usize, triangles: usize) -> Result<(), String> {
+    fn cost(&self) -> Cost {
+        self.cost
+    }
+
+    /// `per_hit` slots a near hit, triangles in range, barycentrics inside
+    /// the triangle.
+    fn validate(&self, shape: &Shape) -> Result<(), String> {
+        let (near_hits, triangles) = (shape.near_hits, shape.triangles);
         if self.is_empty() {
             return if self.hits.is_empty() { Ok(()) } else { Err("gather hits without rays a hit".into()) };
         }
@@ -238,28 +243,21 @@ impl NearGather {
 
 /// The `params.rays` gather rays of near hit `h` of vertex `v` (the
 /// `rank`-th of its hits on that triangle: the directions hash from the
-/// vertex, the triangle and the rank, as [`super::near_sky`]'s); `None`
+/// vertex, the triangle and the rank, as [`crate::exchange::near::sky`]'s); `None`
 /// for a direction on the horizon.
 fn gather_rays(
     scene: &PreparedScene,
     h: &NearHit,
     params: &NearGatherParams,
+    seed: u64,
     v: usize,
     rank: usize,
 ) -> Vec<Option<Ray>> {
-    let (origin, normal) = super::near_field::hit_origin(scene, h, params.eps);
-    let key = splitmix64(
-        splitmix64(splitmix64(params.seed ^ 0x9b05_688c_2b3e_6c1f) ^ v as u64)
-            ^ (u64::from(h.tri) | (rank as u64) << 32),
-    );
-    let (t, b) = basis(normal);
-    let unit = |x: u64| (x >> 40) as f32 / (1u64 << 24) as f32;
+    let (origin, normal) = hit_origin(scene, h, params.eps);
+    let key = Stream::NEAR_GATHER.hit_key(seed, v, h.tri, rank);
     (0..params.rays)
         .map(|j| {
-            let hash = splitmix64(key ^ u64::from(j));
-            let local = cosine_hemisphere(Vec2::new(unit(hash), unit(splitmix64(hash))));
-            let dir = (t * local.x + b * local.y + normal * local.z).normalize_or_zero();
-            (dir != Vec3::ZERO && local.z > 0.0).then_some(Ray {
+            cosine_direction(splitmix64(key ^ u64::from(j)), normal).map(|dir| Ray {
                 origin,
                 dir,
                 tmin: 0.0,

@@ -18,7 +18,7 @@
 //! radiosity around the vertex, which the links interpolate across its
 //! triangles; the point value is exact at the vertex. Measured: relative
 //! RMSE of unsmoothed `E_i` (auto bounces, hidden-vertex correction of
-//! [`super::hidden`]) against the reference path tracer, reference noise
+//! [`crate::exchange::bounce::hidden`]) against the reference path tracer, reference noise
 //! removed (Cornell box: 65536 paths per vertex, tearoom: 16384):
 //!
 //! | rays | cornell, ring | cornell, point | tearoom, ring | tearoom, point |

@@ -90,13 +90,11 @@ pub struct EmitterLinkParams {
     pub eps: f32,
     /// Origin nudge of crease and border vertices (as in [`crate::links::LinkParams`]).
     pub nudge: f32,
-    /// Seed of the per-vertex sample offsets.
-    pub seed: u64,
 }
 
 impl Default for EmitterLinkParams {
     fn default() -> Self {
-        Self { samples: 64, max_pairs: 400_000_000, eps: 1e-4, nudge: 1e-3, seed: 1 }
+        Self { samples: 64, max_pairs: 400_000_000, eps: 1e-4, nudge: 1e-3 }
     }
 }
 
@@ -162,7 +160,12 @@ const CHUNK_VERTICES: usize = 8192;
 
 impl EmitterLinks {
     /// The emitter links of `scene` traced with `tracer`; empty when nothing emits.
-    pub fn compute(scene: &PreparedScene, tracer: &dyn Tracer, params: &EmitterLinkParams) -> crate::Result<Self> {
+    pub fn compute(
+        scene: &PreparedScene,
+        tracer: &dyn Tracer,
+        params: &EmitterLinkParams,
+        seed: u64,
+    ) -> crate::Result<Self> {
         let start = Instant::now();
         let n = scene.vertex_count();
         let (emitters, group_vertex) = emitters(scene);
@@ -199,7 +202,7 @@ impl EmitterLinks {
             let end = (first + CHUNK_VERTICES).min(n);
             let groups = out.group_vertex.len();
             let per_vertex: Vec<VertexRays> =
-                (first..end).into_par_iter().map(|v| vertex_rays(scene, &emitters, groups, v, params)).collect();
+                (first..end).into_par_iter().map(|v| vertex_rays(scene, &emitters, groups, v, params, seed)).collect();
             let rays: Vec<Ray> = per_vertex.iter().flat_map(|r| r.rays.iter().copied()).collect();
             out.shadow_rays += rays.len() as u64;
             let visible = tracer.visible(&rays)?;
@@ -400,6 +403,7 @@ fn vertex_rays(
     groups: usize,
     v: usize,
     params: &EmitterLinkParams,
+    seed: u64,
 ) -> VertexRays {
     let (p, n) = (scene.positions[v], scene.normals[v]);
     let f: Vec<f64> = emitters.iter().map(|e| form_factor(p, n, &e.corners).0).collect();
@@ -414,7 +418,7 @@ fn vertex_rays(
     }
     out.unshaded = f_group.iter().enumerate().filter(|(_, &x)| x > 0.0).map(|(g, &x)| (g as u32, x)).collect();
     let VertexRays { rays, weights, picks, .. } = &mut out;
-    let mut rng = rand_pcg::Pcg32::seed_from_u64(params.seed ^ (v as u64).wrapping_mul(0x9e37_79b9_7f4a_7c15));
+    let mut rng = rand_pcg::Pcg32::seed_from_u64(seed ^ (v as u64).wrapping_mul(0x9e37_79b9_7f4a_7c15));
     let xi: f64 = rng.random();
     let offset = Vec2::new(rng.random(), rng.random());
     let total = params.samples as f64;

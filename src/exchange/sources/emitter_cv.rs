@@ -7,7 +7,7 @@
 //! A vertex `x`'s first bounce gathers `sum_j w_j B_0(t_j)` over its links
 //! (`w` in sr, `B_0` the source radiosity, W/(m^2 sr)). For an emitter
 //! group `g` (an emissive mesh's triangles of one exitance,
-//! [`super::emitter_links`]) write `W_xg = sum over links into g of w_j`:
+//! [`crate::exchange::sources::emitter_links`]) write `W_xg = sum over links into g of w_j`:
 //! `pi` times the share of `x`'s rays that met `g`, whose expectation is
 //! `pi F_xg`, `F_xg` the visible form factor the emitter links hold (plus,
 //! on `g` itself, the band of directions under the vertex's own triangles,
@@ -52,8 +52,8 @@
 //! without emitters are unchanged (cornell 1024 rays 1.02%). Cost: one
 //! pass over the links when they or the emitter links change.
 
-use super::emitter_links::NO_GROUP;
-use super::EmitterLinks;
+use crate::exchange::sources::emitter_links::EmitterLinks;
+use crate::exchange::sources::emitter_links::NO_GROUP;
 use crate::links::Links;
 use crate::scene::prep::{check_offsets, PreparedScene};
 use glam::{Vec3, Vec4};
@@ -185,7 +185,7 @@ impl EmitterCv {
             .collect()
     }
 
-    /// Radiosity moments `[B, B^2]` ([`super::noise::radiosity_moments`])
+    /// Radiosity moments `[B, B^2]` ([`crate::exchange::denoise::noise::radiosity_moments`])
     /// with `B` of every group vertex less its group's mean (`means`): the
     /// part of a link's value the control variate leaves.
     pub fn adjust_moments(&self, b: &mut [[Vec4; 2]], means: &[Vec3]) {

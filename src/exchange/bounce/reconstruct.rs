@@ -41,12 +41,12 @@
 //! cornell's figures were the same to 4 digits without it.
 //!
 //! Where it applies: to the radiosity every bounce gathers (the CPU
-//! kernel, [`super::gather::CpuBounces`], and the WGSL one,
+//! kernel, [`crate::exchange::bounce::gather::CpuBounces`], and the WGSL one,
 //! `reconstruct_radiosity`), and to the first bounce's source except the
 //! emitters' direct light, whose near-hit correction
-//! ([`super::near_emitters`]) keeps its linear corner term in its stored
-//! coefficients. The near-hit corrections ([`super::near_field`],
-//! [`super::near_sky`], [`super::near_gather`]) subtract what the links
+//! ([`crate::exchange::near::emitters`]) keeps its linear corner term in its stored
+//! coefficients. The near-hit corrections ([`crate::exchange::near::light`],
+//! [`crate::exchange::near::sky`], [`crate::exchange::near::gather`]) subtract what the links
 //! read, so they interpolate the corrected values too
 //! ([`Reconstruction::through_albedo`]).
 //!

@@ -14,9 +14,9 @@
 //! ```
 //!
 //! replaces the interpolated direct light of those rays by the exact one.
-//! `E_src` is the lights' bounce source ([`super::LightLinks::bounce_source`]);
+//! `E_src` is the lights' bounce source ([`crate::exchange::sources::light_links::LightLinks::bounce_source`]);
 //! the sky's and the emitters' light at the hits have their own
-//! corrections ([`super::near_sky`], [`super::near_emitters`]). `G_l V_l` is
+//! corrections ([`crate::exchange::near::sky`], [`crate::exchange::near::emitters`]). `G_l V_l` is
 //! stored per light and near hit (a column, like the light links'), so a
 //! new intensity traces nothing and a moved light traces only its column.
 //!
@@ -34,7 +34,8 @@
 //! hits); shadow rays start `eps * l` off the surface (l: the triangle's
 //! longest edge) and stop as short of a point light, as the light links do.
 
-use super::light_links::{geometry, same_column, toward, LightLinkParams};
+use super::{albedo_and_interpolated, hit_frame, Bounce, Cost, Fields, NearTerm, Shape, BATCH_HITS};
+use crate::exchange::sources::light_links::{geometry, same_column, toward, LightLinkParams};
 use crate::kdtree::traverse::{Ray, NO_SKIP};
 use crate::links::{NearHit, NearHits};
 use crate::scene::motion::Motion;
@@ -51,13 +52,9 @@ pub struct NearLight {
     pub columns: Vec<Vec<f32>>,
     /// The lights the columns were traced for (positions and directions matter).
     pub lights: Vec<Light>,
-    /// Shadow rays of the last computation or update.
-    pub shadow_rays: u64,
-    pub ms: f64,
+    /// Shadow rays and time of the last computation or update.
+    pub cost: Cost,
 }
-
-/// Hits per batch of shadow rays (bounds memory).
-const CHUNK_HITS: usize = 1 << 16;
 
 impl NearLight {
     /// The columns of every light of `scene` at `near`'s hits.
@@ -98,8 +95,7 @@ impl NearLight {
             self.columns.push(column);
             self.lights.push(*light);
         }
-        self.shadow_rays = rays;
-        self.ms = start.elapsed().as_secs_f64() * 1e3;
+        self.cost = self.cost_of(rays, start);
         Ok(())
     }
 
@@ -108,39 +104,73 @@ impl NearLight {
         lights.len() == self.lights.len() && lights.iter().zip(&self.lights).all(|(a, b)| same_column(a, b))
     }
 
+    /// The cost of a trace of `rays` rays started at `start`.
+    fn cost_of(&self, rays: u64, start: Instant) -> Cost {
+        let bytes = self.columns.iter().map(|c| std::mem::size_of_val(c.as_slice()) as u64).sum();
+        Cost { rays, ms: start.elapsed().as_secs_f64() * 1e3, bytes }
+    }
+}
+
+impl NearTerm for NearLight {
+    fn name(&self) -> &'static str {
+        "lights"
+    }
+
+    fn bounce(&self) -> Bounce {
+        Bounce::First
+    }
+
+    fn is_empty(&self) -> bool {
+        self.columns.iter().all(Vec::is_empty)
+    }
+
     /// The correction `D` of the module doc at every vertex, W/m^2, for
-    /// `lights` (whose columns must be traced: [`Self::covers`]) and the
-    /// lights' bounce source `e_src`, from near hits of rays shot
-    /// `rays_per_vertex` a vertex. Zero without near hits, and zero while
-    /// some light's column is stale (a light preview): then the links'
-    /// interpolated first bounce stands.
-    pub fn correction(
-        &self,
-        scene: &PreparedScene,
-        near: &NearHits,
-        lights: &[Light],
-        e_src: &[Vec3],
-        rays_per_vertex: u32,
-    ) -> Vec<Vec3> {
-        let n = scene.vertex_count();
-        if near.is_empty() || !self.covers(lights) {
-            return vec![Vec3::ZERO; n];
+    /// the fields' lights (whose columns must be traced: [`NearLight::covers`])
+    /// and their bounce source `e_lights`. `None` without near hits, and
+    /// while some light's column is stale (a light preview): then the
+    /// links' interpolated first bounce stands.
+    fn correction(&self, f: &Fields) -> Option<Vec<Vec3>> {
+        let (scene, near) = (f.scene, f.near);
+        if near.is_empty() || !self.covers(f.lights) {
+            return None;
         }
-        let powers: Vec<Vec3> = lights.iter().map(Light::power).collect();
-        let inv = 1.0 / rays_per_vertex.max(1) as f32;
-        (0..n)
-            .into_par_iter()
-            .map(|v| {
-                let first = near.offsets[v] as usize;
-                let mut d = Vec3::ZERO;
-                for (i, h) in near.of(v).iter().enumerate() {
-                    let (rho, interpolated) = albedo_and_interpolated(scene, h, e_src);
-                    let e_d: Vec3 = powers.iter().zip(&self.columns).map(|(p, col)| *p * col[first + i]).sum();
-                    d += rho * e_d - interpolated;
-                }
-                d * inv
-            })
-            .collect()
+        let powers: Vec<Vec3> = f.lights.iter().map(Light::power).collect();
+        let inv = 1.0 / f.rays_per_vertex.max(1) as f32;
+        Some(
+            (0..scene.vertex_count())
+                .into_par_iter()
+                .map(|v| {
+                    let first = near.offsets[v] as usize;
+                    let mut d = Vec3::ZERO;
+                    for (i, h) in near.of(v).iter().enumerate() {
+                        let (rho, interpolated) = albedo_and_interpolated(scene, h, f.e_lights);
+                        let e_d: Vec3 = powers.iter().zip(&self.columns).map(|(p, col)| *p * col[first + i]).sum();
+                        d += rho * e_d - interpolated;
+                    }
+                    d * inv
+                })
+                .collect(),
+        )
+    }
+
+    fn cost(&self) -> Cost {
+        self.cost
+    }
+
+    /// One column per light, a value per near hit, finite and non-negative.
+    fn validate(&self, shape: &Shape) -> Result<(), String> {
+        if self.columns.len() != self.lights.len() {
+            return Err(format!("{} columns for {} lights", self.columns.len(), self.lights.len()));
+        }
+        for (l, c) in self.columns.iter().enumerate() {
+            if c.len() != shape.near_hits {
+                return Err(format!("light {l}: {} values for {} near hits", c.len(), shape.near_hits));
+            }
+            if let Some(x) = c.iter().find(|x| !(x.is_finite() && **x >= 0.0)) {
+                return Err(format!("light {l}: value {x}"));
+            }
+        }
+        Ok(())
     }
 }
 
@@ -153,68 +183,6 @@ fn column(
     params: &LightLinkParams,
 ) -> crate::Result<(Vec<f32>, u64)> {
     column_at(scene, &near.hits, light, tracer, params)
-}
-
-/// Near hit `h`'s point on its flat triangle, the triangle's unit
-/// geometric normal and its longest edge (m, at least `f32::MIN_POSITIVE`):
-/// where shadow rays from the hit start ([`super::near_emitters`] too).
-pub(crate) fn hit_frame(scene: &PreparedScene, h: &NearHit) -> (Vec3, Vec3, f32) {
-    let [a, b, c] = scene.triangles[h.tri as usize].map(|i| scene.positions[i as usize]);
-    let p = a * (1.0 - h.u - h.v) + b * h.u + c * h.v;
-    let normal = (b - a).cross(c - a).normalize_or_zero();
-    let l = (b - a).length().max((c - b).length()).max((a - c).length()).max(f32::MIN_POSITIVE);
-    (p, normal, l)
-}
-
-/// The albedo at near hit `h` (`sum_c beta_c rho_c`, interpolated from its
-/// triangle's corners).
-pub(crate) fn hit_albedo(scene: &PreparedScene, h: &NearHit) -> Vec3 {
-    albedo_and_interpolated(scene, h, &[]).0
-}
-
-/// The albedo at near hit `h` and what its corners interpolate of the
-/// per-vertex irradiance `x` reflected, `sum_c beta_c rho_c x(c)` (W/m^2;
-/// `x` empty: zero): what a link brought of `x`'s reflection at the hit,
-/// which the near-hit corrections replace.
-pub(crate) fn albedo_and_interpolated(scene: &PreparedScene, h: &NearHit, x: &[Vec3]) -> (Vec3, Vec3) {
-    let tri = scene.triangles[h.tri as usize];
-    let beta = [1.0 - h.u - h.v, h.u, h.v];
-    let (mut rho, mut interpolated) = (Vec3::ZERO, Vec3::ZERO);
-    for c in 0..3 {
-        let a = scene.albedo[tri[c] as usize] * beta[c];
-        rho += a;
-        if let Some(xc) = x.get(tri[c] as usize) {
-            interpolated += a * *xc;
-        }
-    }
-    (rho, interpolated)
-}
-
-/// Where rays from near hit `h` start, and its triangle's unit normal:
-/// `eps` times the triangle's longest edge off the surface and as far into
-/// the triangle (toward its centroid). A hit on the edge where the floor
-/// meets a wall would otherwise start on the wall's plane, where the CPU
-/// and GPU triangle tests answer a ray into the wall either way, and a
-/// one-sided wall is all that keeps such a ray in the room
-/// ([`super::near_sky`], [`super::near_gather`]). The lights' and emitters'
-/// shadow rays start off the surface only: the step into the triangle,
-/// `eps` times its longest edge, moves where visibility is taken in a
-/// contact gap (the plate 5 mm above a floor of two 2 m triangles, in
-/// `tests/near_field.rs`: its underside under a point light read 0.472
-/// against the reference's 0.440 with the step, 0.463 without; under a
-/// glowing panel 0.147 against 0.143, 0.144 without).
-pub(crate) fn hit_origin(scene: &PreparedScene, h: &NearHit, eps: f32) -> (Vec3, Vec3) {
-    let (p, normal, l) = hit_frame(scene, h);
-    let centroid = scene.triangles[h.tri as usize].map(|i| scene.positions[i as usize]).iter().sum::<Vec3>() / 3.0;
-    (p + (normal + (centroid - p).normalize_or_zero()) * (eps * l), normal)
-}
-
-/// The rank of near hit `i` of `hits` (one vertex's) among those on its
-/// triangle: with the vertex and the triangle, what the near hits' samples
-/// hash from, so a vertex's hits on other triangles keep their samples
-/// where the CPU and GPU tracers give it one near hit more or less.
-pub(crate) fn rank_on_triangle(hits: &[NearHit], i: usize) -> usize {
-    hits[..i].iter().filter(|o| o.tri == hits[i].tri).count()
 }
 
 /// The geometry term of `light` at near hit `h` and its shadow ray (none
@@ -244,7 +212,7 @@ fn column_at(
 ) -> crate::Result<(Vec<f32>, u64)> {
     let mut out = Vec::with_capacity(hits.len());
     let mut traced = 0u64;
-    for chunk in hits.chunks(CHUNK_HITS) {
+    for chunk in hits.chunks(BATCH_HITS as usize) {
         let rays: Vec<(f32, Option<Ray>)> = chunk.par_iter().map(|h| shadow_ray(scene, h, light, params)).collect();
         let shadow: Vec<Ray> = rays.iter().filter_map(|r| r.1).collect();
         traced += shadow.len() as u64;
@@ -322,8 +290,7 @@ impl NearLight {
             self.columns[l] =
                 kept.into_iter().map(|k| k.unwrap_or_else(|| fresh.next().expect("one per hit"))).collect();
         }
-        self.shadow_rays = rays;
-        self.ms = start.elapsed().as_secs_f64() * 1e3;
+        self.cost = self.cost_of(rays, start);
         Ok(recomputed)
     }
 }

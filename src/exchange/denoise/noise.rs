@@ -1,6 +1,6 @@
 //! Noise estimate of the gathered indirect irradiance `E_i` per vertex,
 //! from the links and the radiosity they carry (input of the noise-aware
-//! smoothing, [`mod@super::smooth`]).
+//! smoothing, [`mod@crate::exchange::denoise::smooth`]).
 //!
 //! In the fixed point of the gather, `E_i(x) = sum_j w_j B(t_j)` with the
 //! total radiosity `B = rho/pi * (E_src + E_i) + M_e/pi` (W/(m^2 sr); `E_src` the
@@ -42,7 +42,7 @@
 //! The model is within a factor of 2.3 of both scenes at every count, but
 //! twice too large on `window` and off by more inside one scene where the
 //! light is uneven: the solver measures the ratio on the scene instead,
-//! locally ([`super::noise_check`]), and keeps the model for a solver
+//! locally ([`crate::exchange::denoise::noise_check`]), and keeps the model for a solver
 //! without a check (`check_vertices = 0`).
 
 use crate::links::Links;
@@ -60,7 +60,7 @@ pub struct NoiseParams {
     pub reference_rays: u32,
     /// How the ratio falls with the rays: `scale * (reference_rays / n_C)^exponent`, at most 1.
     pub exponent: f32,
-    /// Vertices of the noise check ([`super::noise_check`]), whose measured
+    /// Vertices of the noise check ([`crate::exchange::denoise::noise_check`]), whose measured
     /// ratio replaces the model's; 0: the model alone.
     pub check_vertices: u32,
     /// The check's ratio around a sampled vertex is a Gaussian kernel

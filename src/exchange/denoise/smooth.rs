@@ -13,7 +13,7 @@
 //! neighbours by `beta_v` in `[0, 1]`:
 //! `E_s(v) = (E(v) + beta_v sum_{u in N'(v)} E(u)) / (1 + beta_v k)`.
 //! With `E(u) = T(u) + n_u` (truth plus noise of variance `s_u^2`, the
-//! noise estimate of [`super::noise`]) and the neighbours' mean `M(v)`
+//! noise estimate of [`crate::exchange::denoise::noise`]) and the neighbours' mean `M(v)`
 //! off the truth at `v` by `b_v = mean_{N'} T - T(v)`, the expected squared
 //! error of `E_s(v)` is `(s^2 (1 + beta^2 k) + beta^2 k^2 b^2) / (1 + beta k)^2`
 //! (neighbours' noise taken independent and as large as `v`'s). It is
@@ -86,8 +86,8 @@ pub struct SmoothParams {
     /// weights (neighbours taken independent), so a second pass widens the
     /// support to the two-ring only where noise is still large.
     pub passes: u32,
-    /// Calibration of the noise estimate ([`super::noise`]).
-    pub noise: super::NoiseParams,
+    /// Calibration of the noise estimate ([`crate::exchange::denoise::noise`]).
+    pub noise: crate::exchange::denoise::noise::NoiseParams,
     /// Smooth the sky's direct light `E_sky` too, by the same adaptive
     /// filter with its own sampling variance ([`pooled_variance`]); adaptive
     /// mode only.
@@ -96,7 +96,12 @@ pub struct SmoothParams {
 
 impl Default for SmoothParams {
     fn default() -> Self {
-        Self { mode: SmoothMode::default(), passes: 2, noise: super::NoiseParams::default(), sky: true }
+        Self {
+            mode: SmoothMode::default(),
+            passes: 2,
+            noise: crate::exchange::denoise::noise::NoiseParams::default(),
+            sky: true,
+        }
     }
 }
 

@@ -182,7 +182,7 @@ pub fn correct(
             let mean = stand_in_irradiance(linkers, |u| e[u]);
             x[*h] += albedo[*h] / PI * (mean - e[*h]);
         }
-        super::gather::gather_bounce(links, &x, &mut next);
+        crate::exchange::bounce::operator::gather_bounce(links, &x, &mut next);
         let (mut step, mut total) = (0f64, 0f64);
         for v in 0..n {
             let new = e_indirect[v] + next[v];

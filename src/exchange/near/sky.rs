@@ -1,5 +1,5 @@
 //! Exact sky light at near hits: the sky's counterpart of
-//! [`super::near_field`] and [`super::near_emitters`]. A link ray of
+//! [`crate::exchange::near::light`] and [`crate::exchange::near::emitters`]. A link ray of
 //! vertex `x` that meets a triangle close by ([`crate::links::near`])
 //! brings, in its first bounce, the sky light interpolated from the
 //! triangle's corners, `sum_c beta_c rho_c E_sky(c)`. Where an object
@@ -38,7 +38,7 @@
 //! bounces, `examples/sky_probe.rs`, `NEAR_SKY=0 NEAR_SKY_PORTAL=0` to
 //! compare): at 1024 rays over seeds 1 / 2 / 3 1.44 / 1.49 / 1.47% without,
 //! 1.19 / 1.25 / 1.22% with (the cabinet alone 7.9 -> 3.8%); when it came
-//! (before [`super::emitter_cv`]) 256 rays 2.27 -> 2.13% and 64 rays 4.60 ->
+//! (before [`crate::exchange::sources::emitter_cv`]) 256 rays 2.27 -> 2.13% and 64 rays 4.60 ->
 //! 4.53% on seed 1.
 //! Where it came from: with the sky alone, the first bounce of the sky's
 //! light read 16% low on the cabinet and 1.2% low over the room against
@@ -50,13 +50,16 @@
 //! default: 604k rays, 70-90 ms for 331k near hits at 1024 rays (2.4M
 //! rays, 254 ms at (4, 4)).
 
+use super::{albedo_and_interpolated, hit_albedo, hit_origin, rank_on_triangle, trace_by_vertex};
+use super::{Bounce, Cost, Fields, NearTerm, Shape};
+use crate::csr::{Csr, RowBuilder};
 use crate::kdtree::traverse::{Ray, NO_SKIP};
 use crate::links::{NearHit, NearHits};
-use crate::sampling::{basis, cosine_hemisphere, splitmix64};
-use crate::scene::prep::{check_offsets, PreparedScene};
-use crate::sky::{portal, Portal, Sky};
+use crate::sampling::stream::{cosine_direction, splitmix64, Stream};
+use crate::scene::prep::PreparedScene;
+use crate::sky::{portal, Portal};
 use crate::trace::Tracer;
-use glam::{Vec2, Vec3};
+use glam::Vec3;
 use rayon::prelude::*;
 use std::time::Instant;
 
@@ -70,12 +73,11 @@ pub struct NearSkyParams {
     pub portal_samples: u32,
     /// Shadow rays start `eps * l` off the hit's triangle (l: its longest edge).
     pub eps: f32,
-    pub seed: u64,
 }
 
 impl Default for NearSkyParams {
     fn default() -> Self {
-        Self { samples: 1, portal_samples: 1, eps: 1e-4, seed: 1 }
+        Self { samples: 1, portal_samples: 1, eps: 1e-4 }
     }
 }
 
@@ -99,15 +101,11 @@ pub struct NearSky {
     pub traced: bool,
     /// The portals the samples were traced for.
     pub portals: Vec<Portal>,
-    /// Vertex `v`'s directions are `offsets[v]..offsets[v + 1]` (empty: none anywhere).
-    pub offsets: Vec<u32>,
-    /// Unit directions toward the sky.
-    pub dirs: Vec<Vec3>,
-    /// Per direction: `rho(h)` times the estimator's factor over the link
-    /// rays `n` (W/m^2 per W/(m^2 sr), per channel).
-    pub weights: Vec<Vec3>,
-    pub shadow_rays: u64,
-    pub ms: f64,
+    /// Per vertex, the unit directions toward the sky that were free, with
+    /// their weights: `rho(h)` times the estimator's factor over the link
+    /// rays `n` (W/m^2 per W/(m^2 sr), per channel). Empty: none anywhere.
+    pub rows: Csr<(Vec3, Vec3)>,
+    pub cost: Cost,
 }
 
 /// One sample's ray and its weight without the albedo.
@@ -126,6 +124,7 @@ impl NearSky {
         portals: &[Portal],
         tracer: &dyn Tracer,
         params: &NearSkyParams,
+        seed: u64,
         rays_per_vertex: u32,
     ) -> crate::Result<NearSky> {
         let start = Instant::now();
@@ -134,112 +133,86 @@ impl NearSky {
         if near.is_empty() || params.is_off() {
             return Ok(out);
         }
-        out.offsets = vec![0; n + 1];
         let inv = 1.0 / rays_per_vertex.max(1) as f32;
-        for batch_range in near.vertex_batches(n, 1 << 16) {
-            let (v0, v1) = (batch_range.start, batch_range.end);
-            // Per vertex: per sample, its ray, its weight with the hit's albedo.
-            let batch: Vec<Vec<(Ray, Vec3)>> = (v0..v1)
-                .into_par_iter()
-                .map(|v| {
-                    let hits = near.of(v);
-                    hits.iter()
-                        .enumerate()
-                        .flat_map(|(i, h)| {
-                            let rho = super::near_field::hit_albedo(scene, h) * inv;
-                            let rank = super::near_field::rank_on_triangle(hits, i);
-                            candidates(scene, h, portals, params, v, rank)
-                                .into_iter()
-                                .map(move |c| (c.ray, rho * c.weight))
-                        })
-                        .collect()
+        let mut rows = RowBuilder::new();
+        // Per vertex: per sample, its direction and its weight with the hit's albedo, and its ray.
+        let samples = |v: usize, hits: &[NearHit]| -> (Vec<(Vec3, Vec3)>, Vec<Ray>) {
+            hits.iter()
+                .enumerate()
+                .flat_map(|(i, h)| {
+                    let rho = hit_albedo(scene, h) * inv;
+                    candidates(scene, h, portals, params, seed, v, rank_on_triangle(hits, i))
+                        .into_iter()
+                        .map(move |c| ((c.ray.dir, rho * c.weight), c.ray))
                 })
-                .collect();
-            let rays: Vec<Ray> = batch.iter().flatten().map(|c| c.0).collect();
-            out.shadow_rays += rays.len() as u64;
-            let visible = tracer.visible(&rays)?;
-            let mut vis = visible.into_iter();
-            for (k, samples) in batch.into_iter().enumerate() {
-                for (ray, w) in samples {
-                    if vis.next().expect("one answer per ray") {
-                        out.dirs.push(ray.dir);
-                        out.weights.push(w);
-                    }
-                }
-                out.offsets[v0 + k + 1] = out.dirs.len() as u32;
-            }
-        }
-        out.ms = start.elapsed().as_secs_f64() * 1e3;
+                .unzip()
+        };
+        let rays = trace_by_vertex(near, n, tracer, samples, |_, found: Vec<(Vec3, Vec3)>, visible: &[bool]| {
+            rows.extend(found.into_iter().zip(visible).filter(|(_, &free)| free).map(|(s, _)| s));
+            rows.end_row();
+        })?;
+        out.rows = rows.finish();
+        out.cost = Cost { rays, ms: start.elapsed().as_secs_f64() * 1e3, bytes: out.rows.bytes() };
         Ok(out)
     }
+}
 
-    /// True when it holds nothing to add.
-    pub fn is_empty(&self) -> bool {
-        self.offsets.is_empty()
+impl NearTerm for NearSky {
+    fn name(&self) -> &'static str {
+        "sky"
     }
 
-    /// Bytes held.
-    pub fn bytes(&self) -> u64 {
-        (std::mem::size_of_val(self.offsets.as_slice())
-            + std::mem::size_of_val(self.dirs.as_slice())
-            + std::mem::size_of_val(self.weights.as_slice())) as u64
+    fn bounce(&self) -> Bounce {
+        Bounce::First
     }
 
-    /// `D_sky` of every vertex (module doc), W/m^2, under `sky` with
-    /// `e_sky` the vertices' sky light as the bounces use it and `near`
-    /// the hits the samples were traced from; zero without a sky or samples.
-    pub fn correction(
-        &self,
-        scene: &PreparedScene,
-        near: &NearHits,
-        sky: Option<&Sky>,
-        e_sky: &[Vec3],
-        rays_per_vertex: u32,
-    ) -> Vec<Vec3> {
-        let n = scene.vertex_count();
-        let Some(sky) = sky else { return vec![Vec3::ZERO; n] };
-        if self.is_empty() || near.offsets.len() != n + 1 || e_sky.len() != n {
-            return vec![Vec3::ZERO; n];
+    fn is_empty(&self) -> bool {
+        self.rows.is_empty()
+    }
+
+    /// `D_sky` of every vertex (module doc), W/m^2, under the fields' sky
+    /// with their `e_sky` the vertices' sky light as the bounces use it;
+    /// `None` without a sky, samples or sky light.
+    fn correction(&self, f: &Fields) -> Option<Vec<Vec3>> {
+        let n = f.scene.vertex_count();
+        let sky = f.sky?;
+        if self.is_empty() || f.near.offsets.len() != n + 1 || f.e_sky.len() != n {
+            return None;
         }
         let radiance = sky.radiance_fn();
-        let inv = 1.0 / rays_per_vertex.max(1) as f32;
-        (0..n)
-            .into_par_iter()
-            .map(|v| {
-                let r = self.offsets[v] as usize..self.offsets[v + 1] as usize;
-                let exact: Vec3 =
-                    self.dirs[r.clone()].iter().zip(&self.weights[r]).map(|(d, w)| radiance(*d) * *w).sum();
-                let interpolated: Vec3 =
-                    near.of(v).iter().map(|h| super::near_field::albedo_and_interpolated(scene, h, e_sky).1).sum();
-                exact - interpolated * inv
-            })
-            .collect()
+        let inv = 1.0 / f.rays_per_vertex.max(1) as f32;
+        Some(
+            (0..n)
+                .into_par_iter()
+                .map(|v| {
+                    let exact: Vec3 = self.rows.row(v).iter().map(|(d, w)| radiance(*d) * *w).sum();
+                    let interpolated: Vec3 =
+                        f.near.of(v).iter().map(|h| albedo_and_interpolated(f.scene, h, f.e_sky).1).sum();
+                    exact - interpolated * inv
+                })
+                .collect(),
+        )
     }
 
-    /// Checks the structure against `n` vertices: CSR offsets, unit
-    /// directions, finite non-negative weights, valid portals.
-    pub fn validate(&self, n: usize) -> Result<(), String> {
+    fn cost(&self) -> Cost {
+        self.cost
+    }
+
+    /// CSR rows over the vertices, unit directions, finite non-negative
+    /// weights, valid portals.
+    fn validate(&self, shape: &Shape) -> Result<(), String> {
         for p in &self.portals {
             p.validate()?;
         }
-        if self.is_empty() {
-            return if self.dirs.is_empty() && self.weights.is_empty() {
-                Ok(())
-            } else {
-                Err("directions without offsets".into())
-            };
-        }
-        check_offsets(&self.offsets, n, self.dirs.len())?;
-        if self.dirs.len() != self.weights.len() {
-            return Err(format!("{} directions, {} weights", self.dirs.len(), self.weights.len()));
-        }
-        if let Some(d) = self.dirs.iter().find(|d| !(d.is_finite() && (d.length() - 1.0).abs() < 1e-3)) {
-            return Err(format!("direction {d} is not a unit vector"));
-        }
-        if let Some(w) = self.weights.iter().find(|w| !(w.is_finite() && w.min_element() >= 0.0)) {
-            return Err(format!("weight {w}"));
-        }
-        Ok(())
+        self.rows.validate(shape.vertices, |_, (d, w)| {
+            if !(d.is_finite() && (d.length() - 1.0).abs() < 1e-3) {
+                return Err(format!("direction {d} is not a unit vector"));
+            }
+            if !(w.is_finite() && w.min_element() >= 0.0) {
+                return Err(format!("weight {w}"));
+            }
+            Ok(())
+        })
     }
 }
 
@@ -257,27 +230,23 @@ fn candidates(
     h: &NearHit,
     portals: &[Portal],
     params: &NearSkyParams,
+    seed: u64,
     v: usize,
     rank: usize,
 ) -> Vec<Candidate> {
-    let (origin, normal) = super::near_field::hit_origin(scene, h, params.eps);
-    let hit = u64::from(h.tri) | (rank as u64) << 32;
-    let key = splitmix64(splitmix64(splitmix64(params.seed ^ 0x3c6e_f372_fe94_f82b) ^ v as u64) ^ hit) << 20;
+    let (origin, normal) = hit_origin(scene, h, params.eps);
+    let key = Stream::NEAR_SKY.hit_key(seed, v, h.tri, rank) << 20;
     let mut out = Vec::new();
     // From t = 0 (with `tmin = eps` rays from the floor's edge left the
     // room through its one-sided walls: `window` at 1024 rays 1.24 / 1.30 /
     // 1.26% -> 1.30 / 1.52 / 1.39% over seeds 1-3).
     let ray = |dir: Vec3| Ray { origin, dir, tmin: 0.0, tmax: f32::INFINITY, skip: NO_SKIP };
     if params.samples > 0 {
-        let (t, b) = basis(normal);
-        let unit = |x: u64| (x >> 40) as f32 / (1u64 << 24) as f32;
         let w = std::f32::consts::PI / params.samples as f32;
         for j in 0..params.samples {
-            let hash = splitmix64(key ^ u64::from(j));
-            let local = cosine_hemisphere(Vec2::new(unit(hash), unit(splitmix64(hash))));
-            let dir = (t * local.x + b * local.y + normal * local.z).normalize_or_zero();
+            let Some(dir) = cosine_direction(splitmix64(key ^ u64::from(j)), normal) else { continue };
             // A direction through a portal is the portals' samples'.
-            if dir == Vec3::ZERO || local.z <= 0.0 || portal::through_any(portals, origin, dir) {
+            if portal::through_any(portals, origin, dir) {
                 continue;
             }
             out.push(Candidate { ray: ray(dir), weight: w });

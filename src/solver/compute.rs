@@ -1,0 +1,142 @@
+//! Where a solve runs: the CPU or GPU devices ([`Compute`]), the GPU
+//! state a solver keeps ([`GpuState`]), and the one "GPU, else the CPU"
+//! rule ([`Tracers::any`]): a stage traced on the GPU that fails falls back to
+//! the CPU structure with one warning; stages the GPU tracer cannot serve
+//! (arbitrary closest-hit batches, single-origin CPU walks) go to the CPU
+//! structure directly ([`Tracers::cpu`]).
+
+use crate::gpu::{self, Backend, DeviceShare, GpuDevice, GpuLinks, GpuTracer, ScheduleParams};
+use crate::trace::{Accel, Tracer};
+use std::sync::Arc;
+use std::time::Duration;
+
+/// Where links, light links and bounces are computed.
+#[derive(Clone, Debug, Default)]
+pub enum Compute {
+    #[default]
+    Cpu,
+    Gpu(GpuCompute),
+}
+
+/// The GPU devices of a solve and how to split them.
+#[derive(Clone, Debug)]
+pub struct GpuCompute {
+    pub devices: Vec<Arc<GpuDevice>>,
+    /// Logical devices per adapter (`--devices N`: the scheduler splits work between them).
+    pub logical_per_device: usize,
+    /// Artificial extra time per vertex for each logical device, in order (scheduler tests).
+    pub delays: Vec<Duration>,
+    pub schedule: ScheduleParams,
+}
+
+impl Compute {
+    /// Resolves a backend setting. `Auto` with no hardware GPU gives the
+    /// CPU path and a one-line note saying so; `Gpu` with no adapter is an error.
+    pub fn from_backend(backend: Backend, logical_per_device: usize) -> crate::Result<(Compute, Option<String>)> {
+        let devices = gpu::devices_for(backend)?;
+        if devices.is_empty() {
+            let note = (backend == Backend::Auto).then(|| {
+                "no hardware GPU adapter found: using the CPU path (--backend gpu uses software adapters too)"
+                    .to_string()
+            });
+            return Ok((Compute::Cpu, note));
+        }
+        let schedule = ScheduleParams::default();
+        Ok((
+            Compute::Gpu(GpuCompute {
+                devices,
+                logical_per_device: logical_per_device.max(1),
+                delays: Vec::new(),
+                schedule,
+            }),
+            None,
+        ))
+    }
+
+    /// "cpu (threads, processor, BVH node tests)" or the adapters used.
+    pub fn describe(&self) -> String {
+        match self {
+            Compute::Cpu => format!(
+                "cpu ({} threads; {}; BVH node tests {:?})",
+                rayon::current_num_threads(),
+                cpu_model(),
+                crate::bvh::Isa::detect()
+            ),
+            Compute::Gpu(g) => {
+                let names: Vec<String> = g.devices.iter().map(|d| d.describe()).collect();
+                let split = if g.logical_per_device > 1 {
+                    format!(" x{} logical", g.logical_per_device)
+                } else {
+                    String::new()
+                };
+                format!("gpu: {}{split}", names.join(", "))
+            }
+        }
+    }
+}
+
+/// The tracers of one solver: the GPU's (when there is one) and the CPU structure.
+#[derive(Clone, Copy)]
+pub(crate) struct Tracers<'a> {
+    pub gpu: Option<&'a GpuTracer>,
+    pub cpu: &'a Accel,
+}
+
+impl<'a> Tracers<'a> {
+    /// The tracers of a solver with GPU state `gpu` and CPU structure `cpu`.
+    pub fn of(gpu: &'a Option<GpuState>, cpu: &'a Accel) -> Tracers<'a> {
+        Tracers { gpu: gpu.as_ref().map(|g| &g.tracer), cpu }
+    }
+
+    /// `f` run with the GPU tracer when there is one; where it fails (or
+    /// without one), with the CPU structure, which cannot fail. `what`
+    /// names the stage in the warning.
+    pub fn any<T>(&self, what: &str, mut f: impl FnMut(&dyn Tracer) -> crate::Result<T>) -> T {
+        if let Some(g) = self.gpu {
+            match f(g) {
+                Ok(t) => return t,
+                Err(e) => eprintln!("warning: {e}; {what} on the CPU"),
+            }
+        }
+        self.cpu_only(f)
+    }
+
+    /// `f` run with the CPU structure: stages the GPU tracer does not
+    /// serve (arbitrary closest-hit batches).
+    pub fn cpu_only<T>(&self, mut f: impl FnMut(&dyn Tracer) -> crate::Result<T>) -> T {
+        f(self.cpu).expect("a CPU tracer cannot fail")
+    }
+}
+
+/// GPU resources a solver keeps between solves.
+pub struct GpuState {
+    /// Traces shadow rays when lights move.
+    pub tracer: GpuTracer,
+    /// Links and albedo on the device.
+    pub links: GpuLinks,
+    /// How link generation was split between devices.
+    pub shares: Vec<DeviceShare>,
+}
+
+/// The processor's name with its family and model numbers (Linux:
+/// `/proc/cpuinfo`; a VM's name alone, "AMD EPYC", does not tell Zen 3 from
+/// Zen 4), or the architecture where it cannot be read: figures that set
+/// our tracer beside another depend on it (AVX-512 or not, above all).
+fn cpu_model() -> String {
+    let Ok(info) = std::fs::read_to_string("/proc/cpuinfo") else {
+        return std::env::consts::ARCH.to_string();
+    };
+    // The first processor's value of `key`.
+    let field = |key: &str| {
+        info.lines()
+            .find(|l| l.split(':').next().is_some_and(|k| k.trim() == key))
+            .and_then(|l| l.split_once(':'))
+            .map(|(_, v)| v.split_whitespace().collect::<Vec<_>>().join(" "))
+            .filter(|v| !v.is_empty())
+    };
+    match (field("model name"), field("cpu family"), field("model")) {
+        (Some(name), Some(family), Some(model)) => format!("{name}, family {family} model {model}"),
+        (Some(name), _, _) => name,
+        _ => std::env::consts::ARCH.to_string(),
+    }
+}

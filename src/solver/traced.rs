@@ -1,0 +1,103 @@
+//! Everything a solve reads that is traced beside the links, in one list
+//! ([`Part`]): the light links, the emitter links (with the emitters' near
+//! field, which reads them), the sky's rays (with the sky's near field),
+//! the lights' near field, the final gather at near hits, and the noise
+//! check. Building a solver traces every part ([`Part::ALL`]); a
+//! deformation retraces the parts it does not update selectively; an
+//! emission or sky edit retraces only its own part. Each part runs on the
+//! GPU tracer when the solver has one, else (or when it fails) on the CPU
+//! structure ([`super::compute::Tracers::any`]); the final gather and the
+//! noise check always run on the CPU structure (the GPU tracer shoots whole
+//! vertices' ray sets only).
+
+use super::compute::Tracers;
+use super::SolveParams;
+use crate::exchange::{EmitterLinks, LightLinks, NearEmitters, NearField, NearGather, NearLight, NearSky, NoiseCheck};
+use crate::links::Links;
+use crate::scene::prep::PreparedScene;
+use crate::sky::rays::portals_of;
+use crate::sky::SkyRays;
+
+/// The traced parts of a solver.
+#[derive(Clone, Debug, Default)]
+pub struct Traced {
+    /// Point and directional lights' visibility and geometry at the vertices.
+    pub light_links: LightLinks,
+    /// Direct light of emissive surfaces by next-event estimation.
+    pub emitter_links: EmitterLinks,
+    /// The sky's refined cells and portal samples.
+    pub sky: SkyRays,
+    /// The four near-hit terms.
+    pub near: NearField,
+    /// A second estimate at a sample of vertices, which calibrates the noise estimate.
+    pub noise_check: NoiseCheck,
+}
+
+/// One traced part.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Part {
+    /// The light links.
+    LightLinks,
+    /// The emitter links and the emitters' near field.
+    Emitters,
+    /// The sky's rays and the sky's near field.
+    Sky,
+    /// The lights' near field.
+    NearLight,
+    /// The final gather at near hits.
+    NearGather,
+    /// The noise check.
+    NoiseCheck,
+}
+
+impl Part {
+    /// Every part, in the order they are traced.
+    pub const ALL: [Part; 6] =
+        [Part::LightLinks, Part::Emitters, Part::Sky, Part::NearLight, Part::NearGather, Part::NoiseCheck];
+}
+
+impl Traced {
+    /// Traces `parts` of `scene` with `links` into `self`.
+    pub fn trace(&mut self, parts: &[Part], scene: &PreparedScene, links: &Links, params: &SolveParams, t: Tracers) {
+        let (near, rays, seed) = (&links.near, params.links.rays_per_vertex, params.seed());
+        for part in parts {
+            match part {
+                Part::LightLinks => {
+                    self.light_links =
+                        t.any("computing light links", |tr| LightLinks::compute_with(scene, tr, &params.light))
+                }
+                Part::Emitters => {
+                    self.emitter_links =
+                        t.any("tracing emitter links", |tr| EmitterLinks::compute(scene, tr, &params.emitter, seed));
+                    let e = &self.emitter_links;
+                    self.near.emitters = t.any("tracing near-hit emitter light", |tr| {
+                        NearEmitters::compute(scene, near, e, tr, &params.near_emitter, seed, rays)
+                    });
+                }
+                Part::Sky => {
+                    self.sky = t.any("tracing sky rays", |tr| {
+                        SkyRays::trace(scene, tr, &links.sky, &params.links, &params.sky)
+                    });
+                    self.near.sky = if scene.sky.is_none() {
+                        NearSky::default()
+                    } else {
+                        let portals = portals_of(scene, &params.sky);
+                        t.any("tracing near-hit sky light", |tr| {
+                            NearSky::compute(scene, near, portals, tr, &params.near_sky, seed, rays)
+                        })
+                    };
+                }
+                Part::NearLight => {
+                    self.near.light =
+                        t.any("tracing near-hit light", |tr| NearLight::compute(scene, near, tr, &params.light))
+                }
+                Part::NearGather => {
+                    self.near.gather = t.cpu_only(|tr| NearGather::compute(scene, near, tr, &params.near_gather, seed))
+                }
+                Part::NoiseCheck => {
+                    self.noise_check = NoiseCheck::compute(scene, t.cpu, &params.links, &params.smoothing.noise)
+                }
+            }
+        }
+    }
+}
