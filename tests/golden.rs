@@ -6,7 +6,8 @@
 //!
 //! The hashes must not move unless a commit of its own says why and by how
 //! much. `GOLDEN_PRINT=1 cargo test --test golden -- --nocapture` prints the
-//! table to paste below; the hits are bit-identical across the BVH's SIMD
+//! table to paste below, `GOLDEN_DUMP=dir` writes the arrays to compare two
+//! versions' (`docs/golden_diff.py old_dir new_dir` gives the largest change); the hits are bit-identical across the BVH's SIMD
 //! builds (`tests/bvh.rs`) and the solve does not depend on the thread
 //! count, so the hashes hold on any x86-64 or other machine.
 
@@ -50,7 +51,17 @@ fn solve_hashes(name: &str, tracer: TracerKind, rays: u32, seed: u64) -> [u64; 4
     params.kd.parallel_levels = Some(1);
     let solver = Solver::new(scene, params, &|_, _| {});
     let sol = solver.solve();
-    [hash(&sol.e_direct), hash(&sol.e_indirect), hash(&sol.e_indirect_raw), hash(&sol.e_sky)]
+    let arrays = [&sol.e_direct, &sol.e_indirect, &sol.e_indirect_raw, &sol.e_sky];
+    // `GOLDEN_DUMP=dir`: the arrays as little-endian f32, to measure by how
+    // much a change that moves the hashes moves the results.
+    if let Some(dir) = std::env::var_os("GOLDEN_DUMP") {
+        std::fs::create_dir_all(&dir).unwrap();
+        for (label, a) in ["e_d", "e_i", "e_i_raw", "e_sky"].iter().zip(arrays) {
+            let bytes: Vec<u8> = a.iter().flat_map(|v| v.to_array()).flat_map(f32::to_le_bytes).collect();
+            std::fs::write(std::path::Path::new(&dir).join(format!("{name}_{tracer:?}_{label}.bin")), bytes).unwrap();
+        }
+    }
+    arrays.map(|a| hash(a))
 }
 
 /// The cases: every built-in scene up to `tearoom` and `window`, the BVH at

@@ -37,6 +37,18 @@ impl Ray {
     pub fn new(origin: Vec3, dir: Vec3) -> Ray {
         Ray { origin, dir, tmin: 0.0, tmax: f32::INFINITY, skip: NO_SKIP }
     }
+
+    /// The shadow segment from `origin` toward a point `dist` away along the
+    /// unit `dir`, from `tmin` (0, or a small offset off a vertex's own
+    /// surface) to `max(eps, 1e-4 dist)` short of the point, never below
+    /// `tmin`: the one rule of every shadow ray (light links, emitter links,
+    /// the near field's, the CPU renderer's). The relative margin keeps the
+    /// point's own surface off the segment where f32 rounding of a far
+    /// point exceeds `eps` (metres); `skip` as in [`Ray::skip`].
+    #[inline]
+    pub fn shadow(origin: Vec3, dir: Vec3, dist: f32, eps: f32, tmin: f32, skip: u32) -> Ray {
+        Ray { origin, dir, tmin, tmax: (dist - eps.max(1e-4 * dist)).max(tmin), skip }
+    }
 }
 
 /// The start leaves of rays leaving one origin, by direction octant

@@ -8,6 +8,7 @@
 
 use super::{pixel_ray, Frame, HdrImage, RenderParams, RenderStats, View};
 use crate::bvh::{Bvh, BvhBuildParams};
+use crate::kdtree::traverse::NO_SKIP;
 use crate::kdtree::Ray;
 use crate::scene::Light;
 use crate::trace::CpuTracer;
@@ -83,7 +84,7 @@ fn shade(frame: &Frame, kd: &dyn CpuTracer, view: View, offset: f32, ray: Ray) -
                     }
                     let to = position - origin;
                     let dist = to.length();
-                    let shadow = Ray { tmax: dist * (1.0 - 1e-4), ..Ray::new(origin, to / dist) };
+                    let shadow = Ray::shadow(origin, to / dist, dist, 0.0, 0.0, NO_SKIP);
                     if !kd.occluded(&shadow) {
                         e_d += intensity * (c / r2);
                     }

@@ -267,7 +267,7 @@ fn hit_samples(
                 continue;
             }
             weights.push(w);
-            out.rays.push(Ray { origin, dir, tmin: 0.0, tmax: dist - eps.max(1e-4 * dist), skip: NO_SKIP });
+            out.rays.push(Ray::shadow(origin, dir, dist, eps, 0.0, NO_SKIP));
         }
         let scale = group.area / (std::f32::consts::PI * m as f32);
         if !weights.is_empty() {

@@ -199,7 +199,7 @@ fn shadow_ray(scene: &PreparedScene, h: &NearHit, light: &Light, params: &LightL
     if dist <= 2.0 * eps || !dir.is_finite() {
         return (g, None); // the light sits on the surface here: nothing in between
     }
-    (g, Some(Ray { origin: o, dir, tmin: 0.0, tmax: dist - eps, skip: NO_SKIP }))
+    (g, Some(Ray::shadow(o, dir, dist, eps, 0.0, NO_SKIP)))
 }
 
 /// `G V` of `light` at `hits`, and the shadow rays it took.

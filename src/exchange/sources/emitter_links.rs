@@ -457,8 +457,7 @@ fn vertex_rays(
                 rays.push(Ray { origin, dir: n, tmin: 0.0, tmax: 0.0, skip: v as u32 });
                 continue;
             }
-            let tmax = dist - eps.max(1e-4 * dist);
-            rays.push(Ray { origin, dir, tmin: eps, tmax: tmax.max(eps), skip: v as u32 });
+            rays.push(Ray::shadow(origin, dir, dist, eps, eps, v as u32));
         }
     }
     out

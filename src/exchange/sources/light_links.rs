@@ -540,7 +540,7 @@ fn shadow_rays(
             first_free |= i == 0;
             continue;
         }
-        rays.push(Ray { origin: s, dir, tmin: eps, tmax: dist - eps, skip: v as u32 });
+        rays.push(Ray::shadow(s, dir, dist, eps, eps, v as u32));
     }
     VertexRays { g, samples: pts.len() as u32, free, first_free, rays }
 }
