@@ -44,10 +44,12 @@ impl Ray {
     /// `tmin`: the one rule of every shadow ray (light links, emitter links,
     /// the near field's, the CPU renderer's). The relative margin keeps the
     /// point's own surface off the segment where f32 rounding of a far
-    /// point exceeds `eps` (metres); `skip` as in [`Ray::skip`].
+    /// point exceeds `eps` (metres); an infinite `dist` (a directional
+    /// light) gives an unbounded segment; `skip` as in [`Ray::skip`].
     #[inline]
     pub fn shadow(origin: Vec3, dir: Vec3, dist: f32, eps: f32, tmin: f32, skip: u32) -> Ray {
-        Ray { origin, dir, tmin, tmax: (dist - eps.max(1e-4 * dist)).max(tmin), skip }
+        let tmax = if dist.is_finite() { (dist - eps.max(1e-4 * dist)).max(tmin) } else { f32::INFINITY };
+        Ray { origin, dir, tmin, tmax, skip }
     }
 }
 
@@ -402,4 +404,21 @@ pub fn brute_force(kd: &KdTree, ray: &Ray) -> Option<Hit> {
         }
     }
     best
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn shadow_segments_stop_short_by_the_larger_margin() {
+        let o = Vec3::ZERO;
+        // Near: the absolute margin; far: the relative one.
+        assert_eq!(Ray::shadow(o, Vec3::X, 1.0, 1e-3, 0.0, NO_SKIP).tmax, 1.0 - 1e-3);
+        assert_eq!(Ray::shadow(o, Vec3::X, 1000.0, 1e-3, 0.0, NO_SKIP).tmax, 1000.0 - 0.1);
+        // Never below tmin; a directional light's segment has no end.
+        assert_eq!(Ray::shadow(o, Vec3::X, 1e-4, 1e-3, 1e-5, 7).tmax, 1e-5);
+        let sun = Ray::shadow(o, Vec3::Y, f32::INFINITY, 1e-3, 1e-5, 7);
+        assert_eq!((sun.tmin, sun.tmax, sun.skip), (1e-5, f32::INFINITY, 7));
+    }
 }
