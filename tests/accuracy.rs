@@ -218,7 +218,8 @@ fn hidden_substitution_in_the_bounces_equals_the_post_pass() {
     desc.settings.bounces = Bounces::Auto;
     let scene = prep::prepare(&desc).unwrap();
     // The plain gather below reads the radiosity as it is.
-    let params = SolveParams { reconstruct: false, ..SolveParams::from_settings(&desc.settings) };
+    let mut params = SolveParams::from_settings(&desc.settings);
+    params.terms.reconstruct = false;
     let solver = Solver::new(scene, params, &|_, _| {});
     let n = solver.scene().vertex_count();
     let src = solver.light_links().bounce_source(&solver.scene().lights, n);
@@ -259,7 +260,11 @@ fn gradient_correction_shrinks_the_dark_bias() {
         .map(|&on| {
             let solver = Solver::new(
                 scene.clone(),
-                SolveParams { reconstruct: on, ..SolveParams::from_settings(&s) },
+                {
+                    let mut p = SolveParams::from_settings(&s);
+                    p.terms.reconstruct = on;
+                    p
+                },
                 &|_, _| {},
             );
             if let Some(c) = solver.reconstruction() {

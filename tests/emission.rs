@@ -57,10 +57,8 @@ fn emission_adds_linearly_to_light() {
     // The short box glows.
     glowing.meshes[1].materials.iter_mut().for_each(|m| m.emission = Vec3::new(3.0, 2.0, 1.0));
     let scene = prep::prepare(&glowing).unwrap();
-    let params = linkgi::solver::SolveParams {
-        reconstruct: false,
-        ..linkgi::solver::SolveParams::from_settings(&scene.settings)
-    };
+    let mut params = linkgi::solver::SolveParams::from_settings(&scene.settings);
+    params.terms.reconstruct = false;
     let (mut solver, both) = common::solve_with(scene, params);
     assert!(both.e_cv.iter().any(|d| *d != Vec3::ZERO), "the box's control variate is on");
     let (lights, emission) = (solver.scene().lights.clone(), solver.scene().emission.clone());
@@ -176,7 +174,7 @@ fn the_emitter_control_variate_cuts_the_shades_noise_without_bias() {
         d.settings.seed = seed;
         let scene = prep::prepare(&d).unwrap();
         let mut params = linkgi::solver::SolveParams::from_settings(&scene.settings);
-        params.emitter_cv = cv;
+        params.terms.emitter_cv = cv;
         common::solve_with(scene, params)
     };
     let (s1, a1) = solve(1, true);

@@ -98,7 +98,8 @@ fn stiff_albedo_furnace_and_closed_room() {
         // operator, checked below against the continuous balance.
         let desc = common::with_settings(builtin::closed_room(6, rho), 64, Bounces::Auto, 30.0);
         let scene = prep::prepare(&desc).expect("scene prepares");
-        let plain = SolveParams { reconstruct: false, ..SolveParams::from_settings(&scene.settings) };
+        let mut plain = SolveParams::from_settings(&scene.settings);
+        plain.terms.reconstruct = false;
         let (solver, sol) = common::solve_with(scene, plain);
         assert_closed_energy(&solver, &sol, rho, &format!("closed room rho {rho}"));
         assert!(sol.gather.bounces < 100_000, "auto bounces hit the limit");

@@ -5,7 +5,7 @@
 //! 2. print the loader's warnings (clamped albedo, missing MTL, ...) to
 //!    stderr as `warning: ...`;
 //! 3. apply the command line's [`Overrides`] of the scene's `[settings]`
-//!    (`--rays`, `--tracer`, `--backend`; `solve` also `--bounces`, `--seed`)
+//!    (`--rays`, `--tracer`, `--backend`, `--off`; `solve` also `--bounces`, `--seed`)
 //!    and check the result;
 //! 4. prepare the scene ([`prep::prepare`]: weld, split, normals) and warn
 //!    about what preparation dropped and about a scene without lights.
@@ -15,6 +15,7 @@
 
 use anyhow::{Context, Result};
 use linkgi::scene::prep::{self, PreparedScene};
+use linkgi::scene::terms::Terms;
 use linkgi::scene::{self, Backend, Bounces, SceneDesc, Settings, TracerKind};
 use linkgi::solver::Compute;
 
@@ -33,6 +34,11 @@ pub struct Overrides {
     /// on the first adapter, software ones too, else on the CPU); overrides the scene's setting.
     #[arg(long, value_name = "auto|gpu|cpu", value_parser = parse_backend)]
     pub backend: Option<Backend>,
+    /// Optional terms of the solve to switch off, comma-separated (emitter_links, emitter_cv,
+    /// near, near_emitters, near_sky, near_gather, reconstruct, hidden, sky_refine, sky_portals,
+    /// noise_check, smoothing, sky_smoothing); added to the scene's `off` list.
+    #[arg(long, value_name = "TERM[,TERM]", value_parser = parse_off)]
+    pub off: Option<Terms>,
     /// Number of bounces (`solve --bounces`).
     #[arg(skip)]
     pub bounces: Option<Bounces>,
@@ -59,8 +65,18 @@ impl Overrides {
         if let Some(s) = self.seed {
             settings.seed = s;
         }
+        if let Some(t) = self.off {
+            for name in t.off() {
+                settings.terms.set(name, false).expect("a name of Terms::NAMES");
+            }
+        }
         settings
     }
+}
+
+/// Parses `--off` (clap value parser): term names separated by commas.
+pub fn parse_off(s: &str) -> Result<Terms, String> {
+    Terms::with_off(s.split(',').filter(|n| !n.trim().is_empty()))
 }
 
 /// Parses `--backend` (clap value parser): "auto", "gpu" or "cpu".

@@ -80,6 +80,9 @@ pub struct SettingsFile {
     /// "bvh" or "kd".
     #[serde(skip_serializing_if = "Option::is_none")]
     pub tracer: Option<String>,
+    /// Optional terms of the solve to switch off ([`super::terms::Terms::NAMES`]).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub off: Vec<String>,
 }
 
 /// `bounces = 3` or `bounces = "auto"`.
@@ -262,6 +265,8 @@ fn settings_from(path: &Path, s: &SettingsFile) -> Result<Settings> {
                 .parse::<TracerKind>()
                 .map_err(|_| scene_err(path, format!("settings.tracer = \"{t}\": expected \"bvh\" or \"kd\"")))?,
         },
+        terms: super::terms::Terms::with_off(s.off.iter().map(String::as_str))
+            .map_err(|e| scene_err(path, format!("settings.off: {e}")))?,
     };
     settings.validate().map_err(|e| scene_err(path, e.to_string()))?;
     Ok(settings)
@@ -467,6 +472,7 @@ pub fn to_toml(scene: &SceneDesc, obj_names: &[String]) -> String {
                 TracerKind::Bvh => None,
                 t => Some(t.name().to_string()),
             },
+            off: s.terms.off().into_iter().map(String::from).collect(),
         },
         camera: Some(CameraFile {
             position: scene.camera.position.into(),

@@ -22,6 +22,7 @@ pub mod order;
 pub mod prep;
 pub mod rings;
 pub mod shapes;
+pub mod terms;
 
 use glam::{Mat4, Quat, Vec3};
 use std::path::PathBuf;
@@ -250,6 +251,8 @@ pub struct Settings {
     pub backend: Backend,
     /// Which CPU structure traces rays.
     pub tracer: TracerKind,
+    /// Which optional terms of the solve are on (`off = [...]`; all on by default).
+    pub terms: terms::Terms,
 }
 
 impl Default for Settings {
@@ -261,6 +264,7 @@ impl Default for Settings {
             seed: 1,
             backend: Backend::Auto,
             tracer: TracerKind::Bvh,
+            terms: terms::Terms::ALL,
         }
     }
 }

@@ -110,6 +110,7 @@ impl Solver {
     /// lights, emitters, sky, near field, noise check) rebuilds the solver
     /// on its compute. Returns whether it rebuilt.
     pub fn set_params(&mut self, params: SolveParams) -> crate::Result<bool> {
+        let params = params.staged();
         let traced_same = {
             let (a, b) = (&self.params, &params);
             a.tracer == b.tracer
@@ -126,11 +127,8 @@ impl Solver {
                 && a.smoothing.noise.check_vertices == b.smoothing.noise.check_vertices
         };
         if traced_same {
-            if params.hidden != self.params.hidden || params.reconstruct != self.params.reconstruct {
+            if params.hidden != self.params.hidden || params.terms != self.params.terms {
                 self.links_changed();
-            }
-            if params.emitter_cv != self.params.emitter_cv {
-                self.emitters_changed();
             }
             self.params = params;
             return Ok(false);

@@ -74,6 +74,7 @@ impl Solver {
         progress: &(dyn Fn(usize, usize) + Sync),
     ) -> (Solver, DeformStats) {
         let start = Instant::now();
+        let params = params.staged();
         let same = self.gpu.is_none()
             && self.ray_hits.is_some()
             && params.links == self.params.links
@@ -175,6 +176,7 @@ impl Solver {
         params: SolveParams,
         progress: &(dyn Fn(usize, usize) + Sync),
     ) -> (Solver, bool) {
+        let params = params.staged();
         let same_mesh = self.gpu.is_none()
             && self.scene.triangles == scene.triangles
             && params.tracer == self.params.tracer

@@ -50,6 +50,9 @@ impl Solver {
     /// Hidden vertices and their linkers ([`exchange::bounce::hidden::stand_ins`]),
     /// from the cache when the links and hidden-vertex parameters are unchanged.
     pub(crate) fn stand_ins(&self) -> Arc<Vec<exchange::bounce::hidden::StandIn>> {
+        if !self.params.terms.hidden {
+            return Arc::default();
+        }
         let mut cache = self.caches.stand_ins.lock().unwrap_or_else(|p| p.into_inner());
         if let Some((p, v)) = &*cache {
             if *p == self.params.hidden {
@@ -65,10 +68,10 @@ impl Solver {
     /// The emitter groups' control variate of the first bounce for the
     /// current links and emitter links ([`exchange::sources::emitter_cv`]),
     /// computed on first use (one pass over the links) and kept; empty when
-    /// off ([`super::SolveParams::emitter_cv`]) or without emitter groups.
+    /// off ([`crate::scene::terms::Terms::emitter_cv`]) or without emitter groups.
     pub fn emitter_cv(&self) -> Arc<exchange::EmitterCv> {
         let links = &self.traced.emitter_links;
-        if !self.params.emitter_cv || !links.is_active() {
+        if !self.params.terms.emitter_cv || !links.is_active() {
             return Arc::default();
         }
         let mut cache = self.caches.emitter_cv.lock().unwrap_or_else(|p| p.into_inner());
@@ -77,9 +80,9 @@ impl Solver {
 
     /// The radiosity correction's weights for the current geometry
     /// ([`exchange::bounce::reconstruct`]), computed on first use and kept;
-    /// `None` when off ([`super::SolveParams::reconstruct`]).
+    /// `None` when off ([`crate::scene::terms::Terms::reconstruct`]).
     pub fn reconstruction(&self) -> Option<Arc<exchange::Reconstruction>> {
-        if !self.params.reconstruct {
+        if !self.params.terms.reconstruct {
             return None;
         }
         let mut cache = self.caches.reconstruction.lock().unwrap_or_else(|p| p.into_inner());

@@ -91,6 +91,7 @@ impl Solver {
     /// links (reporting `progress(done, total)` vertices) and every traced
     /// part, on the CPU.
     pub fn new(scene: PreparedScene, params: SolveParams, progress: &(dyn Fn(usize, usize) + Sync)) -> Solver {
+        let params = params.staged();
         let accel = Accel::build(params.tracer, &scene.positions, &scene.triangles, &params.bvh, &params.kd);
         Solver::on_cpu(scene, params, accel, progress)
     }
@@ -142,6 +143,7 @@ impl Solver {
         compute: &Compute,
         progress: &(dyn Fn(usize, usize) + Sync),
     ) -> crate::Result<Solver> {
+        let params = params.staged();
         let g = match compute {
             Compute::Cpu => return Ok(Solver::new(scene, params, progress)),
             Compute::Gpu(g) => g,
@@ -195,7 +197,7 @@ impl Solver {
         &self.scene
     }
 
-    /// The parameters of its stages.
+    /// The parameters its stages run with ([`SolveParams::staged`]).
     pub fn params(&self) -> &SolveParams {
         &self.params
     }

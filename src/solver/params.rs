@@ -16,11 +16,16 @@ use crate::exchange::{
 };
 use crate::kdtree::KdBuildParams;
 use crate::links::LinkParams;
+use crate::scene::terms::Terms;
 use crate::scene::{Settings, TracerKind};
 
 /// All stage parameters, defaults as listed in docs/DESIGN.md, "Defaults".
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SolveParams {
+    /// Which optional terms are on (all by default): the one switch of
+    /// every optional stage ([`Terms`]); [`SolveParams::staged`] applies it
+    /// to the stages' parameters.
+    pub terms: Terms,
     /// The CPU structure rays go through (the GPU path always walks its kd-tree).
     pub tracer: TracerKind,
     /// The wide BVH of `tracer = bvh`.
@@ -38,14 +43,8 @@ pub struct SolveParams {
     pub near_emitter: NearEmitterParams,
     /// The sky's light at near hits ([`crate::exchange::near::sky`]).
     pub near_sky: NearSkyParams,
-    /// The emitter groups as a control variate of the first bounce
-    /// ([`crate::exchange::sources::emitter_cv`]); default on.
-    pub emitter_cv: bool,
     /// The later bounces' light at near hits ([`crate::exchange::near::gather`]).
     pub near_gather: NearGatherParams,
-    /// Gradient-corrected radiosity at link hits ([`crate::exchange::bounce::reconstruct`]):
-    /// removes linear interpolation's dark bias at surfaces' borders; default on.
-    pub reconstruct: bool,
     pub gather: GatherParams,
     /// Correction of hidden vertices as link targets ([`crate::exchange::bounce::hidden`]).
     pub hidden: HiddenParams,
@@ -60,6 +59,7 @@ pub struct SolveParams {
 impl Default for SolveParams {
     fn default() -> Self {
         SolveParams {
+            terms: Terms::ALL,
             tracer: TracerKind::default(),
             bvh: BvhBuildParams::default(),
             kd: KdBuildParams::default(),
@@ -69,9 +69,7 @@ impl Default for SolveParams {
             emitter: EmitterLinkParams::default(),
             near_emitter: Default::default(),
             near_sky: Default::default(),
-            emitter_cv: true,
             near_gather: Default::default(),
-            reconstruct: true,
             gather: GatherParams::default(),
             hidden: HiddenParams::default(),
             sky: Default::default(),
@@ -87,6 +85,7 @@ impl SolveParams {
         let mut p = SolveParams::default();
         p.links.rays_per_vertex = s.rays_per_vertex;
         p.links.seed = s.seed;
+        p.terms = s.terms;
         // Emitters' direct light as many rays as the links (at least 64): its noise falls with theirs.
         p.emitter.samples = s.rays_per_vertex.max(64);
         // Sky portals' rays likewise scale with the links'.
@@ -95,6 +94,46 @@ impl SolveParams {
         p.gather.bounces = s.bounces;
         p.smoothing_angle_deg = s.smoothing_angle_deg;
         p
+    }
+
+    /// The parameters as the stages read them: a term that is off
+    /// ([`SolveParams::terms`]) gets its stage's count (or feature angle)
+    /// of 0, which each stage reads as nothing to trace or smooth. The
+    /// solver runs with these; applying it twice changes nothing.
+    pub fn staged(mut self) -> SolveParams {
+        let t = self.terms;
+        if !t.emitter_links {
+            self.emitter.samples = 0;
+        }
+        if !t.near {
+            self.links.near.factor = 0.0;
+        }
+        if !t.near_emitters {
+            self.near_emitter.samples = 0;
+        }
+        if !t.near_sky {
+            self.near_sky.samples = 0;
+            self.near_sky.portal_samples = 0;
+        }
+        if !t.near_gather {
+            self.near_gather.rays = 0;
+        }
+        if !t.sky_refine {
+            self.sky.sub = 0;
+        }
+        if !t.sky_portals {
+            self.sky.portal.rays = 0;
+        }
+        if !t.noise_check {
+            self.smoothing.noise.check_vertices = 0;
+        }
+        if !t.smoothing {
+            self.smoothing_angle_deg = 0.0;
+        }
+        if !t.sky_smoothing {
+            self.smoothing.sky = false;
+        }
+        self
     }
 
     /// The seed of every sample the solve draws (the link directions' and,
@@ -109,9 +148,9 @@ impl SolveParams {
     pub fn preview() -> SolveParams {
         let mut p = SolveParams::default();
         p.links.rays_per_vertex = 16;
-        p.links.near.factor = 0.0;
+        p.terms.near = false;
+        p.terms.noise_check = false;
         p.emitter.samples = 16;
-        p.smoothing.noise.check_vertices = 0;
         p.sky.portal = crate::sky::PortalParams::for_link_rays(16);
         p
     }
