@@ -19,6 +19,14 @@ const WORKGROUP: u32 = 256u;
 const GAP_BYTES: u32 = 0x04020100u;
 const PI: f32 = 3.14159265358979323846264338327950288;
 
+// radiosity-begin: the radiosity of a Lambertian surface, rho/pi E + M/pi,
+// W/(m^2 sr): `exchange::bounce::operator::radiosity`, which tests/gpu.rs
+// checks this copy against.
+fn radiosity(rho: vec3<f32>, e: vec3<f32>, m: vec3<f32>) -> vec3<f32> {
+    return e * rho / PI + m / PI;
+}
+// radiosity-end
+
 // One dispatch covers vertices first_vertex .. first_vertex + vertex_count.
 // `gather_bounce` runs once per link segment (a row range whose links fit
 // one storage binding); its offsets, targets and weights are that
@@ -145,7 +153,7 @@ fn update_bounce(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(local_i
     if v < params.vertex_count {
         e = bounce[v];
         total[v] += e;
-        radiosity[v] = vec4<f32>(e.xyz * albedo[v].xyz / PI, 0.0);
+        radiosity[v] = vec4<f32>(radiosity(albedo[v].xyz, e.xyz, vec3<f32>(0.0)), 0.0);
     }
     sums[lid] = e;
     workgroupBarrier();

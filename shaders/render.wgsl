@@ -11,9 +11,17 @@
 // lights one layer each. Back faces are black (surfaces are one-sided).
 // The HDR target holds linear L; exposure and tone mapping run on read-back.
 
-const PI: f32 = 3.14159265358979;
+const PI: f32 = 3.14159265358979323846264338327950288;
 const MAX_LIGHTS: u32 = 8u;
 const MAX_SHADOW_LAYERS: u32 = 56u;
+
+// radiosity-begin: the radiosity of a Lambertian surface, rho/pi E + M/pi,
+// W/(m^2 sr): `exchange::bounce::operator::radiosity`, which tests/gpu.rs
+// checks this copy against.
+fn radiosity(rho: vec3<f32>, e: vec3<f32>, m: vec3<f32>) -> vec3<f32> {
+    return e * rho / PI + m / PI;
+}
+// radiosity-end
 
 struct FrameUniforms {
     view_proj: mat4x4<f32>,
@@ -156,11 +164,12 @@ fn fs_main(in: VsOut, @builtin(front_facing) front: bool) -> @location(0) vec4<f
             e_d += l.color * c * vis;
         }
     }
-    var l = in.albedo / PI * (e_d + in.e_sky + in.e_indirect) + in.emitted;
+    let none = vec3<f32>(0.0);
+    var l = radiosity(in.albedo, e_d + in.e_sky + in.e_indirect, none) + in.emitted;
     if frame.view_mode == 1u {
-        l = in.albedo / PI * (e_d + in.e_sky) + in.emitted;
+        l = radiosity(in.albedo, e_d + in.e_sky, none) + in.emitted;
     } else if frame.view_mode == 2u {
-        l = in.albedo / PI * in.e_indirect;
+        l = radiosity(in.albedo, in.e_indirect, none);
     }
     return vec4<f32>(l, 1.0);
 }

@@ -9,6 +9,7 @@
 //! stats). Emitters' light reaches other vertices through links, so it is
 //! part of `e_indirect_*`.
 
+use crate::exchange::bounce::operator::radiosity;
 use crate::render::{display_rgb8, DEFAULT_EXPOSURE};
 use crate::scene::prep::PreparedScene;
 use crate::scene::{Bounces, Light};
@@ -103,7 +104,7 @@ pub fn ply_bytes(scene: &PreparedScene, solution: &Solution) -> Vec<u8> {
     // The radiance leaving each vertex, W/(m^2 sr): `rho / pi (E_d + E_sky
     // + E_i) + M / pi`, what `linkgi render` shows there.
     let total = solution.total();
-    let radiance = |v: usize| (scene.albedo[v] * total[v] + scene.emission[v]) / std::f32::consts::PI;
+    let radiance = |v: usize| radiosity(scene.albedo[v], total[v], scene.emission[v]);
     let colour = |v: usize| display_rgb8(radiance(v), DEFAULT_EXPOSURE);
     ply_with(
         scene,

@@ -411,3 +411,63 @@ fn gpu_light_links_follow_a_moved_light() {
     let after = solver.solve();
     assert!(rel(common::mean(&before.e_direct), common::mean(&after.e_direct), 1e-30) > 1e-3, "direct light changed");
 }
+
+/// The WGSL copies of the radiosity formula (`shaders/gather.wgsl`,
+/// `shaders/render.wgsl`) are one text, and evaluated on the device they
+/// give the CPU's `exchange::bounce::operator::radiosity` to float
+/// precision on values from 1e-6 to 1e6.
+#[test]
+fn wgsl_radiosity_matches_the_cpu_formula() {
+    use linkgi::exchange::bounce::operator::radiosity;
+    let text = |src: &str| -> String {
+        let a = src.find("// radiosity-begin").expect("radiosity-begin marker");
+        let b = src.find("// radiosity-end").expect("radiosity-end marker");
+        src[a..b].to_string()
+    };
+    let gather = text(include_str!("../shaders/gather.wgsl"));
+    assert_eq!(gather, text(include_str!("../shaders/render.wgsl")), "the two WGSL copies differ");
+    let Some(dev) = device() else { return };
+    let n = 4096usize;
+    let value = |i: usize, k: u32| {
+        10f32.powf(((i as u32).wrapping_mul(2654435761).wrapping_add(k * 40503) % 1200) as f32 / 100.0 - 6.0)
+    };
+    let input: Vec<[f32; 4]> = (0..3 * n).map(|i| [value(i, 1), value(i, 2), value(i, 3), 0.0]).collect();
+    let rho = |i: usize| Vec3::from_slice(&input[3 * i][..3]).min(Vec3::splat(0.99));
+    let shader = format!(
+        "const PI: f32 = 3.14159265358979323846264338327950288;\n{gather}\n\
+         @group(0) @binding(0) var<storage, read> inp: array<vec4<f32>>;\n\
+         @group(0) @binding(1) var<storage, read_write> outp: array<vec4<f32>>;\n\
+         @compute @workgroup_size(64) fn main(@builtin(global_invocation_id) g: vec3<u32>) {{\n\
+           let i = g.x; if i >= {n}u {{ return; }}\n\
+           let rho = min(inp[3u * i].xyz, vec3<f32>(0.99));\n\
+           outp[i] = vec4<f32>(radiosity(rho, inp[3u * i + 1u].xyz, inp[3u * i + 2u].xyz), 0.0);\n\
+         }}\n"
+    );
+    let d = &dev.device;
+    let pipeline = gpu::buffers::compute_pipelines(d, "radiosity check", Box::leak(shader.into_boxed_str()))("main");
+    let inp = gpu::buffers::storage_init(d, "radiosity in", &input);
+    let out = gpu::buffers::storage_init(d, "radiosity out", &vec![[0f32; 4]; n]);
+    let bind = d.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: None,
+        layout: &pipeline.get_bind_group_layout(0),
+        entries: &[
+            wgpu::BindGroupEntry { binding: 0, resource: inp.as_entire_binding() },
+            wgpu::BindGroupEntry { binding: 1, resource: out.as_entire_binding() },
+        ],
+    });
+    let mut enc = d.create_command_encoder(&Default::default());
+    {
+        let mut pass = enc.begin_compute_pass(&Default::default());
+        pass.set_pipeline(&pipeline);
+        pass.set_bind_group(0, &bind, &[]);
+        pass.dispatch_workgroups((n as u32).div_ceil(64), 1, 1);
+    }
+    let got: Vec<[f32; 4]> = gpu::buffers::read_back(&dev, enc, &out, "radiosity out").expect("read back");
+    for (i, g) in got.iter().enumerate() {
+        let e = Vec3::from_slice(&input[3 * i + 1][..3]);
+        let m = Vec3::from_slice(&input[3 * i + 2][..3]);
+        let want = radiosity(rho(i), e, m);
+        let g = Vec3::from_slice(&g[..3]);
+        assert!((g - want).abs().max_element() <= 4e-7 * want.abs().max_element(), "{i}: {g} vs {want}");
+    }
+}

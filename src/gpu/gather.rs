@@ -19,10 +19,10 @@ use super::context::GpuDevice;
 use super::layout::{GatherUniforms, GATHER_WGSL};
 use crate::error::Result;
 use crate::exchange::bounce::gather::{source_radiosity, BounceKernel};
+use crate::exchange::bounce::operator::radiosity;
 use crate::links::packed::PAD;
 use crate::links::Links;
 use glam::Vec3;
-use std::f32::consts::PI;
 use std::sync::Arc;
 
 pub use super::layout::GATHER_WORKGROUP as WORKGROUP;
@@ -468,7 +468,7 @@ impl GpuBounces<'_> {
         for (h, linkers) in &self.stand_ins {
             let mean =
                 crate::exchange::bounce::hidden::stand_in_irradiance(linkers, |u| Vec3::new(e[u][0], e[u][1], e[u][2]));
-            let b = mean * self.albedo[*h] / PI;
+            let b = radiosity(self.albedo[*h], mean, Vec3::ZERO);
             l.dev.queue.write_buffer(&self.radiosity, (*h * 16) as u64, bytemuck::cast_slice(&[b.x, b.y, b.z, 0.0f32]));
         }
         Ok(())

@@ -8,13 +8,13 @@
 
 use super::{pixel_ray, Frame, HdrImage, RenderParams, RenderStats, View};
 use crate::bvh::{Bvh, BvhBuildParams};
+use crate::exchange::bounce::operator::radiosity;
 use crate::kdtree::traverse::NO_SKIP;
 use crate::kdtree::Ray;
 use crate::scene::Light;
 use crate::trace::CpuTracer;
 use glam::Vec3;
 use rayon::prelude::*;
-use std::f32::consts::PI;
 use std::time::Instant;
 
 /// Renders `frame`; `kd` (any CPU tracer) must be built over
@@ -102,8 +102,8 @@ fn shade(frame: &Frame, kd: &dyn CpuTracer, view: View, offset: f32, ray: Ray) -
         }
     }
     match view {
-        View::Combined => rho / PI * (e_d + e_sky + e_i) + emitted,
-        View::Direct => rho / PI * (e_d + e_sky) + emitted,
-        View::Indirect => rho / PI * e_i,
+        View::Combined => radiosity(rho, e_d + e_sky + e_i, Vec3::ZERO) + emitted,
+        View::Direct => radiosity(rho, e_d + e_sky, Vec3::ZERO) + emitted,
+        View::Indirect => radiosity(rho, e_i, Vec3::ZERO),
     }
 }

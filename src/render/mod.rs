@@ -22,6 +22,7 @@ pub mod cpu;
 pub mod gpu;
 pub mod present;
 
+use crate::exchange::bounce::operator::radiosity;
 use crate::scene::prep::PreparedScene;
 use crate::scene::{Camera, Light};
 use glam::{Mat4, Vec3};
@@ -132,7 +133,7 @@ impl<'a> Frame<'a> {
 
     /// Emitted radiance of vertex `v`, `M_e / pi` (zero when none is given).
     pub fn emitted_at(&self, v: usize) -> Vec3 {
-        self.emission.get(v).map_or(Vec3::ZERO, |m| *m / std::f32::consts::PI)
+        radiosity(Vec3::ZERO, Vec3::ZERO, self.emission.get(v).copied().unwrap_or(Vec3::ZERO))
     }
 
     /// Checks counts and the light limit.

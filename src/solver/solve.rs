@@ -19,6 +19,7 @@
 
 use super::{Solution, Solver};
 use crate::exchange::bounce::hidden::StandIn;
+use crate::exchange::bounce::operator::radiosity;
 use crate::exchange::near::{Bounce, Fields};
 use crate::exchange::{self, GatherParams, GatherResult, SmoothMode};
 use glam::Vec3;
@@ -241,10 +242,7 @@ impl Solver {
         }
         let b_h: Vec<Vec3> = (0..s.vertex_count())
             .into_par_iter()
-            .map(|v| {
-                s.albedo[v] / std::f32::consts::PI * e_h[v]
-                    + src.emission.get(v).map_or(Vec3::ZERO, |m| *m / std::f32::consts::PI)
-            })
+            .map(|v| radiosity(s.albedo[v], e_h[v], src.emission.get(v).copied().unwrap_or(Vec3::ZERO)))
             .collect();
         let fields = Fields { b_later: &b_h, g_later: &g_h, ..self.fields(&[], &[]) };
         self.traced.near.correction(Bounce::Later, &fields).unwrap_or_default()

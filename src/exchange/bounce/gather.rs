@@ -16,12 +16,12 @@
 //! and keeps stiff scenes with rho near 1 from stopping short), in fixed
 //! mode it is only reported. Irradiances in W/m^2.
 
+use crate::exchange::bounce::operator::radiosity;
 pub use crate::exchange::bounce::operator::{gather_bounce, gather_bounce_padded, source_radiosity};
 use crate::links::Links;
 use crate::scene::Bounces;
 use glam::{Vec3, Vec4};
 use rayon::prelude::*;
-use std::f32::consts::PI;
 use std::time::Instant;
 
 /// Parameters of the gather.
@@ -159,10 +159,10 @@ impl BounceKernel for CpuBounces<'_> {
                 .par_iter_mut()
                 .zip(&self.e_b)
                 .zip(self.albedo)
-                .for_each(|((b, e), r)| *b = (*e * *r / PI).extend(0.0));
+                .for_each(|((b, e), r)| *b = radiosity(*r, *e, Vec3::ZERO).extend(0.0));
             for (h, linkers) in self.stand_ins {
                 let e = crate::exchange::bounce::hidden::stand_in_irradiance(linkers, |u| self.e_b[u]);
-                self.b[*h] = (e * self.albedo[*h] / PI).extend(0.0);
+                self.b[*h] = radiosity(self.albedo[*h], e, Vec3::ZERO).extend(0.0);
             }
             totals.push(total(&self.e_b));
         }

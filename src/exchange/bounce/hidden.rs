@@ -62,6 +62,7 @@
 //! auto bounces: the two agree within 8.3e-5 of the mean). Irradiance in
 //! W/m^2.
 
+use crate::exchange::bounce::operator::radiosity;
 use crate::links::Links;
 use glam::Vec3;
 use rayon::prelude::*;
@@ -177,10 +178,10 @@ pub fn correct(
     let mut iterations = 0;
     for _ in 0..params.max_iterations {
         iterations += 1;
-        x.par_iter_mut().enumerate().for_each(|(v, x)| *x = albedo[v] / PI * (e[v] - e_indirect[v]));
+        x.par_iter_mut().enumerate().for_each(|(v, x)| *x = radiosity(albedo[v], e[v] - e_indirect[v], Vec3::ZERO));
         for (h, linkers) in &stand_ins {
             let mean = stand_in_irradiance(linkers, |u| e[u]);
-            x[*h] += albedo[*h] / PI * (mean - e[*h]);
+            x[*h] += radiosity(albedo[*h], mean - e[*h], Vec3::ZERO);
         }
         crate::exchange::bounce::operator::gather_bounce(links, &x, &mut next);
         let (mut step, mut total) = (0f64, 0f64);

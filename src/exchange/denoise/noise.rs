@@ -45,6 +45,7 @@
 //! locally ([`crate::exchange::denoise::noise_check`]), and keeps the model for a solver
 //! without a check (`check_vertices = 0`).
 
+use crate::exchange::bounce::operator::radiosity;
 use crate::links::Links;
 use glam::{Vec3, Vec4};
 use rayon::prelude::*;
@@ -115,7 +116,7 @@ pub fn radiosity_moments(albedo: &[Vec3], emission: &[Vec3], e_source: &[Vec3], 
         .zip(e_source.par_iter().zip(e_indirect))
         .enumerate()
         .map(|(v, (r, (s, i)))| {
-            let b = *r / PI * (*s + *i) + emission.get(v).map_or(Vec3::ZERO, |m| *m / PI);
+            let b = radiosity(*r, *s + *i, emission.get(v).copied().unwrap_or(Vec3::ZERO));
             [b.extend(0.0), (b * b).extend(0.0)]
         })
         .collect()

@@ -52,6 +52,7 @@
 //! without emitters are unchanged (cornell 1024 rays 1.02%). Cost: one
 //! pass over the links when they or the emitter links change.
 
+use crate::exchange::bounce::operator::radiosity;
 use crate::exchange::sources::emitter_links::EmitterLinks;
 use crate::exchange::sources::emitter_links::NO_GROUP;
 use crate::links::Links;
@@ -161,7 +162,7 @@ impl EmitterCv {
         let mut means = vec![Vec3::ZERO; self.groups];
         for (v, &g) in self.vertex_group.iter().enumerate() {
             if g != NO_GROUP {
-                means[g as usize] += albedo[v] / PI * e_source[v] * self.area_share[v];
+                means[g as usize] += radiosity(albedo[v], e_source[v], Vec3::ZERO) * self.area_share[v];
             }
         }
         means
