@@ -3,18 +3,26 @@
 //! reported as rays/s), shadow rays of the light links through each tracer
 //! (rays/s), one gather bounce
 //! (reported as bytes/s moved, [`linkgi::bench::bandwidth::gather_bytes`]),
-//! beside the machine's read bandwidth (a parallel sum over 512 MB), the
-//! yardstick of the gather's target (>= 50%).
+//! in the scene's vertex order and in a Morton order over positions
+//! (`gather_bounce_morton_order`: `src/scene/order.rs` and
+//! `src/links/packed.rs` quote it 5-10% slower), beside the machine's read
+//! bandwidth (a parallel sum over 512 MB), the yardstick of the gather's
+//! target (>= 50%); and the link rays traced on one thread through the
+//! BVH and the kd-tree (`single_thread/...`, rays/s: `docs/PERFORMANCE.md`
+//! quotes them beside Embree's `rtcIntersect1`).
 //!
 //! Run: `cargo bench --bench solver` (all), or with a filter, e.g.
-//! `cargo bench --bench solver -- conference`.
+//! `cargo bench --bench solver -- conference` or `-- single_thread`.
+
+#[path = "../tests/common/orders.rs"]
+mod orders;
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use linkgi::bvh::{Bvh, BvhBuildParams};
 use linkgi::exchange::bounce::gather::gather_bounce_padded;
 use linkgi::exchange::{LightLinkParams, LightLinks};
 use linkgi::kdtree::{KdBuildParams, KdTree};
-use linkgi::links::{shoot_links, LinkParams};
+use linkgi::links::{shoot_links, LinkParams, RaySetup};
 use linkgi::scene::{builtin, prep};
 use linkgi::trace::{CpuTracer, Tracer};
 use std::time::Duration;
@@ -51,6 +59,41 @@ fn stages(c: &mut Criterion) {
         let mut out = vec![glam::Vec3::ZERO; scene.vertex_count()];
         g.throughput(Throughput::Bytes(linkgi::bench::bandwidth::gather_bytes(&links)));
         g.bench_function("gather_bounce", |b| b.iter(|| gather_bounce_padded(&links, &b0, &mut out)));
+        let morton = orders::renumbered(&links, &orders::morton(&scene.positions));
+        g.throughput(Throughput::Bytes(linkgi::bench::bandwidth::gather_bytes(&morton)));
+        g.bench_function("gather_bounce_morton_order", |b| b.iter(|| gather_bounce_padded(&morton, &b0, &mut out)));
+        g.finish();
+    }
+}
+
+/// The link rays of every 7th vertex (256 a vertex) traced on the calling
+/// thread, nearest hit, through the wide BVH and the kd-tree (rays/s).
+fn single_thread(c: &mut Criterion) {
+    for name in ["tearoom", "conference"] {
+        let scene = prep::prepare(&builtin::builtin(name).unwrap()).unwrap();
+        let bvh = Bvh::build(&scene.positions, &scene.triangles, &BvhBuildParams::default());
+        let kd = KdTree::build(&scene.positions, &scene.triangles, &KdBuildParams::default());
+        let setup = RaySetup::new(&scene, &LinkParams::default());
+        let verts: Vec<usize> = (0..scene.vertex_count()).step_by(7).collect();
+        let dirs: Vec<Vec<glam::Vec3>> = verts.iter().map(|&v| setup.world_directions(v).collect()).collect();
+        let rays: usize = dirs.iter().map(|d| d.len()).sum();
+        let mut g = c.benchmark_group(format!("single_thread/{name}"));
+        g.sample_size(10).measurement_time(Duration::from_secs(20)).warm_up_time(Duration::from_secs(2));
+        g.throughput(Throughput::Elements(rays as u64));
+        for (label, t) in [("bvh", &bvh as &dyn CpuTracer), ("kd", &kd as &dyn CpuTracer)] {
+            let mut out = Vec::new();
+            g.bench_function(format!("trace_link_rays_{label}"), |b| {
+                b.iter(|| {
+                    let mut sum = 0f64;
+                    for (i, &v) in verts.iter().enumerate() {
+                        out.resize(dirs[i].len(), None);
+                        t.intersect_origin(setup.origins[v], v as u32, &dirs[i], &mut out);
+                        sum += out.iter().flatten().map(|h| h.t as f64).sum::<f64>();
+                    }
+                    sum
+                })
+            });
+        }
         g.finish();
     }
 }
@@ -67,5 +110,5 @@ fn memory(c: &mut Criterion) {
     g.finish();
 }
 
-criterion_group!(benches, memory, stages);
+criterion_group!(benches, memory, stages, single_thread);
 criterion_main!(benches);
