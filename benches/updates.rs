@@ -42,17 +42,18 @@ fn light_move(c: &mut Criterion) {
     let mut step = 0.05f32;
     g.bench_function("move_and_solve", |b| {
         b.iter(|| {
-            if let Some(Light::Point { position, .. }) = solver.scene.lights.first_mut() {
+            let mut lights = solver.scene().lights.clone();
+            if let Some(Light::Point { position, .. }) = lights.first_mut() {
                 position.x += step;
             }
             step = -step;
-            solver.update_lights();
+            solver.set_lights(lights);
             solver.solve()
         })
     });
     g.bench_function("solve", |b| b.iter(|| solver.solve()));
     let sol = solver.solve();
-    g.bench_function("noise_variance", |b| b.iter(|| solver.noise_variance(&sol.e_source, &sol.e_indirect_raw)));
+    g.bench_function("noise_variance", |b| b.iter(|| solver.noise_variance(&sol.e_source, &sol.e_gathered)));
     g.finish();
 }
 
@@ -91,8 +92,9 @@ fn sky_change(c: &mut Criterion) {
         let mut g = c.benchmark_group(format!("sky_change/{label}"));
         g.sample_size(10).measurement_time(Duration::from_secs(10)).warm_up_time(Duration::from_secs(1));
         let turn = |s: &mut Solver| {
-            if let Some(sky) = s.scene.sky.as_mut() {
+            if let Some(mut sky) = s.scene().sky.clone() {
                 sky.rotate_deg = (sky.rotate_deg + 10.0) % 360.0;
+                s.set_sky(Some(sky));
             }
         };
         g.bench_function("e_sky", |b| {

@@ -53,7 +53,7 @@ fn solver(name: &str) -> Solver {
 
 /// The final gather at near hits ([`linkgi::exchange::near_gather`], 2
 /// rays a near hit) lowers tearoom's total error at 1024 link rays,
-/// against the same solve with `near_gather.rays = 0`. Protects the
+/// against the same solve with `near_gather` off. Protects the
 /// figure of `NearGatherParams::rays`: off / 2 rays a hit 1.67 -> 1.12%.
 /// `cargo test --release --test measured -- --ignored final_gather_lowers_tearoom_error`
 #[test]
@@ -62,7 +62,7 @@ fn final_gather_lowers_tearoom_error() {
     let s = scene("tearoom", 1024, 1);
     let r = reference(&s);
     let (_, with) = solve(&s, |_| {});
-    let (_, without) = solve(&s, |p| p.near_gather.rays = 0);
+    let (_, without) = solve(&s, |p| p.terms.near_gather = false);
     let t = Truth::total(&r);
     assert_closer(
         "tearoom 1024 rays, final gather off -> on",
@@ -76,9 +76,9 @@ fn final_gather_lowers_tearoom_error() {
 
 /// The near hits' exact direct light ([`linkgi::exchange::near_field`])
 /// lowers tearoom's total error at 256 and 1024 link rays, against the
-/// same solve without near hits (`links.near.factor = 0`); the final
+/// same solve without near hits (`near` off); the final
 /// gather, which needs near hits too, is off in both. Protects the
-/// figures of `src/exchange/near_field.rs`: 3.5 -> 2.6% at 256 rays,
+/// figures of `src/exchange/near/light.rs`: 3.5 -> 2.6% at 256 rays,
 /// 3.1 -> 2.0% at 1024 (before the final gather).
 /// `cargo test --release --test measured -- --ignored near_field_lowers_tearoom_error`
 #[test]
@@ -87,12 +87,12 @@ fn near_field_lowers_tearoom_error() {
     for (rays, figure) in [(256, "3.5 -> 2.6%"), (1024, "3.1 -> 2.0%")] {
         let s = scene("tearoom", rays, 1);
         let r = reference(&s);
-        let no_gather = |p: &mut SolveParams| p.near_gather.rays = 0;
+        let no_gather = |p: &mut SolveParams| p.terms.near_gather = false;
         let (with_solver, with) = solve(&s, no_gather);
-        assert!(!with_solver.links.near.hits.is_empty(), "no near hits at {rays} rays");
+        assert!(!with_solver.links().near.hits.is_empty(), "no near hits at {rays} rays");
         let (_, without) = solve(&s, |p| {
             no_gather(p);
-            p.links.near.factor = 0.0;
+            p.terms.near = false;
         });
         let t = Truth::total(&r);
         assert_closer(
@@ -107,9 +107,9 @@ fn near_field_lowers_tearoom_error() {
 }
 
 /// The gradient-corrected radiosity at link hits
-/// ([`linkgi::exchange::reconstruct`]) lowers tearoom's total error at
-/// 1024 rays, against `reconstruct = false`. Protects the figure of
-/// `src/exchange/reconstruct.rs`: tearoom 1.120 -> 1.040% at 1024 rays.
+/// ([`linkgi::exchange::bounce::reconstruct`]) lowers tearoom's total error at
+/// 1024 rays, against `reconstruct` off. Protects the figure of
+/// `src/exchange/bounce/reconstruct.rs`: tearoom 1.120 -> 1.040% at 1024 rays.
 /// `cargo test --release --test measured -- --ignored radiosity_correction_lowers_tearoom_error`
 #[test]
 #[ignore = "slow: measured against the reference"]
@@ -117,7 +117,7 @@ fn radiosity_correction_lowers_tearoom_error() {
     let s = scene("tearoom", 1024, 1);
     let r = reference(&s);
     let (_, with) = solve(&s, |_| {});
-    let (_, without) = solve(&s, |p| p.reconstruct = false);
+    let (_, without) = solve(&s, |p| p.terms.reconstruct = false);
     let t = Truth::total(&r);
     assert_closer(
         "tearoom 1024 rays, radiosity correction off -> on",
@@ -129,13 +129,13 @@ fn radiosity_correction_lowers_tearoom_error() {
     );
 }
 
-/// The stand-ins for hidden vertices ([`linkgi::exchange::hidden`]: a
+/// The stand-ins for hidden vertices ([`linkgi::exchange::bounce::hidden`]: a
 /// vertex under an object stands, as a link target, for the vertices
 /// linking to it most, weighted by their links) lower the total error,
-/// against no correction (`hidden.threshold = 0`), at 1024 rays: on the
+/// against no correction (`hidden` off), at 1024 rays: on the
 /// Cornell box, where the boxes' bottom rows read 40% low without
 /// (0.998% -> 0.904% now, 4096-path reference), and a little on tearoom
-/// (1.044% -> 1.027%). Protects the figures of `src/exchange/hidden.rs`
+/// (1.044% -> 1.027%). Protects the figures of `src/exchange/bounce/hidden.rs`
 /// (tearoom 1.67% at 1024 rays with the stand-ins then, 1.81% with the
 /// linkers' plain mean, 1.97% with the ring neighbours: the variants
 /// rejected are not in the code to compare) and of
@@ -149,10 +149,11 @@ fn hidden_stand_ins_lower_the_error() {
         let s = scene(name, rays, 1);
         let r = reference(&s);
         let (with_solver, with) = solve(&s, |_| {});
-        let hidden = linkgi::exchange::hidden::stand_ins(&with_solver.links, rays, &with_solver.params.hidden);
+        let hidden =
+            linkgi::exchange::bounce::hidden::stand_ins(&with_solver.links(), rays, &with_solver.params().hidden);
         eprintln!("{name}: {} hidden vertices linked to", hidden.len());
         assert!(!hidden.is_empty(), "{name}: no hidden vertex");
-        let (_, without) = solve(&s, |p| p.hidden.threshold = 0.0);
+        let (_, without) = solve(&s, |p| p.terms.hidden = false);
         let t = Truth::total(&r);
         assert_closer(
             &format!("{name} {rays} rays, hidden-vertex stand-ins off -> on"),
@@ -167,8 +168,8 @@ fn hidden_stand_ins_lower_the_error() {
 
 /// The emitter groups as a control variate of the first bounce
 /// ([`linkgi::exchange::emitter_cv`]) lower `window`'s total error at 64
-/// and 256 rays (seed 1), against `emitter_cv = false`. Protects the
-/// figures of `src/exchange/emitter_cv.rs`: seed 1, 64 rays 4.52 ->
+/// and 256 rays (seed 1), against `emitter_cv` off. Protects the
+/// figures of `src/exchange/sources/emitter_cv.rs`: seed 1, 64 rays 4.52 ->
 /// 3.84%, 256 rays 2.12 -> 1.84%.
 /// `cargo test --release --test measured -- --ignored emitter_control_variate_lowers_window_error`
 #[test]
@@ -179,7 +180,7 @@ fn emitter_control_variate_lowers_window_error() {
         let r = reference(&s);
         let (_, with) = solve(&s, |_| {});
         assert!(!with.e_cv.is_empty(), "window has emitter groups");
-        let (_, without) = solve(&s, |p| p.emitter_cv = false);
+        let (_, without) = solve(&s, |p| p.terms.emitter_cv = false);
         let t = Truth::total(&r);
         assert_closer(
             &format!("window {rays} rays, emitter control variate off -> on"),
@@ -195,8 +196,8 @@ fn emitter_control_variate_lowers_window_error() {
 /// The sky's light at near hits ([`linkgi::exchange::near_sky`]) lowers
 /// `window`'s total error at 1024 rays (seed 1), over the scene and on
 /// the cabinet alone, against
-/// `near_sky.samples = 0, near_sky.portal_samples = 0`. Protects the
-/// figures of `src/exchange/near_sky.rs`: 1.44 -> 1.19% at 1024 rays, the
+/// `near_sky` off. Protects the
+/// figures of `src/exchange/near/sky.rs`: 1.44 -> 1.19% at 1024 rays, the
 /// cabinet 7.9 -> 3.8%.
 /// `cargo test --release --test measured -- --ignored sky_at_near_hits_lowers_window_error`
 #[test]
@@ -206,8 +207,7 @@ fn sky_at_near_hits_lowers_window_error() {
     let r = reference(&s);
     let (_, with) = solve(&s, |_| {});
     let (_, without) = solve(&s, |p| {
-        p.near_sky.samples = 0;
-        p.near_sky.portal_samples = 0;
+        p.terms.near_sky = false;
     });
     let t = Truth::total(&r);
     let (a, b) = (with.total(), without.total());
@@ -220,7 +220,7 @@ fn sky_at_near_hits_lowers_window_error() {
 
 /// The sky portal over `window`'s opening ([`linkgi::sky::portal`], its
 /// default samples a vertex) lowers the total error and, far more, the
-/// error of `E_sky` at 64 link rays, against `sky.portal.rays = 0` (the
+/// error of `E_sky` at 64 link rays, against `sky_portals` off (the
 /// link rays alone find the sky). Protects the figures of
 /// `src/sky/portal.rs`: total 5.17 -> 4.42%, `E_sky` 28.8% -> 4.2% at 64
 /// rays.
@@ -231,7 +231,7 @@ fn portals_lower_window_error() {
     let s = scene("window", 64, 1);
     let r = reference(&s);
     let (_, with) = solve(&s, |_| {});
-    let (_, without) = solve(&s, |p| p.sky.portal.rays = 0);
+    let (_, without) = solve(&s, |p| p.terms.sky_portals = false);
     let t = Truth::total(&r);
     assert_closer("window 64 rays, portals off -> on", "5.17 -> 4.42%", &with.total(), &without.total(), &t, t.all());
     let sky = Truth::sky(&r);
@@ -250,7 +250,7 @@ fn portals_lower_window_error() {
 /// the refined cells' sample variance plus a coin toss's `L^2 / 4` for a
 /// kept cell unlike its neighbours, [`linkgi::sky::refine`], pooled over
 /// the ring) lowers `window`'s `E_sky` error and total error at 64 link
-/// rays, and `E_sky`'s at 256, against `smoothing.sky = false`; the
+/// rays, and `E_sky`'s at 256, against `sky_smoothing` off; the
 /// total at 256 rays is no worse (the gain has shrunk into the noise:
 /// 2.04% either way). Portals off, as when the figures were measured
 /// (with the portal, the sky through the window is the portal's,
@@ -258,7 +258,7 @@ fn portals_lower_window_error() {
 /// `src/sky/refine.rs` (at 64 rays the lone cells' term, which only this
 /// smoothing reads and which has no switch of its own, took the total
 /// from 5.49% to 5.17% and `E_sky` from 33.8% to 28.8%; without the
-/// smoothing 5.90% and 39.4% now) and of `src/exchange/smooth.rs` (256
+/// smoothing 5.90% and 39.4% now) and of `src/exchange/denoise/smooth.rs` (256
 /// rays 4.13% -> 3.89% then).
 /// `cargo test --release --test measured -- --ignored sky_smoothing_lowers_window_error`
 #[test]
@@ -267,10 +267,10 @@ fn sky_smoothing_lowers_window_error() {
     for rays in [64, 256] {
         let s = scene("window", rays, 1);
         let r = reference(&s);
-        let (_, with) = solve(&s, |p| p.sky.portal.rays = 0);
+        let (_, with) = solve(&s, |p| p.terms.sky_portals = false);
         let (_, without) = solve(&s, |p| {
-            p.sky.portal.rays = 0;
-            p.smoothing.sky = false;
+            p.terms.sky_portals = false;
+            p.terms.sky_smoothing = false;
         });
         let (t, sky) = (Truth::total(&r), Truth::sky(&r));
         let what = format!("window {rays} rays, no portals, E_sky alone, its smoothing off -> on");
@@ -288,10 +288,10 @@ fn sky_smoothing_lowers_window_error() {
 /// The noise check ([`linkgi::exchange::noise_check`]: the ratio of
 /// actual to independent-ray variance measured on 512 sampled vertices)
 /// lowers `window`'s total error at 64 rays against the noise model's
-/// fixed ratio (`smoothing.noise.check_vertices = 0`), which is about
+/// fixed ratio (`noise_check` off), which is about
 /// twice too large there, and is no worse at 256 rays (1.79% -> 1.73%
 /// now, within 2.5 standard deviations of the reference's noise).
-/// Protects the figures of `src/exchange/noise_check.rs`: window 6.87 ->
+/// Protects the figures of `src/exchange/denoise/noise_check.rs`: window 6.87 ->
 /// 5.49% at 64 rays, 3.37 -> 3.00% at 256 (the model's per-vertex
 /// variance then, now pooled over the ring with either ratio).
 /// `cargo test --release --test measured -- --ignored noise_check_lowers_window_error`
@@ -302,8 +302,8 @@ fn noise_check_lowers_window_error() {
         let s = scene("window", rays, 1);
         let r = reference(&s);
         let (checked, with) = solve(&s, |_| {});
-        assert!(!checked.noise_check.vertices.is_empty(), "no noise check");
-        let (_, without) = solve(&s, |p| p.smoothing.noise.check_vertices = 0);
+        assert!(!checked.noise_check().vertices.is_empty(), "no noise check");
+        let (_, without) = solve(&s, |p| p.terms.noise_check = false);
         let t = Truth::total(&r);
         let what = format!("window {rays} rays, noise model's ratio -> the check's");
         if rays == 64 {
@@ -319,7 +319,7 @@ fn noise_check_lowers_window_error() {
 /// paired, `(X_a - X_b)^2`, pooled over the ring) sums to more than the
 /// solver's estimate (the check's ratio, pooled) and, as the smoothing's
 /// input, leaves `window`'s total error at 64 rays higher. Protects the
-/// figure of `src/exchange/noise_check.rs`: it overestimates 2-3x and
+/// figure of `src/exchange/denoise/noise_check.rs`: it overestimates 2-3x and
 /// smoothed worse than the check (window 64 rays 6.4% against 5.49%).
 /// `cargo test --release --test measured -- --ignored paired_strata_noise_smooths_worse_than_the_check`
 #[test]
@@ -328,14 +328,14 @@ fn paired_strata_noise_smooths_worse_than_the_check() {
     let s = scene("window", 64, 1);
     let r = reference(&s);
     let (solver, sol) = solve(&s, |_| {});
-    let s = &solver.scene;
+    let s = &solver.scene();
     let n = s.vertex_count();
     // The part of E_i gathered over the links, which the smoothing smooths.
-    let gathered: Vec<Vec3> = (0..n).map(|v| sol.e_indirect_raw[v] - sol.e_emitter[v] - sol.e_near[v]).collect();
-    let emission = solver.emitter_links.carried_emission(&s.emission);
-    let moments = exchange::noise::radiosity_moments(&s.albedo, &emission, &sol.e_source, &gathered);
+    let gathered = &sol.e_gathered;
+    let emission = solver.emitter_links().carried_emission(&s.emission);
+    let moments = exchange::denoise::noise::radiosity_moments(&s.albedo, &emission, &sol.e_source, gathered);
     let b: Vec<Vec3> = moments.iter().map(|m| m[0].truncate()).collect();
-    let setup = RaySetup::new(s, &solver.params.links);
+    let setup = RaySetup::new(s, &solver.params().links);
     let k = setup.directions.k;
     let cells = linkgi::sampling::block_order(k);
     let nr = (k * k) as usize;
@@ -344,7 +344,7 @@ fn paired_strata_noise_smooths_worse_than_the_check() {
     let paired: Vec<Vec3> = (0..n)
         .into_par_iter()
         .map_init(Vec::new, |recs, v| {
-            setup.trace_vertex(&solver.accel, v, recs);
+            setup.trace_vertex(solver.accel(), v, recs);
             let x: Vec<Vec3> = recs
                 .iter()
                 .map(|h| {
@@ -367,8 +367,8 @@ fn paired_strata_noise_smooths_worse_than_the_check() {
             sum / (nr * nr) as f32
         })
         .collect();
-    let angle = solver.params.smoothing_angle_deg;
-    let passes = solver.params.smoothing.passes;
+    let angle = solver.params().smoothing_angle_deg;
+    let passes = solver.params().smoothing.passes;
     let total_of = |var: &[Vec3]| -> Vec<Vec3> {
         let e = exchange::smooth_adaptive(&gathered, var, &s.rings, &s.normals, angle, passes);
         (0..n)
@@ -440,7 +440,7 @@ fn gap_shares(links: &Links) -> (f64, f64) {
 fn scene_order_keeps_link_targets_compact() {
     for name in ["tearoom", "conference"] {
         let s = solver(name);
-        let (links, scene) = (&s.links, &s.scene);
+        let (links, scene) = (&s.links(), &s.scene());
         let n = scene.vertex_count();
         let own = target_bytes(links);
         let (zero, byte) = gap_shares(links);
@@ -518,13 +518,13 @@ fn eight_bit_link_weights_move_tearoom_e_i() {
     let s = solver("tearoom");
     let sol = s.solve();
     let total = sol.total();
-    let gp = s.params.gather;
-    let e_i = |links: &Links| exchange::gather(links, &s.scene.albedo, &sol.e_source, &gp).e_indirect;
-    let base = e_i(&s.links);
+    let gp = s.params().gather;
+    let e_i = |links: &Links| exchange::gather(links, &s.scene().albedo, &sol.e_source, &gp).e_indirect;
+    let base = e_i(&s.links());
     // Relative RMS change of E_i, and the largest change relative to the vertex's
     // total (channels above 1e-3 of their scene maximum).
     let change = |mbits: u32| -> (f64, f64) {
-        let q = e_i(&quantized(&s.links, mbits));
+        let q = e_i(&quantized(&s.links(), mbits));
         let max: Vec<f32> = (0..3).map(|c| total.iter().map(|t| t[c]).fold(0.0, f32::max)).collect();
         let (mut worst, mut sq, mut sq0) = (0f64, 0f64, 0f64);
         for (v, (a, b)) in base.iter().zip(&q).enumerate() {

@@ -20,7 +20,8 @@
 //! [`Cursor`] and [`simd::Cursor`] are the decoders.
 //!
 //! Measured on this project's scenes at 256 rays a vertex (scene vertex
-//! order, `cargo run --release --example link_order_probe`): 51-62% of gaps
+//! order, `cargo test --release --test measured -- --ignored scene_order_keeps_link_targets_compact`):
+//! 51-62% of gaps
 //! are 0, 28-37% under 256, 1-5% under 65536, 0.1% larger; the targets take
 //! 0.79 bytes a link on conference (0.64 on tearoom) with their control
 //! bytes, 2.81 (2.66) with the weight and the row offsets and starts
@@ -30,14 +31,16 @@
 //! An 8-bit float per link (4-bit exponent below the group's largest
 //! binade, 4-bit mantissa, error diffusion in target order) moved tearoom's
 //! E_i by 1.5e-3 RMS and 13% at the worst vertex; 12 bits (8-bit mantissa)
-//! by 8e-5 RMS and 1% at the worst vertex (`examples/weight_quant_probe.rs`).
+//! by 8e-5 RMS and 1% at the worst vertex (`cargo test --release --test measured -- --ignored
+//! eight_bit_link_weights_move_tearoom_e_i`).
 //! Half floats keep every weight exactly as merged ([`super::merge`]),
 //! convert in one instruction (F16C) and keep a link under 3 bytes with
 //! the targets. Vertex order: a Morton order over
 //! positions made the gaps larger (conference: 24% instead of 51% zero
 //! gaps, 2.08 instead of 1.79 bytes a link with an 8-bit weight; a Hilbert
 //! order 30% and 2.01) and the
-//! gather 5-10% slower than the scenes' own order (meshes come in strips
+//! gather 5-10% slower than the scenes' own order
+//! (`cargo bench --bench solver -- gather_bounce`) (meshes come in strips
 //! of neighbouring vertices), so vertices keep the scene's order unless a
 //! mesh comes scrambled ([`crate::scene::order`]).
 

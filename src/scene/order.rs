@@ -16,13 +16,14 @@
 //! one-rings, crease splits and every result per vertex are the same, in
 //! the new order; exports list solver vertices in that order.
 //!
-//! Measured (`cargo run --release --example link_order_probe`, 256 rays,
-//! gap bytes and control bytes with a 1-byte weight, so add 1 for ours):
-//! conference in its own order 1.79 bytes a link, scrambled 2.73, scrambled
-//! then breadth-first 1.88, a Morton order over positions 2.08, a Hilbert
-//! order 2.01 (a space-filling curve over 3D points breaks the strips, and
-//! the gather was 5-10% slower in Morton order than in the scene's);
-//! tearoom 1.64, 2.22, 1.69, 1.81, 1.75.
+//! Measured (`cargo test --release --test measured -- --ignored
+//! scene_order_keeps_link_targets_compact`, 256 rays, bytes a link of the
+//! packed targets with their control bytes): conference in its own order
+//! 0.79, scrambled 1.73, scrambled then breadth-first 0.88, a Morton order
+//! over positions 1.08, a Hilbert order 1.01 (a space-filling curve over 3D
+//! points breaks the strips, and the gather was 5-10% slower in Morton order
+//! than in the scene's, `cargo bench --bench solver -- gather_bounce`);
+//! tearoom 0.64, 1.22, 0.69, 0.81, 0.76.
 
 /// The least relative improvement of [`locality`] for which a mesh is renumbered.
 pub const MIN_GAIN: f64 = 0.2;

@@ -41,7 +41,8 @@
 //! (4.25% -> 4.58% relative RMSE at 64 samples).
 //!
 //! Measured on `window` (16384-path reference, total relative RMSE, auto
-//! bounces, seed 1, `examples/sky_probe.rs`), link rays 16 / 64 / 256 /
+//! bounces, seed 1; `cargo test --release --test measured -- --ignored portals_lower_window_error` checks 64 rays
+//! against `--off sky_portals`), link rays 16 / 64 / 256 /
 //! 1024: without portals 13.6 / 5.17 / 2.98 / 1.94%; with 64 portal
 //! samples 9.6 / 4.42 / 2.93 / 1.95% (`E_sky` alone 28.8% -> 4.2% at 64
 //! rays). With 16 samples `E_sky` reads 10.3% (total 4.52% at 64 rays).

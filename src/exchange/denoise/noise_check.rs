@@ -46,7 +46,9 @@
 //! vertices of largest variance, so it reads low).
 //!
 //! Measured (total relative RMSE against the reference, noise removed,
-//! auto bounces, default smoothing, seed 1; `examples/sky_probe.rs`; the
+//! auto bounces, default smoothing, seed 1; `cargo test --release --test measured -- --ignored
+//! noise_check_lowers_window_error` checks window against `--off
+//! noise_check` (the model): 5.15 -> 4.05% at 64 rays, 1.79 -> 1.73% at 256 now; the
 //! model's ratio and per-vertex variance -> the check and the variance
 //! averaged over the ring, [`crate::solver::Solver::noise_variance`]):
 //!
@@ -63,9 +65,10 @@
 //! 0.96%, tearoom 4.84 / 2.53 / 1.98%, window 5.77 / 3.09 / 1.97%; `k =
 //! 48`: 4.80 / 2.20%, 4.86 / 2.56%, 5.52 / 3.01% at 64 / 256 rays.
 //! A per-vertex estimate from each vertex's own rays by collapsed strata
-//! (neighbouring strata paired, `(X_a - X_b)^2`, prototype
-//! `examples/paired_noise_probe.rs`) overestimates 2-3x and smoothed worse
-//! than the check (window 64 rays 6.4%, tearoom 5.1%).
+//! (neighbouring strata paired, `(X_a - X_b)^2`, `cargo test --release --test measured -- --ignored
+//! paired_strata_noise_smooths_worse_than_the_check`) overestimates 2-3x
+//! (5.9x now) and smoothed worse than the check (window 64 rays 6.4%,
+//! tearoom 5.1%; window now 5.66% against the check's 4.05%).
 //!
 //! Cost: `m` vertices' rays once per link build (3.9% of the tearoom's
 //! rays, 0.28% of conference's), `m^2` kernel weights (1 MB), and per solve a

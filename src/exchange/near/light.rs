@@ -24,7 +24,8 @@
 //! brought light that is not there): it is added to `E_i` and, like the
 //! emitters' direct light, to the source of the bounces, so its reflections
 //! travel on through the links. Measured against the reference
-//! (`examples/near_field_probe.rs`, auto bounces, total relative RMSE,
+//! (`cargo test --release --test measured -- --ignored near_field_lowers_tearoom_error`,
+//! `--off near` without; auto bounces, total relative RMSE,
 //! noise removed): tearoom (16384 paths) 5.5/3.5/3.1% at 64/256/1024 rays
 //! without, 5.0/2.6/2.0% with; cornell (65536 paths) 4.7/2.4/1.07% without,
 //! 4.7/2.3/0.94% with.
