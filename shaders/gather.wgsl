@@ -22,7 +22,7 @@ const PI: f32 = 3.14159265358979323846264338327950288;
 // radiosity-begin: the radiosity of a Lambertian surface, rho/pi E + M/pi,
 // W/(m^2 sr): `exchange::bounce::operator::radiosity`, which tests/gpu.rs
 // checks this copy against.
-fn radiosity(rho: vec3<f32>, e: vec3<f32>, m: vec3<f32>) -> vec3<f32> {
+fn lambert_radiosity(rho: vec3<f32>, e: vec3<f32>, m: vec3<f32>) -> vec3<f32> {
     return e * rho / PI + m / PI;
 }
 // radiosity-end
@@ -153,7 +153,7 @@ fn update_bounce(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(local_i
     if v < params.vertex_count {
         e = bounce[v];
         total[v] += e;
-        radiosity[v] = vec4<f32>(radiosity(albedo[v].xyz, e.xyz, vec3<f32>(0.0)), 0.0);
+        radiosity[v] = vec4<f32>(lambert_radiosity(albedo[v].xyz, e.xyz, vec3<f32>(0.0)), 0.0);
     }
     sums[lid] = e;
     workgroupBarrier();

@@ -18,7 +18,7 @@ const MAX_SHADOW_LAYERS: u32 = 56u;
 // radiosity-begin: the radiosity of a Lambertian surface, rho/pi E + M/pi,
 // W/(m^2 sr): `exchange::bounce::operator::radiosity`, which tests/gpu.rs
 // checks this copy against.
-fn radiosity(rho: vec3<f32>, e: vec3<f32>, m: vec3<f32>) -> vec3<f32> {
+fn lambert_radiosity(rho: vec3<f32>, e: vec3<f32>, m: vec3<f32>) -> vec3<f32> {
     return e * rho / PI + m / PI;
 }
 // radiosity-end
@@ -165,11 +165,11 @@ fn fs_main(in: VsOut, @builtin(front_facing) front: bool) -> @location(0) vec4<f
         }
     }
     let none = vec3<f32>(0.0);
-    var l = radiosity(in.albedo, e_d + in.e_sky + in.e_indirect, none) + in.emitted;
+    var l = lambert_radiosity(in.albedo, e_d + in.e_sky + in.e_indirect, none) + in.emitted;
     if frame.view_mode == 1u {
-        l = radiosity(in.albedo, e_d + in.e_sky, none) + in.emitted;
+        l = lambert_radiosity(in.albedo, e_d + in.e_sky, none) + in.emitted;
     } else if frame.view_mode == 2u {
-        l = radiosity(in.albedo, in.e_indirect, none);
+        l = lambert_radiosity(in.albedo, in.e_indirect, none);
     }
     return vec4<f32>(l, 1.0);
 }

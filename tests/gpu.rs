@@ -440,7 +440,7 @@ fn wgsl_radiosity_matches_the_cpu_formula() {
          @compute @workgroup_size(64) fn main(@builtin(global_invocation_id) g: vec3<u32>) {{\n\
            let i = g.x; if i >= {n}u {{ return; }}\n\
            let rho = min(inp[3u * i].xyz, vec3<f32>(0.99));\n\
-           outp[i] = vec4<f32>(radiosity(rho, inp[3u * i + 1u].xyz, inp[3u * i + 2u].xyz), 0.0);\n\
+           outp[i] = vec4<f32>(lambert_radiosity(rho, inp[3u * i + 1u].xyz, inp[3u * i + 2u].xyz), 0.0);\n\
          }}\n"
     );
     let d = &dev.device;

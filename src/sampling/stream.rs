@@ -60,6 +60,14 @@ impl Stream {
     /// The vertices drawn for the noise check and their second ray set
     /// ([`crate::exchange::denoise::noise_check`]).
     pub const NOISE_CHECK: Stream = Stream(0xd1b5_4a32_d192_ed03);
+    /// Jitter of the sub-cells of the sky's refined cells
+    /// ([`crate::sky::refine`]); salt 0: those hash the seed itself, as
+    /// they did before streams were named (their results are kept).
+    pub const SKY_CELLS: Stream = Stream(0);
+    /// The emitter links' per-vertex sample offsets
+    /// ([`crate::exchange::sources::emitter_links`], a PCG seeded with
+    /// [`Stream::vertex_seed`]); salt 0, as before streams were named.
+    pub const EMITTER_LINKS: Stream = Stream(0);
     /// Jitter of the vertices' portal samples ([`crate::sky::portal`]).
     pub const PORTALS: Stream = Stream(0x5be0_cd19_137e_2179);
     /// Points on emitters from near hits ([`crate::exchange::near::emitters`]).
@@ -73,6 +81,13 @@ impl Stream {
     #[inline]
     pub const fn seed(self, seed: u64) -> u64 {
         seed ^ self.0
+    }
+
+    /// The seed of vertex `v`'s generator in this stream (vertices spread
+    /// by the golden-ratio multiple, so neighbours' seeds differ in every bit).
+    #[inline]
+    pub const fn vertex_seed(self, seed: u64, v: usize) -> u64 {
+        self.seed(seed) ^ (v as u64).wrapping_mul(0x9e37_79b9_7f4a_7c15)
     }
 
     /// The stream's key for `seed`, hashed on its own first (seeds that
@@ -119,6 +134,7 @@ mod tests {
     fn streams_differ() {
         let all = [
             Stream::ROTATIONS,
+            Stream::SKY_CELLS,
             Stream::NOISE_CHECK,
             Stream::PORTALS,
             Stream::NEAR_EMITTERS,

@@ -60,7 +60,7 @@
 
 use crate::kdtree::Ray;
 use crate::links::RaySetup;
-use crate::sampling::splitmix64;
+use crate::sampling::stream::{splitmix64, Stream};
 use crate::scene::prep::PreparedScene;
 use crate::trace::Tracer;
 use glam::{Vec2, Vec3};
@@ -237,8 +237,7 @@ struct Receiver {
 fn sample(portals: &[Portal], p: usize, side: u32, j: u32, r: Receiver, seed: u64) -> Option<Sample> {
     let Receiver { v, x, n } = r;
     // The seed hashed on its own first: seeds differing in low bits must not share jitters.
-    let h =
-        splitmix64(splitmix64(seed ^ 0x5be0_cd19_137e_2179) ^ ((v as u64) << 20) ^ ((p as u64) << 8) ^ u64::from(j));
+    let h = splitmix64(Stream::PORTALS.key(seed) ^ ((v as u64) << 20) ^ ((p as u64) << 8) ^ u64::from(j));
     sample_jittered(portals, p, side, j, x, n, h)
 }
 

@@ -92,19 +92,28 @@ impl<'a> Tracers<'a> {
     /// without one), with the CPU structure, which cannot fail. `what`
     /// names the stage in the warning.
     pub fn any<T>(&self, what: &str, mut f: impl FnMut(&dyn Tracer) -> crate::Result<T>) -> T {
-        if let Some(g) = self.gpu {
-            match f(g) {
-                Ok(t) => return t,
-                Err(e) => eprintln!("warning: {e}; {what} on the CPU"),
-            }
-        }
-        self.cpu_only(f)
+        let on_gpu = self.gpu.map(|g| f(g));
+        gpu_else_cpu(what, on_gpu, || self.cpu_only(f))
     }
 
     /// `f` run with the CPU structure: stages the GPU tracer does not
     /// serve (arbitrary closest-hit batches).
     pub fn cpu_only<T>(&self, mut f: impl FnMut(&dyn Tracer) -> crate::Result<T>) -> T {
         f(self.cpu).expect("a CPU tracer cannot fail")
+    }
+}
+
+/// The one "GPU, else the CPU" rule: the GPU's result where the GPU was
+/// tried (`on_gpu` is `Some`) and succeeded; where it failed, a warning
+/// naming `what` and the CPU's result; without a GPU, the CPU's.
+pub(crate) fn gpu_else_cpu<T>(what: &str, on_gpu: Option<crate::Result<T>>, cpu: impl FnOnce() -> T) -> T {
+    match on_gpu {
+        Some(Ok(t)) => t,
+        Some(Err(e)) => {
+            eprintln!("warning: {e}; {what} on the CPU");
+            cpu()
+        }
+        None => cpu(),
     }
 }
 

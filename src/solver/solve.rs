@@ -17,6 +17,7 @@
 //! later near field and smooths by the fixed one-ring average. Irradiance
 //! in W/m^2, radiosity in W/(m^2 sr).
 
+use super::compute::gpu_else_cpu;
 use super::{Solution, Solver};
 use crate::exchange::bounce::hidden::StandIn;
 use crate::exchange::bounce::operator::radiosity;
@@ -204,14 +205,7 @@ impl Solver {
                 .and_then(|k| k.with_reconstruction(reconstruction.as_ref()))
                 .and_then(|k| exchange::bounce::gather::drive(&mut k.with_stand_ins(stand_ins.to_vec()), gather))
         });
-        let bounces = match on_gpu {
-            Some(Ok(r)) => r,
-            Some(Err(e)) => {
-                eprintln!("warning: {e}; gathering on the CPU");
-                self.gather_cpu(&b0, &stand_ins, gather)
-            }
-            None => self.gather_cpu(&b0, &stand_ins, gather),
-        };
+        let bounces = gpu_else_cpu("gathering", on_gpu, || self.gather_cpu(&b0, &stand_ins, gather));
         let mut e = bounces.e_indirect.clone();
         src.add_control_variate(&mut e);
         let e_near_gather = if quick { Vec::new() } else { self.near_later(src, &e, &stand_ins) };

@@ -24,6 +24,14 @@ use rayon::prelude::*;
 
 pub use crate::scene::TracerKind;
 
+/// How far rays leave a surface, and how short of their end shadow segments
+/// stop ([`Ray::shadow`]), as a fraction of the local length: the mean edge
+/// at a vertex (light and emitter links), the hit triangle's longest edge at
+/// a near hit (the near field's rays). One value for every stage: it keeps
+/// f32 rounding of the start point off the surface it leaves and is far
+/// below any feature the solver resolves.
+pub const RAY_OFFSET: f32 = 1e-4;
+
 /// Batches of rays: closest hits and any-hit visibility.
 pub trait Tracer: Sync {
     /// Short name for figures ("bvh", "kd", "gpu-kd").

@@ -79,16 +79,13 @@
 
 use crate::exchange::denoise::noise::{iid_variance, vertex_moments, NoiseParams};
 use crate::links::{merge_vertex, LinkParams, Links, MergeScratch, RaySetup, TraceScratch};
+use crate::sampling::stream::Stream;
 use crate::scene::prep::PreparedScene;
 use crate::trace::CpuTracer;
 use glam::{Vec3, Vec4};
 use half::f16;
 use rayon::prelude::*;
 use std::time::Instant;
-
-/// Offset of the check's seed from the links' seed (any constant that
-/// makes the check's draw independent of the links').
-const SEED_OFFSET: u64 = 0xd1b5_4a32_d192_ed03;
 
 /// A second link group at each sampled vertex.
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -126,7 +123,7 @@ pub fn sample_vertices(n: usize, m: usize, seed: u64) -> Vec<u32> {
     let lo = |i: usize| (i as u64 * n as u64 / m as u64) as u32;
     (0..m)
         .map(|i| {
-            let h = crate::sampling::splitmix64(seed ^ SEED_OFFSET ^ ((i as u64) << 20));
+            let h = crate::sampling::splitmix64(Stream::NOISE_CHECK.seed(seed) ^ ((i as u64) << 20));
             let width = u64::from(lo(i + 1) - lo(i));
             lo(i) + (((h >> 32) * width) >> 32) as u32
         })
@@ -173,7 +170,7 @@ impl NoiseCheck {
         if vertices.is_empty() {
             return NoiseCheck::default();
         }
-        let setup = RaySetup::new(scene, &LinkParams { seed: link.seed ^ SEED_OFFSET, ..*link });
+        let setup = RaySetup::new(scene, &LinkParams { seed: Stream::NOISE_CHECK.seed(link.seed), ..*link });
         let n_rays = setup.directions.len();
         let weight_per_ray = std::f64::consts::PI / n_rays as f64;
         // Per sampled vertex: its merged group.

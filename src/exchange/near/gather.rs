@@ -44,7 +44,7 @@ use crate::kdtree::Hit;
 use crate::links::{NearHit, NearHits};
 use crate::sampling::stream::{cosine_direction, splitmix64, Stream};
 use crate::scene::prep::PreparedScene;
-use crate::trace::Tracer;
+use crate::trace::{Tracer, RAY_OFFSET};
 use glam::Vec3;
 use rayon::prelude::*;
 use std::time::Instant;
@@ -76,13 +76,11 @@ pub struct NearGatherParams {
     /// smoothing instead of with the gathered part, tearoom 64 rays read
     /// 5.3%.
     pub rays: u32,
-    /// Rays start `eps * l` off and into the hit's triangle (l: its longest edge).
-    pub eps: f32,
 }
 
 impl Default for NearGatherParams {
     fn default() -> Self {
-        Self { rays: 2, eps: 1e-4 }
+        Self { rays: 2 }
     }
 }
 
@@ -255,7 +253,7 @@ fn gather_rays(
     v: usize,
     rank: usize,
 ) -> Vec<Option<Ray>> {
-    let (origin, normal) = hit_origin(scene, h, params.eps);
+    let (origin, normal) = hit_origin(scene, h, RAY_OFFSET);
     let key = Stream::NEAR_GATHER.hit_key(seed, v, h.tri, rank);
     (0..params.rays)
         .map(|j| {

@@ -41,7 +41,7 @@ use crate::kdtree::traverse::{Ray, NO_SKIP};
 use crate::links::{NearHit, NearHits};
 use crate::scene::motion::Motion;
 use crate::scene::{prep::PreparedScene, Light};
-use crate::trace::Tracer;
+use crate::trace::{Tracer, RAY_OFFSET};
 use glam::Vec3;
 use rayon::prelude::*;
 use std::time::Instant;
@@ -194,7 +194,7 @@ fn shadow_ray(scene: &PreparedScene, h: &NearHit, light: &Light, params: &LightL
     if !(g > 0.0) {
         return (0.0, None);
     }
-    let eps = params.eps * l;
+    let eps = RAY_OFFSET * l;
     let o = p + normal * eps;
     let (dir, dist) = toward(light, o);
     if dist <= 2.0 * eps || !dir.is_finite() {

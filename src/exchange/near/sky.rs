@@ -59,7 +59,7 @@ use crate::links::{NearHit, NearHits};
 use crate::sampling::stream::{cosine_direction, splitmix64, Stream};
 use crate::scene::prep::PreparedScene;
 use crate::sky::{portal, Portal};
-use crate::trace::Tracer;
+use crate::trace::{Tracer, RAY_OFFSET};
 use glam::Vec3;
 use rayon::prelude::*;
 use std::time::Instant;
@@ -72,13 +72,11 @@ pub struct NearSkyParams {
     pub samples: u32,
     /// Points per near hit and portal, rounded down to a square grid. Default 1.
     pub portal_samples: u32,
-    /// Shadow rays start `eps * l` off the hit's triangle (l: its longest edge).
-    pub eps: f32,
 }
 
 impl Default for NearSkyParams {
     fn default() -> Self {
-        Self { samples: 1, portal_samples: 1, eps: 1e-4 }
+        Self { samples: 1, portal_samples: 1 }
     }
 }
 
@@ -235,7 +233,7 @@ fn candidates(
     v: usize,
     rank: usize,
 ) -> Vec<Candidate> {
-    let (origin, normal) = hit_origin(scene, h, params.eps);
+    let (origin, normal) = hit_origin(scene, h, RAY_OFFSET);
     let key = Stream::NEAR_SKY.hit_key(seed, v, h.tri, rank) << 20;
     let mut out = Vec::new();
     // From t = 0 (with `tmin = eps` rays from the floor's edge left the

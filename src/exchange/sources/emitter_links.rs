@@ -66,8 +66,9 @@
 
 use crate::kdtree::traverse::Ray;
 use crate::links::shoot::ray_origin;
+use crate::sampling::stream::Stream;
 use crate::scene::prep::PreparedScene;
-use crate::trace::Tracer;
+use crate::trace::{Tracer, RAY_OFFSET};
 use glam::{DVec3, Vec2, Vec3};
 use rand::{Rng, SeedableRng};
 use rayon::prelude::*;
@@ -86,15 +87,13 @@ pub struct EmitterLinkParams {
     /// Largest number of (vertex, emitter triangle) pairs evaluated; above
     /// it the emitters' light travels through the vertex links.
     pub max_pairs: u64,
-    /// Shadow-ray start offset and end margin, as a fraction of the mean edge length at the vertex.
-    pub eps: f32,
     /// Origin nudge of crease and border vertices (as in [`crate::links::LinkParams`]).
     pub nudge: f32,
 }
 
 impl Default for EmitterLinkParams {
     fn default() -> Self {
-        Self { samples: 64, max_pairs: 400_000_000, eps: 1e-4, nudge: 1e-3 }
+        Self { samples: 64, max_pairs: 400_000_000, nudge: 1e-3 }
     }
 }
 
@@ -418,12 +417,12 @@ fn vertex_rays(
     }
     out.unshaded = f_group.iter().enumerate().filter(|(_, &x)| x > 0.0).map(|(g, &x)| (g as u32, x)).collect();
     let VertexRays { rays, weights, picks, .. } = &mut out;
-    let mut rng = rand_pcg::Pcg32::seed_from_u64(seed ^ (v as u64).wrapping_mul(0x9e37_79b9_7f4a_7c15));
+    let mut rng = rand_pcg::Pcg32::seed_from_u64(Stream::EMITTER_LINKS.vertex_seed(seed, v));
     let xi: f64 = rng.random();
     let offset = Vec2::new(rng.random(), rng.random());
     let total = params.samples as f64;
     let origin = ray_origin(scene, v, params.nudge);
-    let eps = params.eps * scene.mean_edge_length(v).max(f32::MIN_POSITIVE);
+    let eps = RAY_OFFSET * scene.mean_edge_length(v).max(f32::MIN_POSITIVE);
     let mut below = 0.0;
     for (e, &ft) in emitters.iter().zip(&f) {
         if ft <= 0.0 {

@@ -66,7 +66,7 @@ use crate::kdtree::traverse::Ray;
 use crate::links::shoot::ray_origin;
 use crate::scene::motion::Motion;
 use crate::scene::{prep::PreparedScene, Light};
-use crate::trace::Tracer;
+use crate::trace::{Tracer, RAY_OFFSET};
 use glam::Vec3;
 use rayon::prelude::*;
 use std::time::Instant;
@@ -74,8 +74,6 @@ use std::time::Instant;
 /// Parameters of light-link computation.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct LightLinkParams {
-    /// Shadow-ray start and end offset, as a fraction of the mean edge length at the vertex.
-    pub eps: f32,
     /// Oversample visibility on the one-ring for [`LightLinks::factors`]
     /// (false, the default: the vertex alone, and `factors` equal `point`).
     pub oversample: bool,
@@ -89,7 +87,7 @@ pub struct LightLinkParams {
 
 impl Default for LightLinkParams {
     fn default() -> Self {
-        Self { eps: 1e-4, oversample: false, min_distance: 1e-3, nudge: 1e-3, bounce_source: BounceSource::default() }
+        Self { oversample: false, min_distance: 1e-3, nudge: 1e-3, bounce_source: BounceSource::default() }
     }
 }
 
@@ -528,7 +526,7 @@ fn shadow_rays(
         return VertexRays { g: 0.0, samples: 1, free: 0, first_free: false, rays: Vec::new() };
     }
     sample_points(scene, v, params, pts);
-    let eps = params.eps * scene.mean_edge_length(v).max(f32::MIN_POSITIVE);
+    let eps = RAY_OFFSET * scene.mean_edge_length(v).max(f32::MIN_POSITIVE);
     let mut free = 0u32;
     let mut first_free = false;
     let mut rays = Vec::with_capacity(pts.len());
