@@ -25,6 +25,11 @@ impl<T> Default for Csr<T> {
 }
 
 impl<T> Csr<T> {
+    /// `rows` empty rows.
+    pub fn empty_rows(rows: usize) -> Self {
+        Csr { offsets: vec![0; rows + 1], items: Vec::new() }
+    }
+
     /// Row `i`.
     #[inline]
     pub fn row(&self, i: usize) -> &[T] {

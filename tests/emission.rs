@@ -203,7 +203,7 @@ fn the_emitter_control_variate_cuts_the_shades_noise_without_bias() {
     assert!(with < 0.8 * without, "spread {with} with, {without} without");
     assert!((m_with - m_without).abs() < 3.0 * stderr, "means {m_with} / {m_without}, standard error {stderr}");
     // The coefficients' sum against the form factors'.
-    let c_sum: f64 = cv.coefficients.iter().map(|c| *c as f64).sum();
+    let c_sum: f64 = cv.rows.items.iter().map(|c| c.1 as f64).sum();
     let f_sum: f64 = (0..s1.scene().vertex_count())
         .flat_map(|v| s1.emitter_links().of(v).map(|(_, f)| std::f64::consts::PI * f as f64))
         .sum();

@@ -70,7 +70,7 @@ fn assert_equals_fresh(updated: &Solver, what: &str) {
     assert_eq!(updated.near().light.columns, fresh.near().light.columns, "{what}: near hits' light columns");
     let (ea, eb) = (&updated.emitter_links(), &fresh.emitter_links());
     ea.validate(updated.scene().vertex_count()).expect("emitter links valid");
-    assert_eq!((&ea.offsets, &ea.groups, &ea.factors), (&eb.offsets, &eb.groups, &eb.factors), "{what}: emitter links");
+    assert_eq!(ea.rows, eb.rows, "{what}: emitter links");
     let (sa, sb) = (updated.solve(), fresh.solve());
     assert_eq!(sa.e_direct, sb.e_direct, "{what}: exact direct light");
     assert_eq!(sa.e_sky, sb.e_sky, "{what}: sky light");

@@ -77,6 +77,7 @@
 //! m))` picked by a hash of the seed (spread over the scene and its
 //! meshes, the same for the same seed); every vertex when `n <= m`.
 
+use crate::csr::{Csr, RowBuilder};
 use crate::exchange::denoise::noise::{iid_variance, vertex_moments, NoiseParams};
 use crate::links::{merge_vertex, LinkParams, Links, MergeScratch, RaySetup, TraceScratch};
 use crate::sampling::stream::Stream;
@@ -92,11 +93,9 @@ use std::time::Instant;
 pub struct NoiseCheck {
     /// The sampled vertices, ascending (empty: no check, the model's ratio).
     pub vertices: Vec<u32>,
-    /// The second group of `vertices[i]`: `targets[offsets[i]..offsets[i + 1]]`.
-    pub offsets: Vec<u32>,
-    pub targets: Vec<u32>,
-    /// Link weights (unitless, as [`Links::weights`]).
-    pub weights: Vec<f16>,
+    /// Row `i`: the second group of `vertices[i]`, `(target, weight)`
+    /// links (weights unitless, as [`Links::weights`]).
+    pub groups: Csr<(u32, f16)>,
     /// Rays the links had per vertex when the check was shot.
     pub rays_per_vertex: u32,
     /// Vertices in all: sampled vertex `i` stands for the vertices of its
@@ -189,17 +188,17 @@ impl NoiseCheck {
         let rays = (vertices.len() * n_rays) as u64;
         let mut out = NoiseCheck {
             vertices,
-            offsets: vec![0],
             rays_per_vertex: n_rays as u32,
             rays,
             scene_vertices: scene.vertex_count(),
             ..Default::default()
         };
+        let mut rows = RowBuilder::new();
         for (targets, weights) in groups {
-            out.targets.extend(targets);
-            out.weights.extend(weights);
-            out.offsets.push(out.targets.len() as u32);
+            rows.extend(targets.into_iter().zip(weights));
+            rows.end_row();
         }
+        out.groups = rows.finish();
         if params.check_neighbours > 0 {
             let at: Vec<Vec3> = out.vertices.iter().map(|&v| scene.positions[v as usize]).collect();
             out.kernel = kernel_weights(&at, params.check_neighbours as usize);
@@ -228,12 +227,8 @@ impl NoiseCheck {
                 .enumerate()
                 .map(|(i, &v)| {
                     let (e, m2) = vertex_moments(links, b, v as usize);
-                    let r = self.offsets[i] as usize..self.offsets[i + 1] as usize;
-                    let e2: Vec3 = self.targets[r.clone()]
-                        .iter()
-                        .zip(&self.weights[r])
-                        .map(|(&t, w)| b[t as usize][0].truncate() * w.to_f32())
-                        .sum();
+                    let e2: Vec3 =
+                        self.groups.row(i).iter().map(|&(t, w)| b[t as usize][0].truncate() * w.to_f32()).sum();
                     let iid = iid_variance(e, m2, rays_per_vertex).element_sum();
                     (0.5 * (e - e2).length_squared() as f64, iid as f64)
                 })
@@ -292,22 +287,20 @@ impl NoiseCheck {
         if self.vertices.windows(2).any(|w| w[0] >= w[1]) || self.vertices.iter().any(|&v| v as usize >= n) {
             return Err(format!("noise check: sampled vertices not ascending or out of range ({n} vertices)"));
         }
-        if self.offsets.len() != self.vertices.len() + 1 || self.offsets[0] != 0 {
-            return Err(format!("noise check: {} offsets for {} vertices", self.offsets.len(), self.vertices.len()));
+        if self.groups.rows() != self.vertices.len() {
+            return Err(format!("noise check: {} groups for {} vertices", self.groups.rows(), self.vertices.len()));
         }
-        if self.offsets.windows(2).any(|w| w[0] > w[1]) || *self.offsets.last().unwrap() as usize != self.targets.len()
-        {
-            return Err("noise check: offsets not ascending or not ending at the targets' count".into());
-        }
-        if self.weights.len() != self.targets.len() {
-            return Err(format!("noise check: {} weights for {} targets", self.weights.len(), self.targets.len()));
-        }
-        if let Some(t) = self.targets.iter().find(|&&t| t as usize >= n) {
-            return Err(format!("noise check: target {t} out of range ({n} vertices)"));
-        }
-        if let Some(w) = self.weights.iter().find(|w| !(w.to_f32().is_finite() && w.to_f32() > 0.0)) {
-            return Err(format!("noise check: weight {w} not finite and positive"));
-        }
+        self.groups
+            .validate(self.vertices.len(), |_, &(t, w)| {
+                if t as usize >= n {
+                    return Err(format!("target {t} out of range ({n} vertices)"));
+                }
+                if !(w.to_f32().is_finite() && w.to_f32() > 0.0) {
+                    return Err(format!("weight {w} not finite and positive"));
+                }
+                Ok(())
+            })
+            .map_err(|e| format!("noise check: {e}"))?;
         let m = self.vertices.len();
         if self.scene_vertices != n {
             return Err(format!("noise check: made for {} vertices, not {n}", self.scene_vertices));
@@ -318,8 +311,8 @@ impl NoiseCheck {
         if let Some(w) = self.kernel.iter().find(|w| !(w.is_finite() && (0.0..=1.0).contains(*w))) {
             return Err(format!("noise check: kernel weight {w} not in [0, 1]"));
         }
-        for (i, w) in self.offsets.windows(2).enumerate() {
-            let sum: f32 = self.weights[w[0] as usize..w[1] as usize].iter().map(|w| w.to_f32()).sum();
+        for i in 0..m {
+            let sum: f32 = self.groups.row(i).iter().map(|w| w.1.to_f32()).sum();
             if sum > std::f32::consts::PI * 1.01 {
                 return Err(format!("noise check: vertex {}'s weights sum to {sum} > pi", self.vertices[i]));
             }

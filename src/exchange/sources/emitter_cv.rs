@@ -54,11 +54,12 @@
 //! without emitters are unchanged (cornell 1024 rays 1.02%). Cost: one
 //! pass over the links when they or the emitter links change.
 
+use crate::csr::{Csr, RowBuilder};
 use crate::exchange::bounce::operator::radiosity;
 use crate::exchange::sources::emitter_links::EmitterLinks;
 use crate::exchange::sources::emitter_links::NO_GROUP;
 use crate::links::Links;
-use crate::scene::prep::{check_offsets, PreparedScene};
+use crate::scene::prep::PreparedScene;
 use glam::{Vec3, Vec4};
 use rayon::prelude::*;
 use std::f32::consts::PI;
@@ -74,11 +75,8 @@ pub struct EmitterCv {
     pub area_share: Vec<f32>,
     /// Groups.
     pub groups: usize,
-    /// Vertex `v`'s entries are `offsets[v]..offsets[v + 1]`.
-    pub offsets: Vec<u32>,
-    pub entry_groups: Vec<u32>,
-    /// `pi F_xg - W_xg` of each entry, sr.
-    pub coefficients: Vec<f32>,
+    /// Per vertex, `(group, pi F_xg - W_xg)` entries (sr).
+    pub rows: Csr<(u32, f32)>,
 }
 
 impl EmitterCv {
@@ -136,19 +134,13 @@ impl EmitterCv {
                 row
             })
             .collect();
-        let mut out = EmitterCv {
-            vertex_group: vertex_group.clone(),
-            area_share,
-            groups,
-            offsets: Vec::with_capacity(n + 1),
-            ..Default::default()
-        };
-        out.offsets.push(0);
+        let mut out = EmitterCv { vertex_group: vertex_group.clone(), area_share, groups, rows: Csr::default() };
+        let mut table = RowBuilder::new();
         for row in rows {
-            out.entry_groups.extend(row.iter().map(|e| e.0));
-            out.coefficients.extend(row.iter().map(|e| e.1));
-            out.offsets.push(out.entry_groups.len() as u32);
+            table.extend(row);
+            table.end_row();
         }
+        out.rows = table.finish();
         out
     }
 
@@ -175,17 +167,7 @@ impl EmitterCv {
         if self.is_empty() {
             return vec![Vec3::ZERO; n];
         }
-        (0..n)
-            .into_par_iter()
-            .map(|v| {
-                let r = self.offsets[v] as usize..self.offsets[v + 1] as usize;
-                self.entry_groups[r.clone()]
-                    .iter()
-                    .zip(&self.coefficients[r])
-                    .map(|(&g, &c)| means[g as usize] * c)
-                    .sum()
-            })
-            .collect()
+        (0..n).into_par_iter().map(|v| self.rows.row(v).iter().map(|&(g, c)| means[g as usize] * c).sum()).collect()
     }
 
     /// Radiosity moments `[B, B^2]` ([`crate::exchange::denoise::noise::radiosity_moments`])
@@ -204,31 +186,28 @@ impl EmitterCv {
     /// shares summing to 1 per group, CSR offsets, finite coefficients.
     pub fn validate(&self, n: usize) -> Result<(), String> {
         if self.is_empty() {
-            return if self.offsets.is_empty() && self.coefficients.is_empty() {
+            return if self.rows.is_empty() && self.rows.items.is_empty() {
                 Ok(())
             } else {
                 Err("coefficients without groups".into())
             };
         }
-        if self.vertex_group.len() != n || self.area_share.len() != n || self.offsets.len() != n + 1 {
+        if self.vertex_group.len() != n || self.area_share.len() != n {
             return Err(format!(
-                "{} vertex groups, {} area shares, {} offsets for {n} vertices",
+                "{} vertex groups, {} area shares for {n} vertices",
                 self.vertex_group.len(),
-                self.area_share.len(),
-                self.offsets.len()
+                self.area_share.len()
             ));
         }
-        check_offsets(&self.offsets, n, self.entry_groups.len())?;
-        if self.entry_groups.len() != self.coefficients.len() {
-            return Err("groups and coefficients disagree in length".into());
-        }
-        if self
-            .entry_groups
-            .iter()
-            .chain(self.vertex_group.iter().filter(|&&g| g != NO_GROUP))
-            .any(|&g| g as usize >= self.groups)
-        {
-            return Err(format!("a group out of {}", self.groups));
+        let groups = self.groups;
+        self.rows.validate(n, |_, &(g, c)| {
+            if g as usize >= groups || !c.is_finite() {
+                return Err(format!("entry (group {g} of {groups}, coefficient {c})"));
+            }
+            Ok(())
+        })?;
+        if self.vertex_group.iter().any(|&g| g != NO_GROUP && g as usize >= self.groups) {
+            return Err(format!("a vertex group out of {}", self.groups));
         }
         let mut sums = vec![0f64; self.groups];
         for (&g, &s) in self.vertex_group.iter().zip(&self.area_share) {
@@ -241,9 +220,6 @@ impl EmitterCv {
         }
         if let Some((g, s)) = sums.iter().enumerate().find(|(_, s)| (**s - 1.0).abs() > 1e-3 && **s != 0.0) {
             return Err(format!("group {g}'s area shares sum to {s}"));
-        }
-        if let Some(c) = self.coefficients.iter().find(|c| !c.is_finite()) {
-            return Err(format!("coefficient {c}"));
         }
         Ok(())
     }

@@ -64,6 +64,7 @@
 //! emitter links and every emitter's light travels through the vertex
 //! links (documented fallback; [`EmitterLinks::fallback`] says why).
 
+use crate::csr::{Csr, RowBuilder};
 use crate::kdtree::traverse::Ray;
 use crate::links::shoot::ray_origin;
 use crate::sampling::stream::Stream;
@@ -109,12 +110,8 @@ pub struct EmitterLinks {
     /// when the links were built, [`NO_GROUP`] for others (empty when
     /// inactive).
     pub vertex_group: Vec<u32>,
-    /// Vertex `v`'s entries are `offsets[v]..offsets[v + 1]`.
-    pub offsets: Vec<u32>,
-    /// Group of each entry.
-    pub groups: Vec<u32>,
-    /// `F_vg` of each entry (unitless, finite, >= 0).
-    pub factors: Vec<f32>,
+    /// Per vertex, `(group, F_vg)` entries (`F_vg` unitless, finite, >= 0).
+    pub rows: Csr<(u32, f32)>,
     pub shadow_rays: u64,
     pub ms: f64,
     /// Why there are no emitter links although some surface emits.
@@ -168,7 +165,7 @@ impl EmitterLinks {
         let start = Instant::now();
         let n = scene.vertex_count();
         let (emitters, group_vertex) = emitters(scene);
-        let mut out = EmitterLinks { offsets: vec![0; n + 1], covered: vec![false; n], ..Default::default() };
+        let mut out = EmitterLinks { rows: Csr::empty_rows(n), covered: vec![false; n], ..Default::default() };
         if emitters.is_empty() || params.samples == 0 {
             return Ok(out);
         }
@@ -196,7 +193,7 @@ impl EmitterLinks {
                 }
             }
         }
-        let mut entries: Vec<Vec<(u32, f32)>> = Vec::with_capacity(n);
+        let mut rows = RowBuilder::new();
         for first in (0..n).step_by(CHUNK_VERTICES) {
             let end = (first + CHUNK_VERTICES).min(n);
             let groups = out.group_vertex.len();
@@ -209,22 +206,18 @@ impl EmitterLinks {
             for r in &per_vertex {
                 let vis = &visible[at..at + r.rays.len()];
                 at += r.rays.len();
-                entries.push(finish_vertex(vis, r));
+                rows.extend(finish_vertex(vis, r));
+                rows.end_row();
             }
         }
-        for (v, e) in entries.into_iter().enumerate() {
-            out.groups.extend(e.iter().map(|x| x.0));
-            out.factors.extend(e.iter().map(|x| x.1));
-            out.offsets[v + 1] = out.groups.len() as u32;
-        }
+        out.rows = rows.finish();
         out.ms = start.elapsed().as_secs_f64() * 1e3;
         Ok(out)
     }
 
     /// Vertex `v`'s `(group, F_vg)` entries.
     pub fn of(&self, v: usize) -> impl Iterator<Item = (u32, f32)> + '_ {
-        let r = self.offsets[v] as usize..self.offsets[v + 1] as usize;
-        self.groups[r.clone()].iter().copied().zip(self.factors[r].iter().copied())
+        self.rows.row(v).iter().copied()
     }
 
     /// True if some vertex has an emitter factor.
@@ -239,13 +232,7 @@ impl EmitterLinks {
             return vec![Vec3::ZERO; n];
         }
         let m: Vec<Vec3> = self.group_vertex.iter().map(|&v| emission[v as usize]).collect();
-        (0..n)
-            .into_par_iter()
-            .map(|v| {
-                let r = self.offsets[v] as usize..self.offsets[v + 1] as usize;
-                self.groups[r.clone()].iter().zip(&self.factors[r]).map(|(&g, &f)| m[g as usize] * f).sum()
-            })
-            .collect()
+        (0..n).into_par_iter().map(|v| self.rows.row(v).iter().map(|&(g, f)| m[g as usize] * f).sum()).collect()
     }
 
     /// The emission the vertex links must carry: `emission` with the
@@ -260,23 +247,16 @@ impl EmitterLinks {
     /// Checks the structure against a scene of `n` vertices: CSR offsets,
     /// group ids, finite non-negative factors.
     pub fn validate(&self, n: usize) -> Result<(), String> {
-        if self.offsets.len() != n + 1 || self.covered.len() != n {
-            return Err(format!(
-                "{} offsets and {} covered flags for {n} vertices",
-                self.offsets.len(),
-                self.covered.len()
-            ));
+        if self.rows.rows() != n || self.covered.len() != n {
+            return Err(format!("{} rows and {} covered flags for {n} vertices", self.rows.rows(), self.covered.len()));
         }
-        crate::scene::prep::check_offsets(&self.offsets, n, self.groups.len())?;
-        if self.groups.len() != self.factors.len() {
-            return Err("groups and factors disagree in length".into());
-        }
-        if let Some(g) = self.groups.iter().find(|&&g| g as usize >= self.group_vertex.len()) {
-            return Err(format!("group {g} of {}", self.group_vertex.len()));
-        }
-        if let Some(f) = self.factors.iter().find(|f| !(f.is_finite() && **f >= 0.0)) {
-            return Err(format!("factor {f}"));
-        }
+        let groups = self.group_vertex.len();
+        self.rows.validate(n, |_, &(g, f)| {
+            if g as usize >= groups || !(f.is_finite() && f >= 0.0) {
+                return Err(format!("entry (group {g} of {groups}, factor {f})"));
+            }
+            Ok(())
+        })?;
         if let Some(v) = self.group_vertex.iter().find(|&&v| v as usize >= n) {
             return Err(format!("group vertex {v} of {n}"));
         }
