@@ -89,7 +89,7 @@ fn near_field_lowers_tearoom_error() {
         let r = reference(&s);
         let no_gather = |p: &mut SolveParams| p.terms.near_gather = false;
         let (with_solver, with) = solve(&s, no_gather);
-        assert!(!with_solver.links().near.hits.is_empty(), "no near hits at {rays} rays");
+        assert!(!with_solver.links().near.rows.items.is_empty(), "no near hits at {rays} rays");
         let (_, without) = solve(&s, |p| {
             no_gather(p);
             p.terms.near = false;

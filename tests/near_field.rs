@@ -89,7 +89,7 @@ fn plate_underside_agrees_with_the_reference() {
     let mean = |e: &[Vec3]| under.iter().map(|&v| e[v].x as f64).sum::<f64>() / under.len() as f64;
     eprintln!(
         "underside mean E_i: reference {m_ref:.4}, near hits {m_with:.4}, links alone {m_without:.4}; {} near hits",
-        with.links().near.hits.len()
+        with.links().near.rows.items.len()
     );
     assert!((m_with - m_ref).abs() < 0.1 * m_ref, "with near hits: {m_with} vs {m_ref}");
     assert!((m_without - m_ref).abs() > 3.0 * (m_with - m_ref).abs(), "links alone {m_without} vs {m_ref}");

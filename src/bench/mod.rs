@@ -397,7 +397,7 @@ pub fn run_once(
         bytes_merged: l.merged_bytes,
         gather_bytes: bandwidth::gather_bytes(solver.links()),
         ray_state_bytes: solver.ray_state_bytes(),
-        near_hits: solver.links().near.hits.len() as u64,
+        near_hits: solver.links().near.rows.items.len() as u64,
     };
     let accel_build_ms = solver.accel_build_ms();
     let (_, deform) = time_deformation(solver);

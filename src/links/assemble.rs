@@ -149,14 +149,14 @@ impl CsrBuilder {
         self.sums.extend(r.sums);
         self.sky.extend(r.sky);
         if !r.near_counts.is_empty() {
-            if self.near.offsets.is_empty() {
-                self.near.offsets.push(0);
+            if self.near.rows.offsets.is_empty() {
+                self.near.rows.offsets.push(0);
             }
             for c in r.near_counts {
-                let last = *self.near.offsets.last().expect("non-empty");
-                self.near.offsets.push(last + c);
+                let last = *self.near.rows.offsets.last().expect("non-empty");
+                self.near.rows.offsets.push(last + c);
             }
-            self.near.hits.extend(r.near);
+            self.near.rows.items.extend(r.near);
         }
         links.stats.add(&r.stats);
         Ok(())
@@ -178,8 +178,8 @@ impl CsrBuilder {
         links.packed.bytes.shrink_to_fit();
         links.weights.shrink_to_fit();
         links.sky = SkyVisibility::from_sparse(n, self.sky);
-        if !self.near.offsets.is_empty() && self.near.offsets.len() != n + 1 {
-            return Err(format!("near hits recorded for {} of {n} vertices", self.near.offsets.len() - 1));
+        if !self.near.rows.offsets.is_empty() && self.near.rows.offsets.len() != n + 1 {
+            return Err(format!("near hits recorded for {} of {n} vertices", self.near.rows.offsets.len() - 1));
         }
         links.near = self.near;
         links.set_sizes();

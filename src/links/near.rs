@@ -21,6 +21,7 @@
 //! (their light columns would cost a light move more than the rest of it).
 
 use super::merge::{HitRecord, HIT_BACK, HIT_MISS};
+use crate::csr::Csr;
 use crate::scene::prep::PreparedScene;
 use std::sync::Arc;
 
@@ -51,17 +52,21 @@ pub struct NearHit {
     pub v: f32,
 }
 
-/// Every vertex's near hits in CSR form (empty: none recorded).
+/// Every vertex's near hits (empty: none recorded).
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct NearHits {
-    /// Vertex `v`'s hits are `hits[offsets[v]..offsets[v + 1]]`; empty when none were recorded.
-    pub offsets: Vec<u32>,
-    pub hits: Vec<NearHit>,
+    /// Row `v`: vertex `v`'s hits; no rows when none were recorded.
+    pub rows: Csr<NearHit>,
 }
 
 impl NearHits {
     pub fn is_empty(&self) -> bool {
-        self.hits.is_empty()
+        self.rows.items.is_empty()
+    }
+
+    /// Every vertex's hits, vertex after vertex.
+    pub fn hits(&self) -> &[NearHit] {
+        &self.rows.items
     }
 
     /// Consecutive ranges of vertices (of `n`) with at most about
@@ -73,7 +78,7 @@ impl NearHits {
         let mut v0 = 0usize;
         while v0 < n {
             let mut v1 = v0;
-            while v1 < n && self.offsets[v1] - self.offsets[v0] < max_hits {
+            while v1 < n && self.rows.offsets[v1] - self.rows.offsets[v0] < max_hits {
                 v1 += 1;
             }
             let v1 = v1.max(v0 + 1);
@@ -85,26 +90,26 @@ impl NearHits {
 
     /// Vertex `v`'s near hits.
     pub fn of(&self, v: usize) -> &[NearHit] {
-        match self.offsets.get(v + 1) {
-            Some(&end) => &self.hits[self.offsets[v] as usize..end as usize],
-            None => &[],
+        if v < self.rows.rows() {
+            self.rows.row(v)
+        } else {
+            &[]
         }
     }
 
     /// Checks the CSR offsets against `n` vertices, triangle ids against
     /// `triangles` and the barycentrics (finite, inside the triangle).
     pub fn validate(&self, n: usize, triangles: usize) -> Result<(), String> {
-        if self.offsets.is_empty() {
-            return if self.hits.is_empty() { Ok(()) } else { Err("near hits without offsets".into()) };
-        }
-        crate::scene::prep::check_offsets(&self.offsets, n, self.hits.len()).map_err(|e| format!("near hits: {e}"))?;
-        for h in &self.hits {
-            let inside = h.u.is_finite() && h.v.is_finite() && h.u >= -1e-6 && h.v >= -1e-6 && h.u + h.v <= 1.0 + 1e-6;
-            if h.tri as usize >= triangles || !inside {
-                return Err(format!("near hit {h:?} of {triangles} triangles"));
-            }
-        }
-        Ok(())
+        self.rows
+            .validate(n, |_, h| {
+                let inside =
+                    h.u.is_finite() && h.v.is_finite() && h.u >= -1e-6 && h.v >= -1e-6 && h.u + h.v <= 1.0 + 1e-6;
+                if h.tri as usize >= triangles || !inside {
+                    return Err(format!("near hit {h:?} of {triangles} triangles"));
+                }
+                Ok(())
+            })
+            .map_err(|e| format!("near hits: {e}"))
     }
 }
 

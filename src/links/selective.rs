@@ -501,7 +501,7 @@ fn near_hits(
     let n = scene.vertex_count();
     let rays = ctx.setup.directions.len();
     let Some(limits) =
-        (!links.near.offsets.is_empty()).then(|| near_limits(scene, rays as u32, &params.near)).flatten()
+        (!links.near.rows.offsets.is_empty()).then(|| near_limits(scene, rays as u32, &params.near)).flatten()
     else {
         return (NearHits::default(), Vec::new());
     };
@@ -518,13 +518,12 @@ fn near_hits(
             Some(out)
         })
         .collect();
-    let mut near = NearHits { offsets: Vec::with_capacity(n + 1), hits: Vec::with_capacity(links.near.hits.len()) };
-    near.offsets.push(0);
+    let mut rows = crate::csr::RowBuilder::new();
     for (v, r) in redone.iter().enumerate() {
-        near.hits.extend_from_slice(r.as_deref().unwrap_or(links.near.of(v)));
-        near.offsets.push(near.hits.len() as u32);
+        rows.extend(r.as_deref().unwrap_or(links.near.of(v)).iter().copied());
+        rows.end_row();
     }
-    (near, redone.iter().map(Option::is_some).collect())
+    (NearHits { rows: rows.finish() }, redone.iter().map(Option::is_some).collect())
 }
 
 /// The link groups of `vertices` shot with `params` (used for previews at

@@ -257,7 +257,7 @@ impl Solver {
         self.traced.sky.validate(n, rays).map_err(|e| format!("sky rays: {e}"))?;
         let shape = crate::exchange::near::Shape {
             vertices: n,
-            near_hits: self.links.near.hits.len(),
+            near_hits: self.links.near.rows.items.len(),
             triangles: self.scene.triangles.len(),
             groups: self.traced.emitter_links.group_vertex.len(),
         };
@@ -323,7 +323,7 @@ impl Solver {
             portal_ms: t.sky.portals.ms,
             noise_check_rays: t.noise_check.rays,
             noise_check_ms: t.noise_check.ms,
-            near_hits: self.links.near.hits.len() as u64,
+            near_hits: self.links.near.rows.items.len() as u64,
             near_emitter_rays,
             near_emitter_ms,
             near_sky_rays,

@@ -130,7 +130,7 @@ impl NearGather {
             return Ok(out);
         }
         out.per_hit = params.rays;
-        out.hits.reserve(near.hits.len() * params.rays as usize);
+        out.hits.reserve(near.rows.items.len() * params.rays as usize);
         // Per ray of the vertex's near hits in order, its ray (none: a direction under the surface).
         let samples = |v: usize, hits: &[NearHit]| -> (Vec<bool>, Vec<Ray>) {
             let all: Vec<Option<Ray>> = (0..hits.len())
@@ -183,7 +183,7 @@ impl NearTerm for NearGather {
         let (scene, near) = (f.scene, f.near);
         let n = scene.vertex_count();
         let m = self.per_hit as usize;
-        if self.is_empty() || near.offsets.len() != n + 1 || self.hits.len() != near.hits.len() * m {
+        if self.is_empty() || near.rows.offsets.len() != n + 1 || self.hits.len() != near.rows.items.len() * m {
             return None;
         }
         let (b_h, g_h) = (f.b_later, f.g_later);
@@ -197,7 +197,7 @@ impl NearTerm for NearGather {
             (0..n)
                 .into_par_iter()
                 .map(|v| {
-                    let first = near.offsets[v] as usize;
+                    let first = near.rows.offsets[v] as usize;
                     let mut d = Vec3::ZERO;
                     for (i, h) in near.of(v).iter().enumerate() {
                         let k = first + i;

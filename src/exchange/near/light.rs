@@ -86,7 +86,7 @@ impl NearLight {
         for light in &scene.lights {
             let kept = old_lights.iter().position(|o| same_column(o, light));
             let column = match kept {
-                Some(i) if old_columns[i].len() == near.hits.len() => std::mem::take(&mut old_columns[i]),
+                Some(i) if old_columns[i].len() == near.rows.items.len() => std::mem::take(&mut old_columns[i]),
                 _ => {
                     let (c, r) = column(scene, near, light, tracer, params)?;
                     rays += r;
@@ -141,7 +141,7 @@ impl NearTerm for NearLight {
             (0..scene.vertex_count())
                 .into_par_iter()
                 .map(|v| {
-                    let first = near.offsets[v] as usize;
+                    let first = near.rows.offsets[v] as usize;
                     let mut d = Vec3::ZERO;
                     for (i, h) in near.of(v).iter().enumerate() {
                         let (rho, interpolated) = albedo_and_interpolated(scene, h, f.e_lights);
@@ -183,7 +183,7 @@ fn column(
     tracer: &dyn Tracer,
     params: &LightLinkParams,
 ) -> crate::Result<(Vec<f32>, u64)> {
-    column_at(scene, &near.hits, light, tracer, params)
+    column_at(scene, &near.rows.items, light, tracer, params)
 }
 
 /// The geometry term of `light` at near hit `h` and its shadow ray (none
@@ -252,11 +252,11 @@ impl NearLight {
         params: &LightLinkParams,
     ) -> crate::Result<u64> {
         let start = Instant::now();
-        if !self.covers(&scene.lights) || before.offsets.len() != after.offsets.len() {
+        if !self.covers(&scene.lights) || before.rows.offsets.len() != after.rows.offsets.len() {
             *self = NearLight::compute(scene, after, tracer, params)?;
-            return Ok(after.hits.len() as u64);
+            return Ok(after.rows.items.len() as u64);
         }
-        let n = after.offsets.len().saturating_sub(1);
+        let n = after.rows.offsets.len().saturating_sub(1);
         let mut rays = 0u64;
         let mut recomputed = 0u64;
         for (l, light) in scene.lights.iter().enumerate() {
@@ -264,7 +264,7 @@ impl NearLight {
             let kept: Vec<Option<f32>> = (0..n)
                 .into_par_iter()
                 .flat_map_iter(|v| {
-                    let (b0, a) = (before.offsets[v] as usize, after.of(v));
+                    let (b0, a) = (before.rows.offsets[v] as usize, after.of(v));
                     let old = &self.columns[l];
                     a.iter()
                         .enumerate()
@@ -283,7 +283,7 @@ impl NearLight {
                 })
                 .collect();
             let todo: Vec<NearHit> =
-                kept.iter().zip(&after.hits).filter(|(k, _)| k.is_none()).map(|(_, h)| *h).collect();
+                kept.iter().zip(&after.rows.items).filter(|(k, _)| k.is_none()).map(|(_, h)| *h).collect();
             let (fresh, r) = column_at(scene, &todo, light, tracer, params)?;
             rays += r;
             recomputed += todo.len() as u64;

@@ -175,7 +175,7 @@ impl NearTerm for NearSky {
     fn correction(&self, f: &Fields) -> Option<Vec<Vec3>> {
         let n = f.scene.vertex_count();
         let sky = f.sky?;
-        if self.is_empty() || f.near.offsets.len() != n + 1 || f.e_sky.len() != n {
+        if self.is_empty() || f.near.rows.offsets.len() != n + 1 || f.e_sky.len() != n {
             return None;
         }
         let radiance = sky.radiance_fn();
