@@ -235,8 +235,8 @@ impl GpuLinks {
             }
         }
         let d = &self.dev.device;
-        let entries: Vec<[u32; 2]> = r.targets.iter().zip(&r.weights).map(|(t, w)| [*t, w.to_bits()]).collect();
-        let offsets = storage_init(d, "radiosity correction offsets", &r.offsets);
+        let entries: Vec<[u32; 2]> = r.rows.items.iter().map(|(t, w)| [*t, w.to_bits()]).collect();
+        let offsets = storage_init(d, "radiosity correction offsets", &r.rows.offsets);
         let entries = storage_init(d, "radiosity correction entries", &entries);
         *cache = Some((r.clone(), offsets.clone(), entries.clone()));
         self.correction_uploads.fetch_add(1, std::sync::atomic::Ordering::Relaxed);

@@ -79,6 +79,7 @@
 //! through are radiosity W/(m^2 sr) or irradiance W/m^2 (the pass is
 //! linear apart from the clamp).
 
+use crate::csr::{Csr, RowBuilder};
 use crate::scene::prep::PreparedScene;
 use glam::{Mat2, Vec2, Vec3, Vec4};
 use rayon::prelude::*;
@@ -89,11 +90,8 @@ use rayon::prelude::*;
 /// row: unchanged.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Reconstruction {
-    pub offsets: Vec<u32>,
-    /// Neighbour `n` of each entry.
-    pub targets: Vec<u32>,
-    /// `K_cn` of each entry.
-    pub weights: Vec<f32>,
+    /// Row `c`: `(n, K_cn)` entries (neighbour, weight).
+    pub rows: Csr<(u32, f32)>,
 }
 
 /// Two unit tangents of unit normal `n`.
@@ -240,25 +238,17 @@ impl Reconstruction {
     /// incident triangles).
     pub fn new(scene: &PreparedScene) -> Reconstruction {
         let rows: Vec<Vec<(u32, f32)>> = (0..scene.vertex_count()).into_par_iter().map(|c| row(scene, c)).collect();
-        let mut r = Reconstruction {
-            offsets: Vec::with_capacity(rows.len() + 1),
-            targets: Vec::with_capacity(rows.iter().map(Vec::len).sum()),
-            weights: Vec::new(),
-        };
-        r.offsets.push(0);
+        let mut table = RowBuilder::new();
         for row in rows {
-            for (n, k) in row {
-                r.targets.push(n);
-                r.weights.push(k);
-            }
-            r.offsets.push(r.targets.len() as u32);
+            table.extend(row);
+            table.end_row();
         }
-        r
+        Reconstruction { rows: table.finish() }
     }
 
     /// Vertices covered.
     pub fn rows(&self) -> usize {
-        self.offsets.len().saturating_sub(1)
+        self.rows.rows()
     }
 
     /// `Btilde` of vertex `c` (module doc) from `b` (padded; the fourth
@@ -266,12 +256,11 @@ impl Reconstruction {
     /// the WGSL pass's.
     #[inline]
     pub fn at(&self, b: &[Vec4], c: usize) -> Vec4 {
-        let (j0, j1) = (self.offsets[c] as usize, self.offsets[c + 1] as usize);
         let bc = b[c];
         let (mut acc, mut lo, mut hi) = (bc, bc, bc);
-        for j in j0..j1 {
-            let bn = b[self.targets[j] as usize];
-            acc += (bn - bc) * self.weights[j];
+        for &(n, k) in self.rows.row(c) {
+            let bn = b[n as usize];
+            acc += (bn - bc) * k;
             lo = lo.min(bn);
             hi = hi.max(bn);
         }
@@ -302,18 +291,17 @@ impl Reconstruction {
     /// Checks against `n` vertices: CSR offsets, neighbours in range,
     /// finite weights.
     pub fn validate(&self, n: usize) -> Result<(), String> {
-        crate::scene::prep::check_offsets(&self.offsets, n, self.targets.len())
-            .map_err(|e| format!("reconstruction: {e}"))?;
-        if self.weights.len() != self.targets.len() {
-            return Err("reconstruction: weights and targets differ in length".into());
+        if self.rows.rows() != n {
+            return Err(format!("reconstruction: {} rows for {n} vertices", self.rows.rows()));
         }
-        if let Some(t) = self.targets.iter().find(|&&t| t as usize >= n) {
-            return Err(format!("reconstruction: neighbour {t} out of range"));
-        }
-        if let Some(k) = self.weights.iter().find(|k| !k.is_finite()) {
-            return Err(format!("reconstruction: weight {k} not finite"));
-        }
-        Ok(())
+        self.rows
+            .validate(n, |_, &(t, k)| {
+                if t as usize >= n || !k.is_finite() {
+                    return Err(format!("neighbour {t} of {n}, weight {k}"));
+                }
+                Ok(())
+            })
+            .map_err(|e| format!("reconstruction: {e}"))
     }
 }
 
@@ -401,7 +389,7 @@ mod tests {
         let ones = vec![1.5f32; s.vertex_count()];
         assert!(corrected(&r, &ones).iter().all(|&x| x == 1.5));
         for c in 0..s.vertex_count() {
-            let k: f32 = r.weights[r.offsets[c] as usize..r.offsets[c + 1] as usize].iter().map(|k| k.abs()).sum();
+            let k: f32 = r.rows.row(c).iter().map(|e| e.1.abs()).sum();
             if s.boundary[c] {
                 assert!(k > 0.01, "border vertex {c}: no correction");
             } else {
@@ -421,9 +409,9 @@ mod tests {
         let r = Reconstruction::new(&s);
         let b: Vec<f32> = (0..s.vertex_count()).map(|i| ((i * 7919) % 13) as f32).collect();
         let c = corrected(&r, &b);
-        assert!(r.offsets.windows(2).any(|w| w[1] - w[0] > 8), "no two-ring rows");
+        assert!(r.rows.offsets.windows(2).any(|w| w[1] - w[0] > 8), "no two-ring rows");
         for v in 0..s.vertex_count() {
-            let ring = r.targets[r.offsets[v] as usize..r.offsets[v + 1] as usize].iter().map(|&n| b[n as usize]);
+            let ring = r.rows.row(v).iter().map(|&(n, _)| b[n as usize]);
             let (lo, hi) = ring.fold((b[v], b[v]), |(lo, hi), x| (lo.min(x), hi.max(x)));
             assert!(c[v] >= lo && c[v] <= hi, "vertex {v}: {} outside [{lo}, {hi}]", c[v]);
         }
