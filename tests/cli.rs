@@ -107,3 +107,36 @@ fn solve_time_evaluates_the_deformers() {
     let (ok, err) = run(&["solve", "torso", "--time", "nan", "--rays", "4"]);
     assert!(!ok && err.contains("--time"), "{err}");
 }
+
+/// `--off` switches terms off end to end: `solve --off near` records no
+/// near hits where the default does; an unknown term, on the command line
+/// or in a scene file's `off` list, is an error listing the terms (and
+/// naming the file).
+#[test]
+fn off_switches_terms_and_rejects_unknown_names() {
+    let solve = |extra: &[&str]| {
+        let out = Command::new(env!("CARGO_BIN_EXE_linkgi"))
+            .args(["solve", "cornell", "--rays", "16", "--backend", "cpu"])
+            .args(extra)
+            .output()
+            .unwrap();
+        (
+            out.status.success(),
+            String::from_utf8_lossy(&out.stdout).into_owned(),
+            String::from_utf8_lossy(&out.stderr).into_owned(),
+        )
+    };
+    let (ok, on, _) = solve(&[]);
+    assert!(ok && on.contains("near hits"), "the default solve records near hits:\n{on}");
+    let (ok, off, _) = solve(&["--off", "near,near_gather"]);
+    assert!(ok && !off.contains("near hits"), "--off near records none:\n{off}");
+    let (ok, _, err) = solve(&["--off", "nearr"]);
+    assert!(!ok && err.contains("unknown term") && err.contains("near_gather"), "{err}");
+    let d = std::env::temp_dir().join(format!("linkgi_off_{}", std::process::id()));
+    std::fs::create_dir_all(&d).unwrap();
+    std::fs::write(d.join("floor.obj"), "v 0 0 0\nv 1 0 0\nv 0 0 -1\nf 1 2 3\n").unwrap();
+    let scene = d.join("bad.toml");
+    std::fs::write(&scene, "[settings]\noff = [\"hiden\"]\n[[mesh]]\nobj = \"floor.obj\"\n").unwrap();
+    let (ok, err) = run(&["solve", scene.to_str().unwrap(), "--rays", "4", "--backend", "cpu"]);
+    assert!(!ok && err.contains("bad.toml") && err.contains("settings.off") && err.contains("hidden"), "{err}");
+}

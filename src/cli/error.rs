@@ -34,6 +34,9 @@ pub struct ErrorArgs {
     /// CPU ray tracer: bvh (wide BVH) or kd (kd-tree with ropes); overrides the scene's setting.
     #[arg(long, value_name = "bvh|kd", value_parser = super::parse_tracer)]
     pub tracer: Option<TracerKind>,
+    /// Optional terms of the solve to switch off, comma-separated (as `solve --off`), to measure what they buy.
+    #[arg(long, value_name = "TERM[,TERM]", value_parser = super::setup::parse_off)]
+    pub off: Option<linkgi::scene::terms::Terms>,
 }
 
 fn bar(len: usize, msg: &'static str) -> ProgressBar {
@@ -48,7 +51,8 @@ fn bar(len: usize, msg: &'static str) -> ProgressBar {
 
 pub fn run(args: ErrorArgs) -> Result<()> {
     // The sweep sets rays and bounces itself and runs on the CPU.
-    let Setup { prepared, .. } = setup(&args.scene, &Overrides { tracer: args.tracer, ..Default::default() })?;
+    let Setup { prepared, .. } =
+        setup(&args.scene, &Overrides { tracer: args.tracer, off: args.off, ..Default::default() })?;
     std::fs::create_dir_all(&args.out).with_context(|| format!("creating {}", args.out.display()))?;
     let cache = args.cache.clone().unwrap_or_else(reference::cache::default_dir);
     let rp = ReferenceParams { samples_per_vertex: args.ref_samples, ..Default::default() };
