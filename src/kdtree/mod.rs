@@ -130,7 +130,13 @@ pub struct KdBuildParams {
     pub empty_bonus: f32,
     /// Depth limit; `None`: `8 + 1.3 log2(n)` as in pbrt.
     pub max_depth: Option<u32>,
-    /// Object-median levels at the top; `None`: `ceil(log2(threads))`, one subtree per core.
+    /// Object-median levels at the top, whose subtrees are built in
+    /// parallel (default 3: 8 subtrees). Fixed, not derived from the thread
+    /// count: the rope walk's ties depend on the tree, so a tree that
+    /// followed the machine's cores gave other links on another machine
+    /// (the Cornell box's `E_i` differed between 1 and 2 threads). `None`:
+    /// `ceil(log2(threads))`, one subtree per core (faster builds, the
+    /// links then depend on the machine).
     pub parallel_levels: Option<u32>,
 }
 
@@ -142,7 +148,7 @@ impl Default for KdBuildParams {
             leaf_block: 4,
             empty_bonus: 0.2,
             max_depth: None,
-            parallel_levels: None,
+            parallel_levels: Some(3),
         }
     }
 }
