@@ -55,18 +55,13 @@ pub struct GatherResult {
     pub ms: f64,
 }
 
+/// The sum of `e` over all vertices per channel, in f64: chunk sums in
+/// parallel, added in chunk order, so the total (and the stopping rule and
+/// tail it feeds) does not depend on the thread count.
 fn total(e: &[Vec3]) -> [f64; 3] {
-    e.par_iter()
-        .fold(
-            || [0f64; 3],
-            |mut s, v| {
-                s[0] += v.x as f64;
-                s[1] += v.y as f64;
-                s[2] += v.z as f64;
-                s
-            },
-        )
-        .reduce(|| [0f64; 3], |a, b| [a[0] + b[0], a[1] + b[1], a[2] + b[2]])
+    let sum = |a: [f64; 3], v: &Vec3| [a[0] + v.x as f64, a[1] + v.y as f64, a[2] + v.z as f64];
+    let chunks: Vec<[f64; 3]> = e.par_chunks(4096).map(|c| c.iter().fold([0f64; 3], sum)).collect();
+    chunks.iter().fold([0f64; 3], |a, b| [a[0] + b[0], a[1] + b[1], a[2] + b[2]])
 }
 
 /// One implementation of the bounce loop (the CPU here, the GPU in
