@@ -159,7 +159,7 @@ fn sky_refinement_sharpens_the_opening_without_bias() {
     eprintln!(
         "open box, 256 rays: RMS error of F {rms_plain:.5} -> {rms_refined:.5} ({} refined cells, {} rays), \
          relative bias {bias_plain:+.5} -> {bias_refined:+.5}",
-        refined.cells.len(),
+        refined.cells.items.len(),
         refined.rays
     );
     assert!(none.is_empty() && !refined.is_empty());

@@ -128,7 +128,7 @@ pub fn run(args: SolveArgs) -> Result<()> {
         if !r.is_empty() {
             println!(
                 "sky refinement   {} cells with an edge, {} rays ({}x{} a cell) in {:.1} ms, {:.2} MB",
-                r.cells.len(),
+                r.cells.items.len(),
                 r.rays,
                 r.sub,
                 r.sub,

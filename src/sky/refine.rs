@@ -43,6 +43,7 @@
 use super::portal::{through_any, Portal};
 use super::visibility::{RayFrames, SkyVisibility};
 use super::Sky;
+use crate::csr::{Csr, RowBuilder};
 use crate::kdtree::Ray;
 use crate::links::RaySetup;
 use crate::sampling::stream::Stream;
@@ -77,12 +78,10 @@ impl Default for SkyRefineParams {
 pub struct SkyRefinement {
     /// Sub-cells a side (0: none refined).
     pub sub: u32,
-    /// Vertex `v`'s cells: `cells[offsets[v]..offsets[v + 1]]` (empty: none anywhere).
-    pub offsets: Vec<u32>,
-    /// Ray index of each refined cell in its vertex's direction set.
-    pub cells: Vec<u32>,
-    /// Bit `j` of a refined cell: its sub-cell `j` ray left the scene.
-    pub masks: Vec<u32>,
+    /// Row `v`: vertex `v`'s refined cells, `(ray index of the cell in its
+    /// vertex's direction set, mask)`, ascending; bit `j` of a mask: its
+    /// sub-cell `j` ray left the scene (no rows: none refined anywhere).
+    pub cells: Csr<(u32, u32)>,
     /// Fresh rays traced.
     pub rays: u64,
     /// Time spent, ms.
@@ -185,14 +184,14 @@ impl SkyRefinement {
         // Misses through a portal are the portal's: an edge between them and hits needs no refining.
         let cells: Vec<Vec<u32>> =
             (0..n).into_par_iter().map(|v| grid.refined(&frames.effective_mask(v, vis.vertex(v)))).collect();
-        let mut offsets = Vec::with_capacity(n + 1);
-        offsets.push(0u32);
-        for c in &cells {
-            offsets.push(offsets.last().unwrap() + c.len() as u32);
+        let mut rows = RowBuilder::new();
+        for c in cells {
+            rows.extend(c.into_iter().map(|cell| (cell, 0u32)));
+            rows.end_row();
         }
-        let cells: Vec<u32> = cells.concat();
+        let mut cells = rows.finish();
+        let offsets = cells.offsets.clone();
         let per = (sub * sub) as usize;
-        let mut masks = vec![0u32; cells.len()];
         let mut rays = 0u64;
         // Batches of vertices, so the rays of the whole scene are never held at once.
         let mut v0 = 0usize;
@@ -210,9 +209,9 @@ impl SkyRefinement {
                     let set = setup.sets[v];
                     let (setup, grid) = (&setup, &grid);
                     let range = offsets[v] as usize..offsets[v + 1] as usize;
-                    let cells = &cells;
+                    let cells = &cells.items;
                     range.flat_map(move |slot| {
-                        let (x, y) = grid.cell_of[cells[slot] as usize];
+                        let (x, y) = grid.cell_of[cells[slot].0 as usize];
                         (0..sub * sub).map(move |j| {
                             let u = sub_point(grid.k, sub, x, y, j, set, seed);
                             let dir = world_direction(frame, cosine_hemisphere(u).normalize());
@@ -230,22 +229,22 @@ impl SkyRefinement {
             let mut it = visible.into_iter();
             for (slot, j, ray) in batch {
                 if ray.is_some() && it.next() == Some(true) {
-                    masks[slot] |= 1 << j;
+                    cells.items[slot].1 |= 1 << j;
                 }
             }
             v0 = v1;
         }
-        Ok(SkyRefinement { sub, offsets, cells, masks, rays, ms: start.elapsed().as_secs_f64() * 1e3 })
+        Ok(SkyRefinement { sub, cells, rays, ms: start.elapsed().as_secs_f64() * 1e3 })
     }
 
     /// True when no cell is refined.
     pub fn is_empty(&self) -> bool {
-        self.cells.is_empty()
+        self.cells.items.is_empty()
     }
 
     /// Bytes held.
     pub fn bytes(&self) -> u64 {
-        (4 * (self.offsets.len() + self.cells.len() + self.masks.len())) as u64
+        self.cells.bytes()
     }
 
     /// Checks the structure against `n` vertices of `rays` rays each: offsets
@@ -255,27 +254,19 @@ impl SkyRefinement {
         if self.is_empty() {
             return Ok(());
         }
-        if self.offsets.len() != n + 1
-            || self.offsets[0] != 0
-            || *self.offsets.last().unwrap() as usize != self.cells.len()
-        {
-            return Err(format!("offsets: {} for {n} vertices and {} cells", self.offsets.len(), self.cells.len()));
-        }
-        if self.masks.len() != self.cells.len() || self.sub == 0 || self.sub > MAX_SUB {
-            return Err(format!("{} masks for {} cells, sub {}", self.masks.len(), self.cells.len(), self.sub));
+        if self.sub == 0 || self.sub > MAX_SUB {
+            return Err(format!("sub {}", self.sub));
         }
         let bits = self.sub * self.sub;
+        self.cells.validate(n, |v, &(c, m)| {
+            if c as usize >= rays || (bits < 32 && m >> bits != 0) {
+                return Err(format!("vertex {v}: cell {c} of {rays} rays or mask bits beyond {bits}"));
+            }
+            Ok(())
+        })?;
         for v in 0..n {
-            let (a, b) = (self.offsets[v] as usize, self.offsets[v + 1] as usize);
-            if a > b {
-                return Err(format!("vertex {v}: offsets descend"));
-            }
-            let row = &self.cells[a..b];
-            if row.iter().any(|&c| c as usize >= rays) || row.windows(2).any(|w| w[0] >= w[1]) {
-                return Err(format!("vertex {v}: cells out of range or order"));
-            }
-            if bits < 32 && self.masks[a..b].iter().any(|&m| m >> bits != 0) {
-                return Err(format!("vertex {v}: mask bits beyond {bits} rays"));
+            if self.cells.row(v).windows(2).any(|w| w[0].0 >= w[1].0) {
+                return Err(format!("vertex {v}: cells out of order"));
             }
         }
         Ok(())
@@ -311,18 +302,12 @@ impl SkyRefinement {
                 let frame = vertex_frame(frames.normals[v], frames.rotations[v]);
                 let set = frames.sets[v];
                 let dirs = frames.directions.set(set);
-                let (cells, masks) = match self.offsets.get(v + 1) {
-                    Some(&b) => {
-                        let a = self.offsets[v] as usize;
-                        (&self.cells[a..b as usize], &self.masks[a..b as usize])
-                    }
-                    None => (&[][..], &[][..]),
-                };
+                let cells = if v < self.cells.rows() { self.cells.row(v) } else { &[] };
                 let mut sum = Vec3::ZERO;
                 let mut var = Vec3::ZERO;
-                let mut next = cells.iter().zip(masks).peekable();
+                let mut next = cells.iter().peekable();
                 for r in 0..rays as u32 {
-                    if let Some((_, &m)) = next.next_if(|(&c, _)| c == r) {
+                    if let Some(&(_, m)) = next.next_if(|&&(c, _)| c == r) {
                         let (x, y) = grid.cell_of[r as usize];
                         let (mut s1, mut s2) = (Vec3::ZERO, Vec3::ZERO);
                         for j in 0..sub * sub {
@@ -430,9 +415,7 @@ mod tests {
             let cells = grid.refined(&mask);
             let refine = SkyRefinement {
                 sub: 3,
-                offsets: vec![0, cells.len() as u32],
-                masks: vec![0; cells.len()],
-                cells,
+                cells: Csr::from_pairs(1, &cells.iter().map(|&c| (0u32, (c, 0u32))).collect::<Vec<_>>()),
                 rays: 0,
                 ms: 0.0,
             };
