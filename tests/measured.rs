@@ -39,7 +39,7 @@ use linkgi::exchange;
 use linkgi::links::packed::code_of;
 use linkgi::links::{Links, RaySetup, HIT_BACK, HIT_MISS};
 use linkgi::solver::{SolveParams, Solver};
-use measure::{assert_closer, assert_not_worse, mesh, reference, scene, solve, Truth};
+use measure::{assert_closer, assert_not_worse, assert_term_lowers_total, mesh, reference, scene, solve, Truth};
 use rayon::prelude::*;
 
 /// `name` prepared at 256 rays a vertex, auto bounces, seed 1, and its solver.
@@ -59,19 +59,7 @@ fn solver(name: &str) -> Solver {
 #[test]
 #[ignore = "slow: measured against the reference"]
 fn final_gather_lowers_tearoom_error() {
-    let s = scene("tearoom", 1024, 1);
-    let r = reference(&s);
-    let (_, with) = solve(&s, |_| {});
-    let (_, without) = solve(&s, |p| p.terms.near_gather = false);
-    let t = Truth::total(&r);
-    assert_closer(
-        "tearoom 1024 rays, final gather off -> on",
-        "1.67 -> 1.12%",
-        &with.total(),
-        &without.total(),
-        &t,
-        t.all(),
-    );
+    assert_term_lowers_total("tearoom", 1024, "near_gather", |_| {}, "final gather", "1.67 -> 1.12%");
 }
 
 /// The near hits' exact direct light ([`linkgi::exchange::near_field`])
@@ -85,24 +73,9 @@ fn final_gather_lowers_tearoom_error() {
 #[ignore = "slow: measured against the reference"]
 fn near_field_lowers_tearoom_error() {
     for (rays, figure) in [(256, "3.5 -> 2.6%"), (1024, "3.1 -> 2.0%")] {
-        let s = scene("tearoom", rays, 1);
-        let r = reference(&s);
         let no_gather = |p: &mut SolveParams| p.terms.near_gather = false;
-        let (with_solver, with) = solve(&s, no_gather);
-        assert!(!with_solver.links().near.rows.items.is_empty(), "no near hits at {rays} rays");
-        let (_, without) = solve(&s, |p| {
-            no_gather(p);
-            p.terms.near = false;
-        });
-        let t = Truth::total(&r);
-        assert_closer(
-            &format!("tearoom {rays} rays, near hits' direct light off -> on"),
-            figure,
-            &with.total(),
-            &without.total(),
-            &t,
-            t.all(),
-        );
+        let (with, _) = assert_term_lowers_total("tearoom", rays, "near", no_gather, "near hits' direct light", figure);
+        assert!(!with.links().near.hits().is_empty(), "no near hits at {rays} rays");
     }
 }
 
@@ -114,19 +87,7 @@ fn near_field_lowers_tearoom_error() {
 #[test]
 #[ignore = "slow: measured against the reference"]
 fn radiosity_correction_lowers_tearoom_error() {
-    let s = scene("tearoom", 1024, 1);
-    let r = reference(&s);
-    let (_, with) = solve(&s, |_| {});
-    let (_, without) = solve(&s, |p| p.terms.reconstruct = false);
-    let t = Truth::total(&r);
-    assert_closer(
-        "tearoom 1024 rays, radiosity correction off -> on",
-        "1.120 -> 1.040%",
-        &with.total(),
-        &without.total(),
-        &t,
-        t.all(),
-    );
+    assert_term_lowers_total("tearoom", 1024, "reconstruct", |_| {}, "radiosity correction", "1.120 -> 1.040%");
 }
 
 /// The stand-ins for hidden vertices ([`linkgi::exchange::bounce::hidden`]: a
@@ -176,20 +137,9 @@ fn hidden_stand_ins_lower_the_error() {
 #[ignore = "slow: measured against the reference"]
 fn emitter_control_variate_lowers_window_error() {
     for (rays, figure) in [(64, "4.52 -> 3.84%"), (256, "2.12 -> 1.84%")] {
-        let s = scene("window", rays, 1);
-        let r = reference(&s);
-        let (_, with) = solve(&s, |_| {});
+        let (_, with) =
+            assert_term_lowers_total("window", rays, "emitter_cv", |_| {}, "emitter control variate", figure);
         assert!(!with.e_cv.is_empty(), "window has emitter groups");
-        let (_, without) = solve(&s, |p| p.terms.emitter_cv = false);
-        let t = Truth::total(&r);
-        assert_closer(
-            &format!("window {rays} rays, emitter control variate off -> on"),
-            figure,
-            &with.total(),
-            &without.total(),
-            &t,
-            t.all(),
-        );
     }
 }
 

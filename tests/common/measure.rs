@@ -216,3 +216,34 @@ pub fn assert_not_worse(
     );
     c
 }
+
+/// Solves `name` at `rays` rays (seed 1) with `base` applied, and again
+/// with `term` also off, and asserts ([`assert_closer`]) that the term
+/// lowers the total error over the whole scene; `what` and `figure` as
+/// there. Returns the solve with the term on.
+pub fn assert_term_lowers_total(
+    name: &str,
+    rays: u32,
+    term: &str,
+    base: impl Fn(&mut SolveParams),
+    what: &str,
+    figure: &str,
+) -> (Solver, Solution) {
+    let s = scene(name, rays, 1);
+    let r = reference(&s);
+    let (with_solver, with) = solve(&s, &base);
+    let (_, without) = solve(&s, |p| {
+        base(p);
+        p.terms.set(term, false).expect("a term's name");
+    });
+    let t = Truth::total(&r);
+    assert_closer(
+        &format!("{name} {rays} rays, {what} off -> on"),
+        figure,
+        &with.total(),
+        &without.total(),
+        &t,
+        t.all(),
+    );
+    (with_solver, with)
+}
