@@ -35,7 +35,11 @@ pub struct SolveParams {
     /// kd-tree for the GPU path, whose shader tests one triangle per step
     /// ([`KdBuildParams::for_gpu`]); the hits are the same.
     pub kd_gpu: KdBuildParams,
+    /// The vertex links: rays per vertex (accuracy against time and memory,
+    /// both linear in it), the one seed, near-hit recording.
     pub links: LinkParams,
+    /// Light links: the lights' visibility at the vertices, optional
+    /// one-ring oversampling, the bounce source.
     pub light: LightLinkParams,
     /// Next-event estimation toward emissive surfaces ([`crate::exchange::sources::emitter_links`]).
     pub emitter: EmitterLinkParams,
@@ -45,6 +49,7 @@ pub struct SolveParams {
     pub near_sky: NearSkyParams,
     /// The later bounces' light at near hits ([`crate::exchange::near::gather`]).
     pub near_gather: NearGatherParams,
+    /// The bounces: count or `auto` with its tolerance.
     pub gather: GatherParams,
     /// Correction of hidden vertices as link targets ([`crate::exchange::bounce::hidden`]).
     pub hidden: HiddenParams,

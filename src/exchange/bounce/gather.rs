@@ -27,6 +27,8 @@ use std::time::Instant;
 /// Parameters of the gather.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct GatherParams {
+    /// A fixed count, or `auto` (stop by `tolerance`, add the geometric
+    /// tail): more bounces cost one pass over the links each.
     pub bounces: Bounces,
     /// `auto`: relative contribution of the newest bounce at which to stop.
     pub tolerance: f32,

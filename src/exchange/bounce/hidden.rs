@@ -74,10 +74,15 @@ use std::f32::consts::PI;
 /// Parameters of the hidden-vertex correction.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct HiddenParams {
-    /// A vertex whose link weights sum to less than `threshold * pi` is hidden (0: no correction).
+    /// A vertex whose link weights sum to less than `threshold * pi` is
+    /// hidden (unitless; higher: more vertices replaced, some of them only
+    /// half covered). The term is switched off by
+    /// [`crate::scene::terms::Terms::hidden`].
     pub threshold: f32,
-    /// Stop once an iteration changes `E_i` by less than this share of the total change.
+    /// The post-pass oracle ([`correct`]): stop once an iteration changes
+    /// `E_i` by less than this share of the total change (unitless).
     pub tolerance: f32,
+    /// The post-pass oracle: at most this many iterations.
     pub max_iterations: u32,
     /// How many of the vertices linking to a hidden vertex most strongly stand in for it.
     pub linkers: u32,

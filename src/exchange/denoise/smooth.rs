@@ -82,6 +82,8 @@ use rayon::prelude::*;
 /// [`crate::solver::SolveParams::smoothing_angle_deg`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SmoothParams {
+    /// Noise-aware weights (default) or the fixed one-ring average
+    /// (cheaper, blurs edges of light the noise estimate would keep).
     pub mode: SmoothMode,
     /// Passes of the adaptive filter: each pass re-estimates the bias from
     /// the smoothed values and carries the noise variance through the
