@@ -171,10 +171,9 @@ fn noise_estimate_matches_the_spread_between_seeds() {
             let sol = a.solve();
             // The gathered part: the emitters' direct light and the near-hit correction have their own noise.
             let n = sol.e_indirect_raw.len();
-            let gathered: Vec<Vec3> =
-                (0..n).map(|v| sol.e_indirect_raw[v] - sol.e_emitter[v] - sol.e_near[v]).collect();
+            let gathered = &sol.e_gathered;
             let emission = a.emitter_links().carried_emission(&a.scene().emission);
-            let moments = noise::radiosity_moments(&a.scene().albedo, &emission, &sol.e_source, &gathered);
+            let moments = noise::radiosity_moments(&a.scene().albedo, &emission, &sol.e_source, gathered);
             let radiosity: Vec<Vec3> = moments.iter().map(|m| m[0].truncate()).collect();
             let (mut ea, mut eb) = (vec![Vec3::ZERO; n], vec![Vec3::ZERO; n]);
             gather_bounce(&a.links(), &radiosity, &mut ea);
@@ -187,10 +186,10 @@ fn noise_estimate_matches_the_spread_between_seeds() {
             }
             let actual: f64 = ea.iter().zip(&eb).map(|(x, y)| (*x - *y).length_squared() as f64 / 2.0).sum();
             let sum = |v: Vec<Vec3>| v.iter().map(|v| v.element_sum() as f64).sum::<f64>();
-            let estimate = sum(a.noise_variance(&sol.e_source, &sol.e_indirect_raw));
+            let estimate = sum(a.noise_variance(&sol.e_source, &sol.e_gathered));
             let p = &a.params().smoothing.noise;
             let model =
-                sum(noise::variance(&a.links(), &a.scene().albedo, &emission, &sol.e_source, &gathered, rays, p));
+                sum(noise::variance(&a.links(), &a.scene().albedo, &emission, &sol.e_source, gathered, rays, p));
             let (ratio, model_ratio) = (estimate / actual, model / actual);
             eprintln!(
                 "{name} {rays} rays: estimated / actual variance of E_i {ratio:.2} (the model alone {model_ratio:.2})"

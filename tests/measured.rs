@@ -325,7 +325,7 @@ fn paired_strata_noise_smooths_worse_than_the_check() {
             .map(|v| sol.e_direct[v] + sol.e_sky[v] + (e[v] + sol.e_emitter[v] + sol.e_near[v]).max(Vec3::ZERO))
             .collect()
     };
-    let checked = solver.noise_variance(&sol.e_source, &sol.e_indirect_raw);
+    let checked = solver.noise_variance(&sol.e_source, &sol.e_gathered);
     let pooled = exchange::smooth(&paired, &s.rings, &s.normals, angle);
     let summed = |v: &[Vec3]| v.iter().map(|x| x.element_sum() as f64).sum::<f64>();
     let ratio = summed(&pooled) / summed(&checked);
