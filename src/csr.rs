@@ -84,14 +84,12 @@ impl<T: Copy> Csr<T> {
             offsets[i + 1] += offsets[i];
         }
         let mut fill = offsets.clone();
-        let mut items = Vec::with_capacity(pairs.len());
-        // Placed by index: every slot is written once.
-        let mut slots: Vec<Option<T>> = vec![None; pairs.len()];
+        // Every slot is written once below; the first item only sizes the vector.
+        let mut items = pairs.first().map_or_else(Vec::new, |p| vec![p.1; pairs.len()]);
         for &(r, it) in pairs {
-            slots[fill[r as usize] as usize] = Some(it);
+            items[fill[r as usize] as usize] = it;
             fill[r as usize] += 1;
         }
-        items.extend(slots.into_iter().map(|s| s.expect("every slot filled")));
         Self { offsets, items }
     }
 }

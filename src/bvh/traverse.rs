@@ -154,14 +154,15 @@ impl Stack {
         self.sp += 1;
     }
 
-    /// Pops the top entry (`sp > 0`).
+    /// Pops the top entry (`sp > 0`): its child if its entry distance is
+    /// at most `limit`, else `None` (the child is read only then).
     #[inline(always)]
-    fn pop(&mut self) -> (u32, f32) {
+    fn pop_within(&mut self, limit: f32) -> Option<u32> {
         self.sp -= 1;
         // SAFETY: every entry below `sp` was written by `push` or by a
         // vector store of `push_packed`, which advances `sp` only over
         // the entries it stored.
-        unsafe { (self.child[self.sp].assume_init(), self.t[self.sp].assume_init()) }
+        unsafe { (self.t[self.sp].assume_init() <= limit).then(|| self.child[self.sp].assume_init()) }
     }
 
     /// The children pushed, bottom first.
@@ -447,8 +448,7 @@ impl Bvh {
             if w.st.sp == 0 {
                 return true;
             }
-            let (c, t) = w.st.pop();
-            if t <= w.tbest * CULL {
+            if let Some(c) = w.st.pop_within(w.tbest * CULL) {
                 w.cur = c;
                 return false;
             }

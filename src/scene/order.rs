@@ -47,10 +47,17 @@ pub fn locality(triangles: &[[u32; 3]]) -> f64 {
 /// `order[new] = old`. Each connected part starts at its lowest-numbered
 /// vertex; neighbours are taken in increasing number.
 pub fn breadth_first(triangles: &[[u32; 3]], n: usize) -> Vec<u32> {
-    let adj = super::rings::rings_of(triangles, n);
+    breadth_first_from(&super::rings::rings_of(triangles, n), 0..n as u32)
+}
+
+/// Breadth-first numbering over the one-rings `rings`, each component
+/// started at the first vertex of `starts` not yet numbered (`order[new] = old`).
+pub fn breadth_first_from(rings: &crate::csr::Csr, starts: impl IntoIterator<Item = u32>) -> Vec<u32> {
+    let n = rings.rows();
     let mut seen = vec![false; n];
     let mut order = Vec::with_capacity(n);
-    for s in 0..n {
+    for s in starts {
+        let s = s as usize;
         if seen[s] {
             continue;
         }
@@ -60,7 +67,7 @@ pub fn breadth_first(triangles: &[[u32; 3]], n: usize) -> Vec<u32> {
         while head < order.len() {
             let v = order[head] as usize;
             head += 1;
-            for &u in adj.row(v) {
+            for &u in rings.row(v) {
                 if !seen[u as usize] {
                     seen[u as usize] = true;
                     order.push(u);

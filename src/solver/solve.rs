@@ -183,9 +183,10 @@ impl Solver {
         let e_src = e_src_read.as_deref().unwrap_or(e_src);
         // The sky's field only where its term has samples to correct.
         use exchange::near::NearTerm;
-        let sky_read =
-            (!near.sky.is_empty() && s.sky.is_some()).then(|| through(e_sky).unwrap_or_else(|| e_sky.to_vec()));
-        let fields = self.fields(e_src, sky_read.as_deref().unwrap_or(&[]));
+        let sky_needed = !near.sky.is_empty() && s.sky.is_some();
+        let sky_read = if sky_needed { through(e_sky) } else { None };
+        let e_sky = if sky_needed { sky_read.as_deref().unwrap_or(e_sky) } else { &[] };
+        let fields = self.fields(e_src, e_sky);
         near.correction(Bounce::First, &fields).unwrap_or_else(|| vec![Vec3::ZERO; s.vertex_count()])
     }
 

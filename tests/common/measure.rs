@@ -153,6 +153,17 @@ pub fn compare(better: &[Vec3], worse: &[Vec3], truth: &Truth, range: Range<usiz
     }
 }
 
+/// Prints a comparison beside `figure`, the quoted measurement.
+fn report(what: &str, figure: &str, c: &Comparison) {
+    eprintln!(
+        "{what}: {:.3}% -> {:.3}% relative RMSE (quoted: {figure}); MSE gain {:.3e} of mean^2, reference-noise spread {:.1e}",
+        100.0 * c.worse_rel,
+        100.0 * c.better_rel,
+        c.gain,
+        c.noise_sd
+    );
+}
+
 /// Asserts that `better` is closer to `truth` than `worse` over the
 /// vertices `range`: the difference of their mean squared errors is
 /// positive and more than 4 standard deviations of the reference noise's
@@ -167,13 +178,7 @@ pub fn assert_closer(
     range: Range<usize>,
 ) -> Comparison {
     let c = compare(better, worse, truth, range);
-    eprintln!(
-        "{what}: {:.3}% -> {:.3}% relative RMSE (quoted: {figure}); MSE gain {:.3e} of mean^2, reference-noise spread {:.1e}",
-        100.0 * c.worse_rel,
-        100.0 * c.better_rel,
-        c.gain,
-        c.noise_sd
-    );
+    report(what, figure, &c);
     assert!(
         c.gain > 0.0 && c.gain > 4.0 * c.noise_sd,
         "{what}: not lower ({:.3}% against {:.3}%, MSE gain {:.2e}, reference-noise spread {:.1e}; quoted: {figure})",
@@ -199,13 +204,7 @@ pub fn assert_not_worse(
     range: Range<usize>,
 ) -> Comparison {
     let c = compare(better, worse, truth, range);
-    eprintln!(
-        "{what}: {:.3}% -> {:.3}% relative RMSE (quoted: {figure}); MSE gain {:.3e} of mean^2, reference-noise spread {:.1e}",
-        100.0 * c.worse_rel,
-        100.0 * c.better_rel,
-        c.gain,
-        c.noise_sd
-    );
+    report(what, figure, &c);
     assert!(
         c.gain > -2.0 * c.noise_sd,
         "{what}: worse ({:.3}% against {:.3}%, MSE gain {:.2e}, reference-noise spread {:.1e}; quoted: {figure})",

@@ -108,28 +108,7 @@ pub fn shuffled(n: usize) -> Vec<u32> {
 /// Breadth-first over the one-rings `rings`, from each unvisited vertex
 /// of `starts` in turn (the first step of Cuthill-McKee).
 pub fn breadth_first(rings: &Csr, starts: &[u32]) -> Vec<u32> {
-    let n = starts.len();
-    let mut seen = vec![false; n];
-    let mut order = Vec::with_capacity(n);
-    for &s0 in starts {
-        if seen[s0 as usize] {
-            continue;
-        }
-        seen[s0 as usize] = true;
-        let mut head = order.len();
-        order.push(s0);
-        while head < order.len() {
-            let v = order[head] as usize;
-            head += 1;
-            for &u in rings.row(v) {
-                if !seen[u as usize] {
-                    seen[u as usize] = true;
-                    order.push(u);
-                }
-            }
-        }
-    }
-    order
+    linkgi::scene::order::breadth_first_from(rings, starts.iter().copied())
 }
 
 /// `links` with the vertices renumbered into `old_of_new`: group `i` is
