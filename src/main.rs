@@ -40,6 +40,8 @@ enum Command {
 }
 
 fn main() -> Result<()> {
+    // Before any thread or GPU instance: libwayland's headless noise (src/cli/runtime_dir.rs).
+    cli::runtime_dir::ensure();
     let cli = Cli::parse();
     match cli.command {
         None => cli::render::run(cli::render::RenderArgs {
