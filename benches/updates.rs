@@ -70,6 +70,7 @@ fn open_plane(n: u32, sky: Sky) -> SceneDesc {
         lights: vec![],
         sky: Some(sky),
         warnings: vec![],
+        notes: vec![],
     }
 }
 

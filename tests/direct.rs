@@ -37,6 +37,7 @@ fn floor_scene(occluder: bool, lights: Vec<Light>) -> prep::PreparedScene {
         lights,
         sky: None,
         warnings: vec![],
+        notes: vec![],
     };
     let s = prep::prepare(&desc).unwrap();
     assert!(s.normals[..441].iter().all(|n| (*n - Vec3::Y).length() < 1e-6), "floor faces up");

@@ -61,6 +61,7 @@ fn parallel_squares_match_the_analytic_form_factor() {
         lights: vec![Light::Directional { direction: dir, irradiance: Vec3::splat(e0) }],
         sky: None,
         warnings: vec![],
+        notes: vec![],
     };
     let (solver, sol) = common::solve(&desc);
     let s = &solver.scene();

@@ -261,6 +261,7 @@ fn custom(meshes: Vec<MeshDesc>, lights: Vec<Light>) -> SceneDesc {
         lights,
         sky: None,
         warnings: vec![],
+        notes: vec![],
     }
 }
 

@@ -115,7 +115,7 @@ fn build(scene: &SceneDesc) -> (Value, Vec<u8>) {
             });
             if m.emission != Vec3::ZERO {
                 // Emitted radiance M / pi as factor (at most 1) times strength.
-                let radiance = m.emission / std::f32::consts::PI;
+                let radiance = super::emission::radiance(m.emission);
                 let strength = radiance.max_element().max(1.0);
                 let f = radiance / strength;
                 material["emissiveFactor"] = json!([f.x, f.y, f.z]);

@@ -12,6 +12,7 @@
 pub mod builtin;
 pub mod deform;
 pub mod deformer;
+pub mod emission;
 pub mod file;
 pub mod gltf;
 mod gltf_mesh;
@@ -37,8 +38,10 @@ pub struct Material {
     pub name: String,
     /// Diffuse albedo per channel, in [0, MAX_ALBEDO].
     pub albedo: Vec3,
-    /// Emitted radiant exitance per channel, W/m^2 (MTL `Ke`, the scene
-    /// file's `emission`); zero for surfaces that do not glow.
+    /// Emitted radiant exitance `M` per channel, W/m^2; zero for surfaces
+    /// that do not glow. Files give emitted radiance `L` (MTL `Ke`, the
+    /// scene file's `emission`, glTF's emissive factor x strength), read as
+    /// `M = pi L` by [`emission::exitance`].
     pub emission: Vec3,
 }
 
@@ -319,6 +322,10 @@ pub struct SceneDesc {
     /// Problems that were fixed up while loading (clamped albedo, missing MTL, ...),
     /// for the caller to show. Empty for built-in scenes.
     pub warnings: Vec<String>,
+    /// What the loaders assumed where a file leaves it open (how an
+    /// emission was read, [`emission::note`]), for the caller to show as
+    /// notes. Empty for built-in scenes.
+    pub notes: Vec<String>,
 }
 
 /// Loads a scene given a path to a `.toml` file (or a bare `.obj`, or a

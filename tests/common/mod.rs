@@ -46,6 +46,7 @@ pub fn scene_desc(
         lights,
         sky,
         warnings: vec![],
+        notes: vec![],
     }
 }
 

@@ -103,6 +103,7 @@ fn scene(name: &str, camera: Camera, meshes: Vec<MeshDesc>, lights: Vec<Light>) 
         lights,
         sky: None,
         warnings: Vec::new(),
+        notes: Vec::new(),
     }
 }
 
