@@ -41,7 +41,7 @@ pub fn scene_desc(
             smoothing_angle_deg: 0.0,
             ..Default::default()
         },
-        camera: linkgi::scene::Camera::default(),
+        camera: None,
         meshes,
         lights,
         sky,
