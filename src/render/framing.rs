@@ -15,7 +15,9 @@
 //!   is the orbit target `P`. From `P`, eight horizontal rays (45 degrees
 //!   apart) measure the room; the camera backs away from `P` along the
 //!   direction with the most room (diagonals' reach counted at 1/sqrt 2, so
-//!   a square room is seen square on; an opening counts as unbounded, so a box
+//!   a square room is seen square on; a ray that escapes counts as unbounded:
+//!   where rays from `P` to a 5 x 5 grid on that side of the bounding box
+//!   mostly escape too, the side is open, otherwise it holds a window; a box
 //!   open on one side is seen through its opening, as a Cornell box is),
 //!   to 85% of the distance to the wall there, and looks back across `P`;
 //!   the vertical field of view fits the bounding box's far side (height,
@@ -28,7 +30,8 @@
 //!   distance where the bounding sphere fills a 40 degree vertical field.
 //!
 //! Either camera is then checked against the scene: where more than a
-//! quarter of the rays from it meet back faces it is inside geometry, and
+//! twentieth of its pixel rays (a 16 x 12 grid) meet back faces it is inside
+//! geometry or behind a wall (outside a window taken for an opening), and
 //! it moves toward the target (to 70% of its offset, up to eight times).
 //! Distances are metres; angles degrees.
 
@@ -157,7 +160,7 @@ pub fn auto_camera(scene: &PreparedScene, tracer: &dyn CpuTracer) -> Framing {
         Some((_, p)) => inside_camera(tracer, p, lo, hi),
         None => outside_camera(lo, hi),
     };
-    unburied(tracer, framing, &dirs)
+    unburied(tracer, framing, diag)
 }
 
 fn inside_camera(tracer: &dyn CpuTracer, p: Vec3, lo: Vec3, hi: Vec3) -> Framing {
@@ -188,15 +191,18 @@ fn inside_camera(tracer: &dyn CpuTracer, p: Vec3, lo: Vec3, hi: Vec3) -> Framing
     let half = (0.5 * size.y).max(0.5 * across / (4.0 / 3.0));
     // The far side of the bounding box (what stands in between is furniture).
     let far_side = to_box_side(p, -back, lo, hi);
-    let (offset, fov_deg) = if room.is_finite() {
-        let offset = 0.85 * room;
+    let side = to_box_side(p, back, lo, hi);
+    let open = room.is_infinite() && open_share(tracer, p, back, lo, hi) >= 0.5;
+    let (offset, fov_deg) = if !open {
+        // A wall, or a window in one: stay inside.
+        let offset = 0.85 * room.min(side);
         (offset, (2.0 * (half / (offset + far_side).max(1e-6)).atan()).to_degrees().clamp(45.0, 75.0))
     } else {
         // An opening: back out through it until a 45 degree field holds
         // the opening ([`unburied`] brings the camera back in where the
         // opening was a window in a wall).
         let fov_deg = 45.0f32;
-        (to_box_side(p, back, lo, hi) + half / (0.5 * fov_deg.to_radians()).tan(), fov_deg)
+        (side + half / (0.5 * fov_deg.to_radians()).tan(), fov_deg)
     };
     let position = p + back * offset;
     Framing { camera: Camera { position, target: p, fov_deg }, inside: true }
@@ -211,10 +217,43 @@ fn outside_camera(lo: Vec3, hi: Vec3) -> Framing {
     Framing { camera: Camera { position: centre + dir * dist, target: centre, fov_deg }, inside: false }
 }
 
-/// Moves a camera that stands inside geometry toward its target.
-fn unburied(tracer: &dyn CpuTracer, mut f: Framing, dirs: &[Vec3]) -> Framing {
+/// Share of rays from `p` toward a 5 x 5 grid of points on the bounding
+/// box's side in direction `d` that escape: an open side, not a window.
+fn open_share(tracer: &dyn CpuTracer, p: Vec3, d: Vec3, lo: Vec3, hi: Vec3) -> f32 {
+    let centre = p + d * to_box_side(p, d, lo, hi);
+    let size = hi - lo;
+    let across = Vec3::new(d.z, 0.0, -d.x).normalize_or_zero();
+    let width = (across.x.abs() * size.x + across.z.abs() * size.z).max(1e-6);
+    let mut open = 0;
+    for i in 0..5 {
+        for j in 0..5 {
+            let q = centre
+                + across * (width * ((i as f32 + 0.5) / 5.0 - 0.5))
+                + Vec3::Y * (lo.y + size.y * (j as f32 + 0.5) / 5.0 - centre.y);
+            let dir = (q - p).normalize_or_zero();
+            if dir != Vec3::ZERO && tracer.intersect(&Ray::new(p, dir)).is_none() {
+                open += 1;
+            }
+        }
+    }
+    open as f32 / 25.0
+}
+
+/// Share of a 16 x 12 grid of the camera's pixel rays that meet back faces.
+fn back_in_view(tracer: &dyn CpuTracer, c: &Camera, diag: f32) -> f32 {
+    let (w, h) = (16, 12);
+    let back = (0..h)
+        .flat_map(|y| (0..w).map(move |x| (x, y)))
+        .filter(|&(x, y)| tracer.intersect(&super::pixel_ray(c, w, h, diag, x, y)).is_some_and(|hit| !hit.front))
+        .count();
+    back as f32 / (w * h) as f32
+}
+
+/// Moves a camera that stands inside geometry, or behind a wall, toward
+/// its target.
+fn unburied(tracer: &dyn CpuTracer, mut f: Framing, diag: f32) -> Framing {
     for _ in 0..8 {
-        if probe(tracer, f.camera.position, dirs).back <= 0.25 {
+        if back_in_view(tracer, &f.camera, diag) <= 0.05 {
             break;
         }
         let c = &mut f.camera;
