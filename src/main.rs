@@ -51,7 +51,7 @@ fn main() -> Result<()> {
             size: "640x480".into(),
             view: linkgi::render::View::Combined,
             overrides: cli::setup::Overrides::default(),
-            exposure: 0.6,
+            exposure: None,
         }),
         Some(Command::Solve(args)) => cli::solve::run(args),
         Some(Command::Render(args)) => cli::render::run(args),

@@ -119,6 +119,20 @@ pub fn load(scene: &str, overrides: &Overrides) -> Result<SceneDesc> {
     Ok(desc)
 }
 
+/// The scene's camera, or one framed automatically (with a note saying
+/// where it stands), traced through `tracer` or a BVH built for it.
+pub fn camera(
+    desc: &SceneDesc,
+    prepared: &PreparedScene,
+    tracer: Option<&dyn linkgi::trace::CpuTracer>,
+) -> linkgi::scene::Camera {
+    let (camera, framing) = linkgi::render::framing::camera_or_framed(desc.camera, prepared, tracer);
+    if let Some(f) = framing {
+        eprintln!("note: the scene has no camera; framed it as {}", f.describe());
+    }
+    camera
+}
+
 /// Steps 1-4: [`load`], then prepares the scene and warns about dropped
 /// triangles and a scene without any light (lights, emitters or sky).
 pub fn setup(scene: &str, overrides: &Overrides) -> Result<Setup> {

@@ -19,6 +19,8 @@
 //! with a vertical field of view, y up.
 
 pub mod cpu;
+pub mod exposure;
+pub mod framing;
 pub mod gpu;
 pub mod present;
 

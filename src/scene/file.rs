@@ -357,14 +357,14 @@ pub fn parse_toml(path: &Path, text: &str) -> Result<SceneDesc> {
     let dir = path.parent().unwrap_or(Path::new("."));
     let settings = settings_from(path, &file.settings)?;
     let camera = match &file.camera {
-        None => Camera::default(),
-        Some(c) => Camera {
+        None => None,
+        Some(c) => Some(Camera {
             position: finite3(path, "camera.position", c.position)?,
             target: finite3(path, "camera.target", c.target)?,
             fov_deg: c.fov_deg,
-        },
+        }),
     };
-    if !(camera.fov_deg.is_finite() && camera.fov_deg > 0.0 && camera.fov_deg < 180.0) {
+    if let Some(camera) = camera.filter(|c| !(c.fov_deg.is_finite() && c.fov_deg > 0.0 && c.fov_deg < 180.0)) {
         return Err(scene_err(path, format!("camera.fov_deg = {} is not in (0, 180)", camera.fov_deg)));
     }
     if file.meshes.is_empty() {
@@ -446,7 +446,8 @@ pub fn load_toml(path: &Path) -> Result<SceneDesc> {
     parse_toml(path, &text)
 }
 
-/// Loads a bare OBJ as a scene with default settings, camera and no lights.
+/// Loads a bare OBJ as a scene with default settings, no camera (renderers
+/// frame it: [`crate::render::framing`]) and no lights.
 pub fn load_bare_obj(path: &Path) -> Result<SceneDesc> {
     let (mut warnings, mut notes) = (Vec::new(), Vec::new());
     let mesh = obj::load_obj(path, &mut warnings, &mut notes)?;
@@ -454,7 +455,7 @@ pub fn load_bare_obj(path: &Path) -> Result<SceneDesc> {
     Ok(SceneDesc {
         name,
         settings: Settings::default(),
-        camera: Camera::default(),
+        camera: None,
         meshes: vec![mesh],
         lights: vec![],
         sky: None,
@@ -485,10 +486,10 @@ pub fn to_toml(scene: &SceneDesc, obj_names: &[String]) -> String {
             },
             off: s.terms.off().into_iter().map(String::from).collect(),
         },
-        camera: Some(CameraFile {
-            position: scene.camera.position.into(),
-            target: scene.camera.target.into(),
-            fov_deg: scene.camera.fov_deg,
+        camera: scene.camera.map(|c| CameraFile {
+            position: c.position.into(),
+            target: c.target.into(),
+            fov_deg: c.fov_deg,
         }),
         meshes: scene
             .meshes

@@ -21,7 +21,8 @@
 //!   the node's -z axis, `fov_deg` = `yfov` in degrees. linkgi cameras keep
 //!   y up, so a camera's roll is lost. The orbit target is put where the view
 //!   axis passes closest to the centre of the meshes' bounding box. Without a
-//!   camera, the scene gets [`Camera::default`], as a bare OBJ does.
+//!   camera, the scene has none and is framed when rendered
+//!   ([`crate::render::framing`]), as a bare OBJ is.
 //!
 //! Light units. glTF gives point and spot intensity in candela (lm/sr) and
 //! directional intensity in lux (lm/m^2), times a linear RGB `color`. linkgi
@@ -88,7 +89,7 @@ pub fn load_scene(path: &Path) -> Result<SceneDesc> {
     Ok(SceneDesc {
         name,
         settings: Settings::default(),
-        camera: g.camera.unwrap_or_default(),
+        camera: g.camera,
         meshes: g.meshes,
         lights: g.lights,
         sky: None,

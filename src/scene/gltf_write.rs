@@ -176,10 +176,9 @@ fn build(scene: &SceneDesc) -> (Value, Vec<u8>) {
         node["extensions"] = json!({"KHR_lights_punctual": {"light": lights.len() - 1}});
         nodes.push(node);
     }
-    let cam = &scene.camera;
-    let forward = (cam.target - cam.position).normalize_or_zero();
     let mut cameras = Vec::new();
-    if forward != Vec3::ZERO {
+    if let Some(cam) = scene.camera.filter(|c| (c.target - c.position).normalize_or_zero() != Vec3::ZERO) {
+        let forward = (cam.target - cam.position).normalize();
         cameras.push(json!({"type": "perspective", "perspective": {"yfov": cam.fov_deg.to_radians(), "znear": 0.01}}));
         nodes.push(json!({"name": "camera", "camera": 0, "translation": cam.position.to_array(), "rotation": facing(forward).to_array()}));
     }

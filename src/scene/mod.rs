@@ -314,7 +314,10 @@ impl Default for Camera {
 pub struct SceneDesc {
     pub name: String,
     pub settings: Settings,
-    pub camera: Camera,
+    /// The file's camera; `None` where it has none (a bare OBJ, a glTF
+    /// without cameras, a TOML without `[camera]`): renderers then frame the
+    /// scene automatically ([`crate::render::framing`]).
+    pub camera: Option<Camera>,
     pub meshes: Vec<MeshDesc>,
     pub lights: Vec<Light>,
     /// Sky light (`[sky]` in the scene file), if any ([`crate::sky`]).
