@@ -15,7 +15,6 @@ use linkgi::render::framing::{auto_camera, camera_or_framed};
 use linkgi::render::{pixel_ray, tone_map, Frame, RenderParams};
 use linkgi::scene::shapes::MeshBuilder;
 use linkgi::scene::{builtin, prep, Bounces, Camera, Light, SceneDesc};
-use linkgi::trace::CpuTracer;
 
 const W: u32 = 96;
 const H: u32 = 72;
