@@ -89,7 +89,7 @@ fn scripted_view_writes_screenshots_that_follow_the_script() {
     )
     .unwrap();
     let mut child = Command::new("xvfb-run")
-        .args(["-a", env!("CARGO_BIN_EXE_linkgi"), "view", "cornell", "--size", &format!("{W}x{H}"), "--script"])
+        .args(["-a", env!("CARGO_BIN_EXE_linkgi"), "view", "cornell", "--exposure", "0.6", "--size", &format!("{W}x{H}"), "--script"])
         .arg(&script)
         .arg("--screenshot-dir")
         .arg(&shots)
@@ -153,7 +153,7 @@ fn scripted_emission_and_sky_edits() {
     )
     .unwrap();
     let out = Command::new("xvfb-run")
-        .args(["-a", env!("CARGO_BIN_EXE_linkgi"), "view", "window", "--rays", "64", "--size", &format!("{W}x{H}")])
+        .args(["-a", env!("CARGO_BIN_EXE_linkgi"), "view", "window", "--exposure", "0.6", "--rays", "64", "--size", &format!("{W}x{H}")])
         .arg("--script")
         .arg(&script)
         .arg("--screenshot-dir")
@@ -268,7 +268,7 @@ fn mouse_drags_light_and_orbits_panel_shows() {
     let d = dir.display();
     let driver = format!(
         r#"set -u
-"$BIN" view "{toml}" --size {MW}x{MH} --script "{script}" --screenshot-dir "{d}" >"{d}/stdout.txt" 2>"{d}/stderr.txt" &
+"$BIN" view "{toml}" --exposure 0.6 --size {MW}x{MH} --script "{script}" --screenshot-dir "{d}" >"{d}/stdout.txt" 2>"{d}/stderr.txt" &
 pid=$!
 wait_for() {{
   i=0
@@ -403,7 +403,7 @@ fn wait_gi_catches_up_while_deforming() {
         .unwrap();
     let out = Command::new("timeout")
         .arg("400")
-        .args(["xvfb-run", "-a", env!("CARGO_BIN_EXE_linkgi"), "view", "torso", "--rays", "16", "--size", "160x120"])
+        .args(["xvfb-run", "-a", env!("CARGO_BIN_EXE_linkgi"), "view", "torso", "--exposure", "0.6", "--rays", "16", "--size", "160x120"])
         .arg("--script")
         .arg(&script)
         .arg("--screenshot-dir")

@@ -8,8 +8,9 @@
 //! 3. apply the command line's [`Overrides`] of the scene's `[settings]`
 //!    (`--rays`, `--tracer`, `--backend`, `--off`; `solve` also `--bounces`, `--seed`)
 //!    and check the result;
-//! 4. prepare the scene ([`prep::prepare`]: weld, split, normals) and warn
-//!    about what preparation dropped and about a scene without lights.
+//! 4. prepare the scene ([`prep::prepare`]: weld, split, normals), warn
+//!    about what preparation dropped, and light a scene that has no lights,
+//!    emitters or sky by [`default_sky`] (with a note saying so).
 //!
 //! [`load`] is steps 1-3 (for `bench`, which prepares per run itself);
 //! [`setup`] is all four.
@@ -133,6 +134,13 @@ pub fn camera(
     camera
 }
 
+/// The light of a scene that has none (a bare OBJ or glTF of an object):
+/// a studio-like gradient sky, W/(m^2 sr): 1 at the zenith, 0.5 at the
+/// horizon, 0.1 below ([`linkgi::sky::SkyModel::Gradient`]).
+pub fn default_sky() -> linkgi::sky::Sky {
+    linkgi::sky::Sky::gradient(glam::Vec3::ONE, glam::Vec3::splat(0.5), glam::Vec3::splat(0.1))
+}
+
 /// Steps 1-4: [`load`], then prepares the scene and warns about dropped
 /// triangles and a scene without any light (lights, emitters or sky).
 pub fn setup(scene: &str, overrides: &Overrides) -> Result<Setup> {
@@ -141,9 +149,15 @@ pub fn setup(scene: &str, overrides: &Overrides) -> Result<Setup> {
     if prepared.dropped_triangles > 0 {
         eprintln!("warning: dropped {} zero-area triangles", prepared.dropped_triangles);
     }
+    let mut prepared = prepared;
     let emits = prepared.emission.iter().any(|e| *e != glam::Vec3::ZERO);
     if prepared.lights.is_empty() && prepared.sky.is_none() && !emits {
-        eprintln!("warning: the scene has no lights, emitters or sky: all irradiance is zero");
+        let sky = default_sky();
+        eprintln!(
+            "note: the scene has no lights, emitters or sky: lit by a default {} (add a [[light]], emission or [sky] to replace it)",
+            sky.describe()
+        );
+        prepared.sky = Some(sky);
     }
     let settings = desc.settings;
     Ok(Setup { desc, prepared, settings })
