@@ -166,7 +166,10 @@ fn prepare_mesh(mesh: &super::MeshDesc) -> Result<MeshPrep> {
             return Err(geom_err(name, format!("{} vertex emissions for {} vertices", ve.len(), mesh.positions.len())));
         }
         if let Some(i) = ve.iter().position(|e| !(e.is_finite() && e.min_element() >= 0.0)) {
-            return Err(geom_err(name, format!("vertex {i} has emission {}: it must be finite and non-negative", ve[i])));
+            return Err(geom_err(
+                name,
+                format!("vertex {i} has emission {}: it must be finite and non-negative", ve[i]),
+            ));
         }
     }
     if let Some(t) = &mesh.textures {
@@ -245,9 +248,8 @@ fn prepare_mesh(mesh: &super::MeshDesc) -> Result<MeshPrep> {
             None => mesh.materials[tri_mat[ti as usize] as usize].emission,
         }
     };
-    let same_emission = |t1: u32, t2: u32, v: u32| {
-        mesh.vertex_emission.is_none() || corner_emission(t1, v) == corner_emission(t2, v)
-    };
+    let same_emission =
+        |t1: u32, t2: u32, v: u32| mesh.vertex_emission.is_none() || corner_emission(t1, v) == corner_emission(t2, v);
     let mut uf = UnionFind((0..tris.len() as u32 * 3).collect());
     let mut keys: Vec<_> = edges.keys().copied().collect();
     keys.sort_unstable();
