@@ -260,7 +260,7 @@ fn checkerboard_plane_renders_as_a_checkerboard() {
     let (white, dark) = ([255u8; 3], [40u8; 3]);
     // 8 x 8 cells of 4 x 4 texels: bilinear sampling blends cells only within half a texel of their border.
     let texels: Vec<[u8; 3]> =
-        (0..32 * 32).map(|i| if ((i % 32) / 4 + (i / 32) / 4) % 2 == 0 { white } else { dark }).collect();
+        (0..32 * 32u32).map(|i| if ((i % 32) / 4 + (i / 32) / 4).is_multiple_of(2) { white } else { dark }).collect();
     png(&dir.join("checker.png"), 32, 32, &texels);
     let obj = "mtllib c.mtl\nv 0 0 0\nv 1 0 0\nv 1 0 -1\nv 0 0 -1\nvt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\nusemtl c\nf 1/1 2/2 3/3 4/4\n";
     std::fs::write(dir.join("c.obj"), obj).unwrap();
@@ -271,7 +271,7 @@ fn checkerboard_plane_renders_as_a_checkerboard() {
     let expect = |p: Vec3| {
         let (u, v) = (p.x * 8.0, (1.0 + p.z) * 8.0);
         let centre = (u.fract() - 0.5).abs() < 0.25 && (v.fract() - 0.5).abs() < 0.25;
-        let texel = if (u as u32 + v as u32) % 2 == 0 { white } else { dark };
+        let texel = if (u as u32 + v as u32).is_multiple_of(2) { white } else { dark };
         centre.then(|| 0.8 * linear(texel) / std::f32::consts::PI * (E_DIRECT + E_INDIRECT))
     };
     let points = floor_points(0.0);

@@ -8,17 +8,17 @@
 //! They are kept between frames and redrawn only when the lights, the
 //! geometry or the shadow-map size change (orbiting the camera, switching
 //! views or a new indirect result reuse them). Albedo textures are drawn per
-//! pixel from storage buffers ([`super::textures`]), uploaded once while
+//! pixel from storage buffers ([`super::gpu_data`]), uploaded once while
 //! the frame's maps stay the same.
 
-use super::textures::{mesh_data, GpuTextures};
+pub use super::gpu_data::RenderVertex;
+use super::gpu_data::{mesh_data, GpuTextures};
 use super::{camera_matrices, up_for, Frame, HdrImage, RenderParams, RenderStats, MAX_LIGHTS};
 use crate::error::{Error, Result};
 use crate::gpu::buffers::{map_staging, uniform_init};
 use crate::gpu::layout::{FrameUniforms, LightGpu, RENDER_WGSL};
 use crate::gpu::GpuDevice;
 use crate::scene::Light;
-use bytemuck::{Pod, Zeroable};
 use glam::{Mat4, Vec3};
 use std::hash::Hasher;
 use std::sync::{Arc, Mutex};
@@ -29,25 +29,6 @@ use wgpu::util::DeviceExt;
 pub const MAX_SHADOW_LAYERS: usize = 56;
 const HDR_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
 const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
-
-/// One vertex of the render mesh (84 bytes): `vs_main` locations 0-7.
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
-pub struct RenderVertex {
-    pub position: [f32; 3],
-    pub normal: [f32; 3],
-    pub albedo: [f32; 3],
-    pub e_indirect: [f32; 3],
-    /// Irradiance from the sky, W/m^2.
-    pub e_sky: [f32; 3],
-    /// Emitted radiance `M_e / pi`, W/(m^2 sr).
-    pub emitted: [f32; 3],
-    /// Texture coordinates (textured triangles' own vertices).
-    pub uv: [f32; 2],
-    /// Albedo texture, or `NO_MAP` (then `albedo` is drawn; else it is the
-    /// factor the texture is multiplied with).
-    pub map: u32,
-}
 
 /// Pipelines on one device, reused for every frame.
 pub struct GpuRenderer {

@@ -26,8 +26,8 @@
 
 pub mod cpu;
 pub mod gpu;
+pub mod gpu_data;
 pub mod present;
-pub mod textures;
 
 use crate::exchange::bounce::operator::radiosity;
 use crate::scene::prep::PreparedScene;

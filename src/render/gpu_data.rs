@@ -1,5 +1,8 @@
-//! Albedo textures for the GPU renderer (`shaders/render.wgsl`,
-//! `sample_texture`): every image's texels in one storage buffer (linear
+//! What the GPU renderer uploads per frame besides lights and shadow maps:
+//! the render mesh ([`RenderVertex`], [`mesh_data`]) and the albedo textures
+//! ([`GpuTextures`]).
+//!
+//! Albedo textures (`shaders/render.wgsl`, `sample_texture`): every image's texels in one storage buffer (linear
 //! RGB as two `f16` pairs, 8 bytes a texel, rows from the top) and one
 //! [`TextureInfo`] per map (first texel, size, wrap modes, filter), so the
 //! shader samples exactly as [`crate::scene::texture::TextureMap::sample`]
@@ -15,13 +18,31 @@
 //! coordinates, map and factor (in the albedo slot); untextured triangles
 //! index the solver vertices as before, with map `NO_MAP`.
 
-use super::gpu::RenderVertex;
 use super::Frame;
 use crate::gpu::layout::TextureInfo;
 use crate::scene::texture::{CornerTextures, Texture, NO_MAP};
+use bytemuck::{Pod, Zeroable};
 use glam::Vec3;
 use std::sync::Arc;
 use wgpu::util::DeviceExt;
+/// One vertex of the render mesh (84 bytes): `vs_main` locations 0-7.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct RenderVertex {
+    pub position: [f32; 3],
+    pub normal: [f32; 3],
+    pub albedo: [f32; 3],
+    pub e_indirect: [f32; 3],
+    /// Irradiance from the sky, W/m^2.
+    pub e_sky: [f32; 3],
+    /// Emitted radiance `M_e / pi`, W/(m^2 sr).
+    pub emitted: [f32; 3],
+    /// Texture coordinates (textured triangles' own vertices).
+    pub uv: [f32; 2],
+    /// Albedo texture, or `NO_MAP` (then `albedo` is drawn; else it is the
+    /// factor the texture is multiplied with).
+    pub map: u32,
+}
 
 /// The textures of a frame on the device, and what they were made from.
 pub struct GpuTextures {
@@ -156,12 +177,12 @@ pub fn mesh_data(frame: &Frame) -> (Vec<RenderVertex>, Vec<[u32; 3]>) {
                 return *t;
             }
             let first = verts.len() as u32;
-            for k in 0..3 {
+            for (k, &v) in t.iter().enumerate() {
                 verts.push(RenderVertex {
                     albedo: tex.factor[ti][k].into(),
                     uv: tex.uv[ti][k].into(),
                     map,
-                    ..vertex(t[k] as usize)
+                    ..vertex(v as usize)
                 });
             }
             [first, first + 1, first + 2]
