@@ -183,6 +183,10 @@ fn gltf_emissive_texture_scales_the_emission_per_vertex() {
     // The same texel at the origin in both triangles: joined (4 vertices).
     let (joined, _) = emissive_quad(&dir, "joined.gltf", 0);
     assert_eq!(prep::prepare(&load(&joined)).unwrap().vertex_count(), 4);
+    // A scene file's `emission` for the mesh replaces the texture's.
+    std::fs::write(dir.join("glow.toml"), "[[mesh]]\ngltf = \"glow.gltf\"\nemission = [0.5, 0.25, 1.0]\n").unwrap();
+    let s = prep::prepare(&load(&dir.join("glow.toml"))).unwrap();
+    assert!(s.emission.iter().all(|e| *e == Vec3::new(0.5, 0.25, 1.0)), "{:?}", s.emission);
 }
 
 fn device() -> Option<Arc<GpuDevice>> {
