@@ -23,7 +23,7 @@ use criterion::{criterion_group, criterion_main, Criterion};
 use glam::Vec3;
 use linkgi::scene::deform::deform_scene;
 use linkgi::scene::shapes::MeshBuilder;
-use linkgi::scene::{builtin, prep, Bounces, Camera, Light, SceneDesc, Settings};
+use linkgi::scene::{builtin, prep, Bounces, Light, SceneDesc, Settings};
 use linkgi::sky::Sky;
 use linkgi::solver::{SolveParams, Solver};
 use std::time::{Duration, Instant};
@@ -65,11 +65,12 @@ fn open_plane(n: u32, sky: Sky) -> SceneDesc {
     SceneDesc {
         name: "open plane".into(),
         settings: Settings { rays_per_vertex: 256, bounces: Bounces::Fixed(3), ..Default::default() },
-        camera: Camera::default(),
+        camera: None,
         meshes: vec![b.finish("plane", 30.0)],
         lights: vec![],
         sky: Some(sky),
         warnings: vec![],
+        notes: vec![],
     }
 }
 

@@ -72,7 +72,8 @@ struct LightArray {
 @group(0) @binding(3) var shadow_maps: texture_depth_2d_array;
 @group(0) @binding(4) var shadow_sampler: sampler_comparison;
 // The sky as an equirectangular radiance image (src/sky/envmap.rs layout:
-// u = azimuth from +x toward -z over 2 pi, v = polar angle from +y over pi).
+// u = atan2(x, -z) / 2 pi, the azimuth from -z clockwise seen from above,
+// toward +x first; v = polar angle from +y over pi).
 @group(0) @binding(5) var sky_map: texture_2d<f32>;
 @group(0) @binding(6) var sky_sampler: sampler;
 
@@ -271,7 +272,7 @@ fn sky_fs(in: SkyOut) -> @location(0) vec4<f32> {
     let far = frame.inv_view_proj * vec4<f32>(in.ndc, 1.0, 1.0);
     let d = normalize(far.xyz / far.w - frame.camera_pos);
     let theta = acos(clamp(d.y, -1.0, 1.0));
-    var phi = atan2(-d.z, d.x);
+    var phi = atan2(d.x, -d.z);
     if phi < 0.0 {
         phi += 2.0 * PI;
     }

@@ -2,7 +2,8 @@
 //! PLY; per vertex position, normal, albedo, direct, smoothed indirect and
 //! sky irradiance in W/m^2 and emitted exitance in W/m^2, then the
 //! vertex's radiance `rho / pi (E_d + E_sky + E_i) + M / pi` tone mapped
-//! as `linkgi render` does at its default exposure, as `uchar red green
+//! as `linkgi render` does with its automatic exposure (over the vertices'
+//! radiance: [`crate::render::exposure::key_exposure`]), as `uchar red green
 //! blue`, which mesh viewers show as vertex colours; faces as
 //! `uchar`-counted `uint` lists, in the solver's vertex order with
 //! transforms applied) and `scene.json` (lights, sky, emitters, settings,
@@ -10,6 +11,7 @@
 //! part of `e_indirect_*`.
 
 use crate::exchange::bounce::operator::radiosity;
+use crate::render::exposure::key_exposure;
 use crate::render::{display_rgb8, DEFAULT_EXPOSURE};
 use crate::scene::prep::PreparedScene;
 use crate::scene::{Bounces, Light};
@@ -105,7 +107,8 @@ pub fn ply_bytes(scene: &PreparedScene, solution: &Solution) -> Vec<u8> {
     // + E_i) + M / pi`, what `linkgi render` shows there.
     let total = solution.total();
     let radiance = |v: usize| radiosity(scene.albedo[v], total[v], scene.emission[v]);
-    let colour = |v: usize| display_rgb8(radiance(v), DEFAULT_EXPOSURE);
+    let exposure = key_exposure((0..scene.vertex_count()).map(radiance)).unwrap_or(DEFAULT_EXPOSURE);
+    let colour = |v: usize| display_rgb8(radiance(v), exposure);
     ply_with(
         scene,
         &PLY_VERTEX_PROPERTIES,

@@ -40,6 +40,8 @@ enum Command {
 }
 
 fn main() -> Result<()> {
+    // Before any thread or GPU instance: libwayland's headless noise (src/cli/runtime_dir.rs).
+    cli::runtime_dir::ensure();
     let cli = Cli::parse();
     match cli.command {
         None => cli::render::run(cli::render::RenderArgs {
@@ -49,7 +51,7 @@ fn main() -> Result<()> {
             size: "640x480".into(),
             view: linkgi::render::View::Combined,
             overrides: cli::setup::Overrides::default(),
-            exposure: 0.6,
+            exposure: None,
         }),
         Some(Command::Solve(args)) => cli::solve::run(args),
         Some(Command::Render(args)) => cli::render::run(args),

@@ -140,3 +140,28 @@ fn off_switches_terms_and_rejects_unknown_names() {
     let (ok, err) = run(&["solve", scene.to_str().unwrap(), "--rays", "4", "--backend", "cpu"]);
     assert!(!ok && err.contains("bad.toml") && err.contains("settings.off") && err.contains("hidden"), "{err}");
 }
+
+/// On a headless machine, probing for a GPU (`--backend auto`, for the
+/// solve and for the rasterizer) prints no libwayland line about
+/// `XDG_RUNTIME_DIR`, whether the variable is missing or relative
+/// (src/cli/runtime_dir.rs); the command still succeeds.
+#[test]
+fn no_xdg_runtime_dir_noise_on_headless_machines() {
+    let d = warned_scene("xdg");
+    let scene = d.join("s.toml");
+    let png = d.join("r.png");
+    let args = ["render", scene.to_str().unwrap(), "--rays", "4", "--size", "8x6", "--backend", "auto"];
+    let args = [&args[..], &["--out", png.to_str().unwrap()]].concat();
+    for value in [None, Some("relative/dir")] {
+        let mut cmd = Command::new(env!("CARGO_BIN_EXE_linkgi"));
+        cmd.args(&args).env_remove("XDG_RUNTIME_DIR").env_remove("WAYLAND_DISPLAY");
+        if let Some(v) = value {
+            cmd.env("XDG_RUNTIME_DIR", v);
+        }
+        let out = cmd.output().unwrap();
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert!(out.status.success(), "XDG_RUNTIME_DIR {value:?}: {stderr}");
+        assert!(!stderr.lines().any(|l| l.contains("XDG_RUNTIME_DIR")), "XDG_RUNTIME_DIR {value:?}: {stderr}");
+        assert!(stderr.contains("warning: "), "the loader's warnings still reach stderr: {stderr}");
+    }
+}

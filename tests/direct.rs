@@ -10,7 +10,7 @@ use glam::Vec3;
 use linkgi::exchange::{BounceSource, LightLinkParams, LightLinks};
 use linkgi::kdtree::{KdBuildParams, KdTree};
 use linkgi::scene::shapes::MeshBuilder;
-use linkgi::scene::{prep, Camera, Light, SceneDesc, Settings};
+use linkgi::scene::{prep, Light, SceneDesc, Settings};
 
 /// A 2x2 m floor at y = 0 (20x20 grid), optionally a 0.6 m square occluder
 /// facing down at y = 0.5 over the centre.
@@ -32,11 +32,12 @@ fn floor_scene(occluder: bool, lights: Vec<Light>) -> prep::PreparedScene {
     let desc = SceneDesc {
         name: "floor".into(),
         settings: Settings::default(),
-        camera: Camera::default(),
+        camera: None,
         meshes,
         lights,
         sky: None,
         warnings: vec![],
+        notes: vec![],
     };
     let s = prep::prepare(&desc).unwrap();
     assert!(s.normals[..441].iter().all(|n| (*n - Vec3::Y).length() < 1e-6), "floor faces up");

@@ -210,3 +210,80 @@ fn the_emitter_control_variate_cuts_the_shades_noise_without_bias() {
     eprintln!("coefficients sum {c_sum:.3} against pi F {f_sum:.3}");
     assert!(f_sum > 0.0 && c_sum.abs() < 0.03 * f_sum, "{c_sum} against {f_sum}");
 }
+
+/// One glowing plate (1 m square at z = 0, facing +z, black so that it
+/// reflects nothing) in `dir`, its OBJ's MTL with `ke_line`, the scene
+/// file's `[[mesh]]` with `mesh_extra`, a camera 2 m in front looking at it.
+fn glowing_plate(name: &str, ke_line: &str, mesh_extra: &str) -> std::path::PathBuf {
+    let d = std::path::Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("emission-{name}"));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    std::fs::write(d.join("plate.mtl"), format!("newmtl glow\nKd 0 0 0\n{ke_line}\n")).unwrap();
+    std::fs::write(
+        d.join("plate.obj"),
+        "mtllib plate.mtl\nusemtl glow\nv -0.5 -0.5 0\nv 0.5 -0.5 0\nv 0.5 0.5 0\nv -0.5 0.5 0\nf 1 2 3\nf 1 3 4\n",
+    )
+    .unwrap();
+    let toml = format!(
+        "[settings]\nrays_per_vertex = 16\n[camera]\nposition = [0, 0, 2]\ntarget = [0, 0, 0]\nfov_deg = 40\n\
+         [[mesh]]\nobj = \"plate.obj\"\n{mesh_extra}\n"
+    );
+    std::fs::write(d.join("s.toml"), toml).unwrap();
+    d.join("s.toml")
+}
+
+/// The centre pixel of an OpenEXR image, linear RGB.
+fn exr_centre(path: &std::path::Path) -> Vec3 {
+    use exr::prelude::*;
+    let image = read_first_rgba_layer_from_file(
+        path,
+        |size, _| (size.width(), vec![Vec3::ZERO; size.width() * size.height()]),
+        |(w, px): &mut (usize, Vec<Vec3>), pos, (r, g, b, _a): (f32, f32, f32, f32)| {
+            px[pos.y() * *w + pos.x()] = Vec3::new(r, g, b);
+        },
+    )
+    .unwrap();
+    let size = image.layer_data.size;
+    let (w, px) = &image.layer_data.channel_data.pixels;
+    px[size.height() / 2 * w + size.width() / 2]
+}
+
+/// Emission units (src/scene/emission.rs): MTL `Ke` and the scene file's
+/// `emission` are emitted radiance. A camera looking at a glowing black
+/// plate sees exactly that radiance in `linkgi render --exr`, the prepared
+/// scene holds exitance `pi` times it, and the command says what it
+/// assumed in a note.
+#[test]
+fn a_glowing_plate_shows_its_radiance() {
+    let ke = Vec3::new(17.0, 12.0, 4.0);
+    let emission = Vec3::new(2.0, 3.0, 5.0);
+    for (name, radiance, scene, key) in [
+        ("mtl", ke, glowing_plate("mtl", "Ke 17 12 4", ""), "Ke"),
+        ("toml", emission, glowing_plate("toml", "Ke 100 100 100", "emission = [2, 3, 5]"), "emission"),
+    ] {
+        let exr = scene.with_file_name("plate.exr");
+        let png = scene.with_file_name("plate.png");
+        let out = std::process::Command::new(env!("CARGO_BIN_EXE_linkgi"))
+            .args(["render", scene.to_str().unwrap(), "--size", "32x24", "--backend", "cpu"])
+            .args(["--out", png.to_str().unwrap(), "--exr", exr.to_str().unwrap()])
+            .output()
+            .unwrap();
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert!(out.status.success(), "{name}: {stderr}");
+        let seen = exr_centre(&exr);
+        assert!((seen / radiance - Vec3::ONE).abs().max_element() < 1e-4, "{name}: pixel {seen}, radiance {radiance}");
+        let note =
+            stderr.lines().find(|l| l.starts_with("note: ") && l.contains(&format!("{key} read as emitted radiance")));
+        assert!(note.is_some_and(|n| n.contains("W/(m^2 sr)") && n.contains("M = pi*")), "{name}: {stderr}");
+
+        let desc = linkgi::scene::load(scene.to_str().unwrap()).unwrap();
+        assert!(desc.warnings.is_empty(), "{name}: {:?}", desc.warnings);
+        assert_eq!(desc.notes.len(), 1, "{name}: one note, the replaced Ke's dropped: {:?}", desc.notes);
+        let prepared = prep::prepare(&desc).unwrap();
+        assert_eq!(prepared.emission.len(), 4);
+        for m in &prepared.emission {
+            assert_eq!(*m, linkgi::scene::emission::exitance(radiance), "{name}");
+            assert!((*m / radiance - Vec3::splat(std::f32::consts::PI)).abs().max_element() < 1e-6, "{name}: {m}");
+        }
+    }
+}

@@ -13,7 +13,7 @@ mod common;
 
 use glam::Vec3;
 use linkgi::scene::shapes::MeshBuilder;
-use linkgi::scene::{Bounces, Camera, Light, SceneDesc, Settings};
+use linkgi::scene::{Bounces, Light, SceneDesc, Settings};
 use std::f64::consts::PI;
 
 fn corner_ff(a: f64, b: f64, h: f64) -> f64 {
@@ -56,11 +56,12 @@ fn parallel_squares_match_the_analytic_form_factor() {
             seed: 5,
             ..Default::default()
         },
-        camera: Camera::default(),
+        camera: None,
         meshes: vec![a.finish("A", 30.0), b.finish("B", 30.0)],
         lights: vec![Light::Directional { direction: dir, irradiance: Vec3::splat(e0) }],
         sky: None,
         warnings: vec![],
+        notes: vec![],
     };
     let (solver, sol) = common::solve(&desc);
     let s = &solver.scene();

@@ -72,7 +72,7 @@ fn obj_toml_and_gltf_solve_the_same() {
     for (a, b) in from_obj.lights.iter().zip(&from_gltf.lights) {
         assert!(light_close(a, b), "{a:?} vs {b:?}");
     }
-    let (ca, cb) = (from_obj.camera, from_gltf.camera);
+    let (ca, cb) = (from_obj.camera.unwrap(), from_gltf.camera.unwrap());
     assert!(close(ca.position, cb.position, 1e-6, 1e-6));
     let dir_of = |c: scene::Camera| (c.target - c.position).normalize();
     assert!(close(dir_of(ca), dir_of(cb), 1e-5, 1e-6), "{ca:?} vs {cb:?}");
@@ -240,7 +240,7 @@ fn lights_and_camera_convert_units() {
     }
     assert!(desc.warnings.iter().any(|w| w.contains("spot")), "{:?}", desc.warnings);
     assert!(desc.warnings.iter().any(|w| w.contains("range")), "{:?}", desc.warnings);
-    let c = desc.camera;
+    let c = desc.camera.expect("the file has a camera");
     assert_eq!(c.position, Vec3::new(0.0, 0.5, 5.0));
     assert!(close((c.target - c.position).normalize(), Vec3::NEG_Z, 1e-6, 1e-6));
     assert!((c.fov_deg - 0.8f32.to_degrees()).abs() < 1e-4);

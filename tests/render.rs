@@ -255,7 +255,7 @@ fn kd_tree_of_frame_matches_solver() {
 #[test]
 fn default_camera_frames_the_whole_box() {
     let c = cornell();
-    let camera = builtin::builtin("cornell").unwrap().camera;
+    let camera = builtin::builtin("cornell").unwrap().camera.unwrap();
     let (w, h) = (80, 60);
     let frame = Frame::of(&c.solver.scene(), &c.sol.e_indirect, camera);
     let p = RenderParams { width: w, height: h, ..params(View::Combined) };
@@ -478,15 +478,16 @@ fn window_draws_emitters_and_sky() {
         &|_, _| {},
     );
     let sol = solver.solve();
+    let camera = desc.camera.unwrap();
     let p = RenderParams { width: 96, height: 72, ..params(View::Combined) };
-    let frame = Frame::of(&solver.scene(), &sol.e_indirect, desc.camera).with_sky(&sol.e_sky);
+    let frame = Frame::of(&solver.scene(), &sol.e_indirect, camera).with_sky(&sol.e_sky);
     let (img, _) = render_cpu(&frame, &p, None).unwrap();
     let sky = solver.scene().sky.as_ref().unwrap();
     let extent = frame.extent();
     let sky_pixels: Vec<(usize, Vec3)> = (0..p.height)
         .flat_map(|y| (0..p.width).map(move |x| (x, y)))
         .filter_map(|(x, y)| {
-            let ray = render::pixel_ray(&desc.camera, p.width, p.height, extent, x, y);
+            let ray = render::pixel_ray(&camera, p.width, p.height, extent, x, y);
             let i = (y * p.width + x) as usize;
             (img.pixels[i] == sky.radiance(ray.dir)).then_some((i, img.pixels[i]))
         })
@@ -508,6 +509,6 @@ fn window_draws_emitters_and_sky() {
     dark.emission.iter_mut().for_each(|e| *e = Vec3::ZERO);
     dark.sky = None;
     let zeros = vec![Vec3::ZERO; dark.vertex_count()];
-    let (img, _) = render_cpu(&Frame::of(&dark, &zeros, desc.camera), &p, None).unwrap();
+    let (img, _) = render_cpu(&Frame::of(&dark, &zeros, camera), &p, None).unwrap();
     assert!(img.pixels.iter().all(|px| *px == Vec3::ZERO));
 }

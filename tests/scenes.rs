@@ -85,16 +85,20 @@ fn ply_export_carries_the_solution() {
     assert_eq!(f(0), solver.scene().positions[7].x);
     assert_eq!(f(12), sol.e_indirect[7].x);
     // Every vertex's colour is its radiance from the record's own floats,
-    // tone mapped as renders are.
-    let mut sums = [[0f64; 3]; 2];
-    for v in 0..n {
+    // tone mapped as renders are, at the automatic exposure of all of them.
+    let record = |v: usize| {
         let rec = &bytes[header_end + v * stride..header_end + (v + 1) * stride];
         let f = |i: usize| f32::from_le_bytes(rec[4 * i..4 * i + 4].try_into().unwrap());
         let vec = |i: usize| glam::Vec3::new(f(i), f(i + 1), f(i + 2));
         let (rho, e) = (vec(6), vec(9) + vec(12) + vec(15));
-        let radiance = (rho * e + vec(18)) / std::f32::consts::PI;
+        (rec, rho, (rho * e + vec(18)) / std::f32::consts::PI)
+    };
+    let exposure = linkgi::render::exposure::key_exposure((0..n).map(|v| record(v).2)).unwrap();
+    let mut sums = [[0f64; 3]; 2];
+    for v in 0..n {
+        let (rec, rho, radiance) = record(v);
         let rgb = &rec[props * 4..];
-        assert_eq!(rgb, linkgi::render::display_rgb8(radiance, linkgi::render::DEFAULT_EXPOSURE), "vertex {v}");
+        assert_eq!(rgb, linkgi::render::display_rgb8(radiance, exposure), "vertex {v}");
         // The red and green walls show their colours.
         for (k, wall) in [rho.x > 2.0 * rho.y, rho.y > 2.0 * rho.x].into_iter().enumerate() {
             if wall {

@@ -8,7 +8,7 @@ mod common;
 use glam::Vec3;
 use linkgi::exchange::bounce::gather::gather_bounce;
 use linkgi::scene::{
-    builtin, prep, shapes::MeshBuilder, Bounces, Camera, Light, Material, MeshDesc, SceneDesc, Settings,
+    builtin, prep, shapes::MeshBuilder, Bounces, Light, Material, MeshDesc, SceneDesc, Settings,
 };
 use linkgi::solver::{Solution, SolveParams, Solver};
 
@@ -258,11 +258,12 @@ fn custom(meshes: Vec<MeshDesc>, lights: Vec<Light>) -> SceneDesc {
             seed: 1,
             ..Default::default()
         },
-        camera: Camera::default(),
+        camera: None,
         meshes,
         lights,
         sky: None,
         warnings: vec![],
+        notes: vec![],
     }
 }
 

@@ -241,8 +241,9 @@ fn mouse_drags_light_and_orbits_panel_shows() {
         linkgi::scene::Light::Point { position, intensity } => (position, intensity.max_element()),
         _ => panic!("the first light is not a point light"),
     };
-    let extent = linkgi::render::Frame::of(&scene, &scene.positions, desc.camera).extent();
-    let (view, proj) = linkgi::render::camera_matrices(&desc.camera, MW as f32 / MH as f32, extent * 4.0);
+    let camera = desc.camera.expect("the scene file has a camera");
+    let extent = linkgi::render::Frame::of(&scene, &scene.positions, camera).extent();
+    let (view, proj) = linkgi::render::camera_matrices(&camera, MW as f32 / MH as f32, extent * 4.0);
     let clip = proj * view * light.extend(1.0);
     let ndc = clip.truncate() / clip.w;
     let (lx, ly) = ((ndc.x + 1.0) * 0.5 * MW as f32, (1.0 - ndc.y) * 0.5 * MH as f32);
@@ -250,7 +251,7 @@ fn mouse_drags_light_and_orbits_panel_shows() {
     let (x0, y0) = (lx.round() as i32, ly.round() as i32);
     let (x1, y1) = (x0 + 60, y0 + 20);
     // Expected drop point: the ray through the final cursor pixel meets y = light.y.
-    let ray = linkgi::render::pixel_ray(&desc.camera, MW, MH, extent, x1 as u32, y1 as u32);
+    let ray = linkgi::render::pixel_ray(&camera, MW, MH, extent, x1 as u32, y1 as u32);
     let expected = ray.origin + ray.dir * ((light.y - ray.origin.y) / ray.dir.y);
 
     let script = dir.join("script.txt");

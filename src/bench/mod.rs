@@ -463,7 +463,8 @@ fn render_fps(
     frames: u32,
 ) -> crate::Result<(f64, String)> {
     let renderer = crate::render::Renderer::open(crate::gpu::Backend::Auto);
-    let frame = crate::render::Frame::of(scene, e_indirect, desc.camera);
+    let camera = crate::render::framing::camera_or_framed(desc.camera, scene, None).0;
+    let frame = crate::render::Frame::of(scene, e_indirect, camera);
     let params = crate::render::RenderParams::default();
     renderer.render(&frame, &params)?; // warm-up: pipelines, shadow maps
     let t = Instant::now();

@@ -43,9 +43,11 @@ pub struct AnimateArgs {
     pub size: String,
     #[command(flatten)]
     pub overrides: Overrides,
-    /// Radiance scale before tone mapping.
-    #[arg(long, default_value_t = linkgi::render::DEFAULT_EXPOSURE)]
-    pub exposure: f32,
+    /// Radiance scale before tone mapping; automatic when not given: the
+    /// first frame's log-average luminance mapped to middle grey, then kept
+    /// for every frame (so moving lights brighten and darken the picture).
+    #[arg(long)]
+    pub exposure: Option<f32>,
     /// Turn the scene's sky about +y at this many degrees per second of
     /// animation time (a gather-only update per frame; ignored without a sky).
     #[arg(long, default_value_t = 0.0)]
@@ -68,7 +70,8 @@ pub fn run(args: AnimateArgs) -> Result<()> {
     let rest_normals = prepared.normals.clone();
     let deforms = has_deformers(&prepared);
     let mut lights = prepared.lights.clone();
-    let extent = Frame::of(&prepared, &rest, desc.camera).extent();
+    let camera = super::setup::camera(&desc, &prepared, None);
+    let extent = Frame::of(&prepared, &rest, camera).extent();
     let mut engine = Engine::start(
         prepared.clone(),
         SolveParams::from_settings(&settings),
@@ -81,7 +84,11 @@ pub fn run(args: AnimateArgs) -> Result<()> {
     let first_ms = t_first.elapsed().as_secs_f64() * 1e3;
     println!("first GI in {first_ms:.0} ms ({}); rendering on {}", compute.describe(), renderer.describe());
 
-    let params = RenderParams { width, height, exposure: args.exposure, ..Default::default() };
+    if let Some(e) = args.exposure.filter(|e| !(e.is_finite() && *e > 0.0)) {
+        anyhow::bail!("--exposure {e}: must be positive and finite");
+    }
+    let params = RenderParams { width, height, ..Default::default() };
+    let mut exposure = args.exposure;
     let mut csv = String::from(
         "frame,time_s,frame_ms,render_ms,gi_version,gi_age_ms,gi_updates,accel_updates,light_link_updates,gathers,refits,\
          gi_preview,previews,gi_update_ms,rays_reshot,static_rays_reshot_fraction,groups_patched,light_links_recomputed,\
@@ -149,10 +156,11 @@ pub fn run(args: AnimateArgs) -> Result<()> {
             emission: &gi.emission,
             sky: gi.sky.as_ref(),
             lights: &lights,
-            camera: desc.camera,
+            camera,
         };
         let (img, stats) = renderer.render(&frame, &params)?;
-        write_png(&img, args.exposure, &args.out.join(format!("frame_{k:04}.png")))?;
+        let e = *exposure.get_or_insert_with(|| linkgi::render::exposure::auto_exposure(&img));
+        write_png(&img, e, &args.out.join(format!("frame_{k:04}.png")))?;
         let c = engine.counters();
         let frame_ms = tf.elapsed().as_secs_f64() * 1e3;
         let age = gi.published.elapsed().as_secs_f64() * 1e3;

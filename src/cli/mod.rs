@@ -4,6 +4,7 @@ pub mod animate;
 pub mod bench;
 pub mod error;
 pub mod render;
+pub mod runtime_dir;
 pub mod setup;
 pub mod solve;
 pub mod view;

@@ -3,6 +3,7 @@
 
 use super::setup::{compute, setup, Overrides, Setup};
 use anyhow::{bail, Context, Result};
+use linkgi::render::exposure::auto_exposure;
 use linkgi::render::{write_exr, write_png, Frame, RenderParams, Renderer, View};
 use linkgi::solver::{SolveParams, Solver};
 use std::path::PathBuf;
@@ -27,9 +28,10 @@ pub struct RenderArgs {
     pub view: View,
     #[command(flatten)]
     pub overrides: Overrides,
-    /// Radiance scale before tone mapping.
-    #[arg(long, default_value_t = linkgi::render::DEFAULT_EXPOSURE)]
-    pub exposure: f32,
+    /// Radiance scale before tone mapping; automatic when not given (the
+    /// image's log-average luminance mapped to middle grey 0.18).
+    #[arg(long)]
+    pub exposure: Option<f32>,
 }
 
 /// `WxH` -> (W, H).
@@ -48,6 +50,9 @@ pub fn parse_size(s: &str) -> Result<(u32, u32)> {
 
 pub fn run(args: RenderArgs) -> Result<()> {
     let (width, height) = parse_size(&args.size)?;
+    if let Some(e) = args.exposure.filter(|e| !(e.is_finite() && *e > 0.0)) {
+        bail!("--exposure {e}: must be positive and finite");
+    }
     let Setup { desc, prepared, settings } = setup(&args.scene, &args.overrides)?;
     let compute = compute(settings.backend, 1)?;
     let t0 = Instant::now();
@@ -55,16 +60,18 @@ pub fn run(args: RenderArgs) -> Result<()> {
     let sol = solver.solve();
     let gi_ms = t0.elapsed().as_secs_f64() * 1e3;
     let renderer = Renderer::open(settings.backend);
-    let params = RenderParams { width, height, view: args.view, exposure: args.exposure, ..Default::default() };
-    let frame = Frame::of(&solver.scene(), &sol.e_indirect, desc.camera).with_sky(&sol.e_sky);
+    let params = RenderParams { width, height, view: args.view, ..Default::default() };
+    let camera = super::setup::camera(&desc, solver.scene(), Some(solver.accel()));
+    let frame = Frame::of(solver.scene(), &sol.e_indirect, camera).with_sky(&sol.e_sky);
     let (img, stats) = renderer.render(&frame, &params)?;
-    write_png(&img, args.exposure, &args.out)?;
+    let exposure = args.exposure.unwrap_or_else(|| auto_exposure(&img));
+    write_png(&img, exposure, &args.out)?;
     if let Some(exr) = &args.exr {
         write_exr(&img, exr)?;
         println!("wrote {} (linear radiance, W/(m^2 sr))", exr.display());
     }
     println!(
-        "rendered {} ({}x{}, {:?}) on {} in {:.1} ms (GI {:.0} ms on {}); wrote {}",
+        "rendered {} ({}x{}, {:?}) on {} in {:.1} ms (GI {:.0} ms on {}); exposure {:.4}{}; wrote {}",
         solver.scene().name,
         width,
         height,
@@ -73,6 +80,8 @@ pub fn run(args: RenderArgs) -> Result<()> {
         stats.ms,
         gi_ms,
         compute.describe(),
+        exposure,
+        if args.exposure.is_some() { "" } else { " (auto)" },
         args.out.display()
     );
     Ok(())

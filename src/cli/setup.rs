@@ -3,7 +3,8 @@
 //!
 //! 1. load the scene (a `.toml`, a bare `.obj` or a built-in name);
 //! 2. print the loader's warnings (clamped albedo, missing MTL, ...) to
-//!    stderr as `warning: ...`;
+//!    stderr as `warning: ...`, and its notes (what it assumed: how an
+//!    emission was read) as `note: ...`;
 //! 3. apply the command line's [`Overrides`] of the scene's `[settings]`
 //!    (`--rays`, `--tracer`, `--backend`, `--off`; `solve` also `--bounces`, `--seed`)
 //!    and check the result;
@@ -104,15 +105,32 @@ pub fn compute(backend: Backend, devices: usize) -> Result<Compute> {
     Ok(compute)
 }
 
-/// Steps 1-3: loads `scene`, prints its warnings, applies and checks `overrides`.
+/// Steps 1-3: loads `scene`, prints its warnings and notes, applies and checks `overrides`.
 pub fn load(scene: &str, overrides: &Overrides) -> Result<SceneDesc> {
     let mut desc = scene::load(scene).with_context(|| format!("loading scene {scene}"))?;
     for w in &desc.warnings {
         eprintln!("warning: {w}");
     }
+    for n in &desc.notes {
+        eprintln!("note: {n}");
+    }
     desc.settings = overrides.apply(desc.settings);
     desc.settings.validate().with_context(|| format!("settings of scene {scene}"))?;
     Ok(desc)
+}
+
+/// The scene's camera, or one framed automatically (with a note saying
+/// where it stands), traced through `tracer` or a BVH built for it.
+pub fn camera(
+    desc: &SceneDesc,
+    prepared: &PreparedScene,
+    tracer: Option<&dyn linkgi::trace::CpuTracer>,
+) -> linkgi::scene::Camera {
+    let (camera, framing) = linkgi::render::framing::camera_or_framed(desc.camera, prepared, tracer);
+    if let Some(f) = framing {
+        eprintln!("note: the scene has no camera; framed it as {}", f.describe());
+    }
+    camera
 }
 
 /// Steps 1-4: [`load`], then prepares the scene and warns about dropped

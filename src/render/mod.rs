@@ -25,6 +25,8 @@
 //! with a vertical field of view, y up.
 
 pub mod cpu;
+pub mod exposure;
+pub mod framing;
 pub mod gpu;
 pub mod gpu_data;
 pub mod present;

@@ -1,8 +1,10 @@
 //! TOML scene files (format in README.md / issue 2): `[settings]`, `[camera]`,
 //! `[[mesh]]` tables naming an OBJ (`obj = "m.obj"`) or a glTF file
 //! (`gltf = "m.glb"`) relative to the scene file, optionally with an
-//! `emission = [r, g, b]` (radiant exitance, W/m^2, for all its
-//! materials), `[[light]]`s and an optional `[sky]` ([`SkyFile`]).
+//! `emission = [r, g, b]` (emitted radiance, W/(m^2 sr), for all its
+//! materials, replacing their MTL `Ke` or glTF emission; read as exitance
+//! `pi * emission` by [`super::emission::exitance`], with a note saying
+//! so), `[[light]]`s and an optional `[sky]` ([`SkyFile`]).
 //!
 //! A glTF `[[mesh]]` brings every mesh of the glTF's scene (world transforms
 //! baked in, see [`super::gltf`]); the table's transform, crease angle,
@@ -13,7 +15,7 @@
 //! written to `scenes/` this way).
 
 use super::deformer::{Deform, DeformKind};
-use super::{gltf, obj, Backend, Bounces, Camera, Light, SceneDesc, Settings, TracerKind, Transform};
+use super::{emission, gltf, obj, Backend, Bounces, Camera, Light, SceneDesc, Settings, TracerKind, Transform};
 use crate::sky::{EnvMap, Portal, Sky, SkyModel};
 use crate::{Error, Result};
 use glam::Vec3;
@@ -124,7 +126,8 @@ pub struct MeshFile {
     /// `[[mesh.deform]]` tables (dynamic meshes only); see `scene::deform` for units.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub deform: Vec<DeformFile>,
-    /// Radiant exitance of every material of the mesh, W/m^2 (replaces MTL `Ke`).
+    /// Emitted radiance of every material of the mesh, W/(m^2 sr) (replaces
+    /// MTL `Ke` or the glTF's emission); the solver uses `pi` times it.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub emission: Option<[f32; 3]>,
 }
@@ -354,14 +357,14 @@ pub fn parse_toml(path: &Path, text: &str) -> Result<SceneDesc> {
     let dir = path.parent().unwrap_or(Path::new("."));
     let settings = settings_from(path, &file.settings)?;
     let camera = match &file.camera {
-        None => Camera::default(),
-        Some(c) => Camera {
+        None => None,
+        Some(c) => Some(Camera {
             position: finite3(path, "camera.position", c.position)?,
             target: finite3(path, "camera.target", c.target)?,
             fov_deg: c.fov_deg,
-        },
+        }),
     };
-    if !(camera.fov_deg.is_finite() && camera.fov_deg > 0.0 && camera.fov_deg < 180.0) {
+    if let Some(camera) = camera.filter(|c| !(c.fov_deg.is_finite() && c.fov_deg > 0.0 && c.fov_deg < 180.0)) {
         return Err(scene_err(path, format!("camera.fov_deg = {} is not in (0, 180)", camera.fov_deg)));
     }
     if file.meshes.is_empty() {
@@ -369,6 +372,7 @@ pub fn parse_toml(path: &Path, text: &str) -> Result<SceneDesc> {
     }
     let mut meshes = Vec::with_capacity(file.meshes.len());
     let mut warnings = Vec::new();
+    let mut notes = Vec::new();
     for m in &file.meshes {
         let t = &m.transform;
         let transform = Transform {
@@ -382,11 +386,13 @@ pub fn parse_toml(path: &Path, text: &str) -> Result<SceneDesc> {
         if !(m.crease_angle_deg.is_finite() && (0.0..=180.0).contains(&m.crease_angle_deg)) {
             return Err(scene_err(path, format!("mesh.crease_angle_deg = {} is not in [0, 180]", m.crease_angle_deg)));
         }
+        // The mesh's own notes (its files' emission), dropped where `emission` replaces it.
+        let mut mesh_notes = Vec::new();
         let (loaded, file_name) = match (&m.obj, &m.gltf) {
-            (Some(o), None) => (vec![obj::load_obj(&dir.join(o), &mut warnings)?], o),
+            (Some(o), None) => (vec![obj::load_obj(&dir.join(o), &mut warnings, &mut mesh_notes)?], o),
             (None, Some(g)) => {
                 let full = dir.join(g);
-                let scene = gltf::load_gltf(&full, &mut warnings)?;
+                let scene = gltf::load_gltf(&full, &mut warnings, &mut mesh_notes)?;
                 if !scene.lights.is_empty() || scene.camera.is_some() {
                     warnings.push(format!(
                         "{}: the lights and camera of {} are ignored (this scene file's [[light]]s and [camera] apply)",
@@ -410,9 +416,13 @@ pub fn parse_toml(path: &Path, text: &str) -> Result<SceneDesc> {
                 if e.min_element() < 0.0 {
                     return Err(scene_err(path, format!("mesh '{mesh_name}': emission = {e} is negative")));
                 }
-                Some(e)
+                let m_e = emission::exitance(e);
+                let all = (format!("every material of {mesh_name} (replacing its own emission)"), m_e);
+                mesh_notes = emission::note(&path.display().to_string(), "emission", [all]).into_iter().collect();
+                Some(m_e)
             }
         };
+        notes.append(&mut mesh_notes);
         for mut mesh in loaded {
             if let Some(e) = emission {
                 mesh.materials.iter_mut().for_each(|mat| mat.emission = e);
@@ -429,7 +439,7 @@ pub fn parse_toml(path: &Path, text: &str) -> Result<SceneDesc> {
     let lights = file.lights.iter().map(|l| light_from(path, l)).collect::<Result<Vec<_>>>()?;
     let sky = file.sky.as_ref().map(|s| sky_from(path, dir, s)).transpose()?;
     let name = path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
-    Ok(SceneDesc { name, settings, camera, meshes, lights, sky, warnings })
+    Ok(SceneDesc { name, settings, camera, meshes, lights, sky, warnings, notes })
 }
 
 /// Loads a scene TOML file.
@@ -438,19 +448,21 @@ pub fn load_toml(path: &Path) -> Result<SceneDesc> {
     parse_toml(path, &text)
 }
 
-/// Loads a bare OBJ as a scene with default settings, camera and no lights.
+/// Loads a bare OBJ as a scene with default settings, no camera (renderers
+/// frame it: [`crate::render::framing`]) and no lights.
 pub fn load_bare_obj(path: &Path) -> Result<SceneDesc> {
-    let mut warnings = Vec::new();
-    let mesh = obj::load_obj(path, &mut warnings)?;
+    let (mut warnings, mut notes) = (Vec::new(), Vec::new());
+    let mesh = obj::load_obj(path, &mut warnings, &mut notes)?;
     let name = path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
     Ok(SceneDesc {
         name,
         settings: Settings::default(),
-        camera: Camera::default(),
+        camera: None,
         meshes: vec![mesh],
         lights: vec![],
         sky: None,
         warnings,
+        notes,
     })
 }
 
@@ -476,10 +488,10 @@ pub fn to_toml(scene: &SceneDesc, obj_names: &[String]) -> String {
             },
             off: s.terms.off().into_iter().map(String::from).collect(),
         },
-        camera: Some(CameraFile {
-            position: scene.camera.position.into(),
-            target: scene.camera.target.into(),
-            fov_deg: scene.camera.fov_deg,
+        camera: scene.camera.map(|c| CameraFile {
+            position: c.position.into(),
+            target: c.target.into(),
+            fov_deg: c.fov_deg,
         }),
         meshes: scene
             .meshes

@@ -21,7 +21,8 @@
 //!   the node's -z axis, `fov_deg` = `yfov` in degrees. linkgi cameras keep
 //!   y up, so a camera's roll is lost. The orbit target is put where the view
 //!   axis passes closest to the centre of the meshes' bounding box. Without a
-//!   camera, the scene gets [`Camera::default`], as a bare OBJ does.
+//!   camera, the scene has none and is framed when rendered
+//!   ([`crate::render::framing`]), as a bare OBJ is.
 //!
 //! Light units. glTF gives point and spot intensity in candela (lm/sr) and
 //! directional intensity in lux (lm/m^2), times a linear RGB `color`. linkgi
@@ -35,8 +36,9 @@
 //!
 //! Ignored, each with a warning: spot cones (a spot light becomes a point
 //! light of the same intensity), light `range`, emissive textures (a
-//! material's emission is `pi * emissiveFactor * emissive_strength`,
-//! W/m^2, uniform), skins and morph targets (the bind pose is used),
+//! material's emission is uniform: `emissiveFactor * emissive_strength`
+//! read as emitted radiance, W/(m^2 sr), exitance `pi` times it,
+//! [`super::emission`], with a note saying so), skins and morph targets (the bind pose is used),
 //! orthographic cameras, and extensions other than `KHR_lights_punctual`
 //! and `KHR_materials_emissive_strength`.
 //! Extensions a file *requires* that the crate does not know are an error.
@@ -81,23 +83,25 @@ struct Loaded {
 
 /// Loads a `.gltf` or `.glb` file as a scene with default settings.
 pub fn load_scene(path: &Path) -> Result<SceneDesc> {
-    let mut warnings = Vec::new();
-    let g = load_gltf(path, &mut warnings)?;
+    let (mut warnings, mut notes) = (Vec::new(), Vec::new());
+    let g = load_gltf(path, &mut warnings, &mut notes)?;
     let name = path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
     Ok(SceneDesc {
         name,
         settings: Settings::default(),
-        camera: g.camera.unwrap_or_default(),
+        camera: g.camera,
         meshes: g.meshes,
         lights: g.lights,
         sky: None,
         warnings,
+        notes,
     })
 }
 
 /// Loads the meshes, lights and camera of a `.gltf` or `.glb` file.
-/// Problems that were worked around are appended to `warnings`.
-pub fn load_gltf(path: &Path, warnings: &mut Vec<String>) -> Result<GltfScene> {
+/// Problems that were worked around are appended to `warnings`, what was
+/// assumed (how emission was read) to `notes`.
+pub fn load_gltf(path: &Path, warnings: &mut Vec<String>, notes: &mut Vec<String>) -> Result<GltfScene> {
     let bytes = std::fs::read(path).map_err(|source| Error::Io { path: path.to_path_buf(), source })?;
     let loaded = open(path, &bytes)?;
     let doc = &loaded.doc;
@@ -170,6 +174,14 @@ pub fn load_gltf(path: &Path, warnings: &mut Vec<String>) -> Result<GltfScene> {
         let distance = if along.is_finite() && along > 1e-3 * radius { along } else { radius };
         Camera { position, target: position + forward * distance, fov_deg }
     });
+    // One entry per material, however many nodes use it.
+    let mut emitters: Vec<(String, Vec3)> = Vec::new();
+    for m in meshes.iter().flat_map(|m| super::emission::materials(&m.materials)) {
+        if !emitters.iter().any(|e| e.0 == m.0) {
+            emitters.push(m);
+        }
+    }
+    notes.extend(super::emission::note(&path.display().to_string(), "emissiveFactor x emissive_strength", emitters));
     Ok(GltfScene { meshes, lights, camera })
 }
 

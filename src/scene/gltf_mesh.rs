@@ -34,7 +34,7 @@
 
 use super::obj::DEFAULT_ALBEDO;
 use super::texture::{MeshTextures, Sampler, Texture, TextureMap, Wrap, NO_MAP};
-use super::{Material, MeshDesc, Transform, MAX_ALBEDO};
+use super::{emission, Material, MeshDesc, Transform, MAX_ALBEDO};
 use ::gltf::accessor::{DataType, Dimensions};
 use ::gltf::mesh::{Mode, Semantic};
 use ::gltf::texture::WrappingMode;
@@ -326,10 +326,10 @@ fn material_name(m: &::gltf::Material) -> String {
 
 /// Radiant exitance of a glTF material, W/m^2: its emitted radiance
 /// `emissiveFactor * emissive_strength` (KHR_materials_emissive_strength,
-/// default 1) taken as W/(m^2 sr), times pi. Zero when not finite and
-/// non-negative (warned by [`material_factor`]).
+/// default 1) taken as W/(m^2 sr), through [`emission::exitance`]. Zero
+/// when not finite and non-negative (warned by [`material_factor`]).
 fn emission_of(m: &::gltf::Material) -> Vec3 {
-    let e = Vec3::from(m.emissive_factor()) * m.emissive_strength().unwrap_or(1.0) * std::f32::consts::PI;
+    let e = emission::exitance(Vec3::from(m.emissive_factor()) * m.emissive_strength().unwrap_or(1.0));
     if e.is_finite() && e.min_element() >= 0.0 {
         e
     } else {

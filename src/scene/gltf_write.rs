@@ -115,7 +115,7 @@ fn build(scene: &SceneDesc) -> (Value, Vec<u8>) {
             });
             if m.emission != Vec3::ZERO {
                 // Emitted radiance M / pi as factor (at most 1) times strength.
-                let radiance = m.emission / std::f32::consts::PI;
+                let radiance = super::emission::radiance(m.emission);
                 let strength = radiance.max_element().max(1.0);
                 let f = radiance / strength;
                 material["emissiveFactor"] = json!([f.x, f.y, f.z]);
@@ -176,10 +176,9 @@ fn build(scene: &SceneDesc) -> (Value, Vec<u8>) {
         node["extensions"] = json!({"KHR_lights_punctual": {"light": lights.len() - 1}});
         nodes.push(node);
     }
-    let cam = &scene.camera;
-    let forward = (cam.target - cam.position).normalize_or_zero();
     let mut cameras = Vec::new();
-    if forward != Vec3::ZERO {
+    if let Some(cam) = scene.camera.filter(|c| (c.target - c.position).normalize_or_zero() != Vec3::ZERO) {
+        let forward = (cam.target - cam.position).normalize();
         cameras.push(json!({"type": "perspective", "perspective": {"yfov": cam.fov_deg.to_radians(), "znear": 0.01}}));
         nodes.push(json!({"name": "camera", "camera": 0, "translation": cam.position.to_array(), "rotation": facing(forward).to_array()}));
     }

@@ -12,6 +12,7 @@
 pub mod builtin;
 pub mod deform;
 pub mod deformer;
+pub mod emission;
 pub mod file;
 pub mod gltf;
 mod gltf_mesh;
@@ -38,8 +39,10 @@ pub struct Material {
     pub name: String,
     /// Diffuse albedo per channel, in [0, MAX_ALBEDO].
     pub albedo: Vec3,
-    /// Emitted radiant exitance per channel, W/m^2 (MTL `Ke`, the scene
-    /// file's `emission`); zero for surfaces that do not glow.
+    /// Emitted radiant exitance `M` per channel, W/m^2; zero for surfaces
+    /// that do not glow. Files give emitted radiance `L` (MTL `Ke`, the
+    /// scene file's `emission`, glTF's emissive factor x strength), read as
+    /// `M = pi L` by [`emission::exitance`].
     pub emission: Vec3,
 }
 
@@ -319,7 +322,10 @@ impl Default for Camera {
 pub struct SceneDesc {
     pub name: String,
     pub settings: Settings,
-    pub camera: Camera,
+    /// The file's camera; `None` where it has none (a bare OBJ, a glTF
+    /// without cameras, a TOML without `[camera]`): renderers then frame the
+    /// scene automatically ([`crate::render::framing`]).
+    pub camera: Option<Camera>,
     pub meshes: Vec<MeshDesc>,
     pub lights: Vec<Light>,
     /// Sky light (`[sky]` in the scene file), if any ([`crate::sky`]).
@@ -327,6 +333,10 @@ pub struct SceneDesc {
     /// Problems that were fixed up while loading (clamped albedo, missing MTL, ...),
     /// for the caller to show. Empty for built-in scenes.
     pub warnings: Vec<String>,
+    /// What the loaders assumed where a file leaves it open (how an
+    /// emission was read, [`emission::note`]), for the caller to show as
+    /// notes. Empty for built-in scenes.
+    pub notes: Vec<String>,
 }
 
 /// Loads a scene given a path to a `.toml` file (or a bare `.obj`, or a

@@ -7,10 +7,13 @@
 //! and [`super::prep`] welds corners by exact position, which joins the same
 //! faces that option would.
 //!
-//! `Kd` is the diffuse albedo; with a `map_Kd` texture ([`super::texture`],
-//! path relative to the MTL file; a line with options such as `-bm` takes
-//! its last word as the file) the albedo of a vertex is `Kd` (1 where the
-//! MTL gives none) times the texture at the vertex's coordinates, clamped to
+//! `Kd` is the diffuse albedo; `Ke` the emitted radiance, W/(m^2 sr), read
+//! as exitance `pi Ke` ([`super::emission`]; the loader adds a note saying
+//! so for every MTL with an emitting material, and [`write_obj`] writes
+//! `Ke = M / pi` back). With a `map_Kd` texture ([`super::texture`], path
+//! relative to the MTL file; a line with options such as `-bm` takes its
+//! last word as the file) the albedo of a vertex is `Kd` (1 where the MTL
+//! gives none) times the texture at the vertex's coordinates, clamped to
 //! `[0, MAX_ALBEDO]` ([`MeshDesc::vertex_albedo`]), and the texture is kept
 //! for the renderer's per-pixel albedo ([`MeshDesc::textures`]). OBJ texture
 //! coordinates have `v` up (origin at the image's bottom-left): they are read
@@ -29,7 +32,7 @@
 //! MTL file and line): `tobj` would panic on it.
 
 use super::texture::{MeshTextures, Sampler, Texture, TextureMap, NO_MAP};
-use super::{Material, MeshDesc, Transform, MAX_ALBEDO};
+use super::{emission, Material, MeshDesc, Transform, MAX_ALBEDO};
 use crate::{Error, Result};
 use glam::{Vec2, Vec3};
 use std::collections::HashMap;
@@ -168,11 +171,12 @@ fn clamp_albedo(path: &Path, name: &str, kd: Vec3, warnings: &mut Vec<String>) -
     c
 }
 
-/// MTL `Ke` as radiant exitance (W/m^2): non-finite or negative values are
+/// MTL `Ke` (emitted radiance, W/(m^2 sr)) as radiant exitance `pi Ke`
+/// (W/m^2, [`emission::exitance`]): non-finite or negative values are
 /// replaced by zero with a warning naming the file and material.
 fn checked_emission(path: &Path, name: &str, ke: Vec3, warnings: &mut Vec<String>) -> Vec3 {
     if ke.is_finite() && ke.min_element() >= 0.0 {
-        return ke;
+        return emission::exitance(ke);
     }
     warnings.push(format!(
         "{}: material '{name}' has Ke {ke} (emission must be finite and non-negative); using 0",
@@ -238,7 +242,9 @@ fn diffuse_maps(
 
 /// Loads an OBJ (and its MTL) as one mesh. Settings from the scene file
 /// (crease angle, transform, dynamic) are left at defaults for the caller.
-pub fn load_obj(path: &Path, warnings: &mut Vec<String>) -> Result<MeshDesc> {
+/// Problems worked around go to `warnings`, what was assumed (how `Ke` was
+/// read) to `notes`.
+pub fn load_obj(path: &Path, warnings: &mut Vec<String>, notes: &mut Vec<String>) -> Result<MeshDesc> {
     let text = std::fs::read_to_string(path).map_err(|source| Error::Io { path: path.to_path_buf(), source })?;
     prescan(path, &text)?;
     let options = tobj::LoadOptions {
@@ -251,10 +257,12 @@ pub fn load_obj(path: &Path, warnings: &mut Vec<String>) -> Result<MeshDesc> {
     let dir = path.parent().unwrap_or(Path::new(".")).to_path_buf();
     let mut reader = std::io::BufReader::new(text.as_bytes());
     let mtl_problem = std::cell::RefCell::new(None);
+    let mtl_files = std::cell::RefCell::new(Vec::new());
     // The MTL files read, in order, with their material counts.
     let libraries = std::cell::RefCell::new(Vec::<(PathBuf, usize)>::new());
     let (models, materials) = tobj::load_obj_buf(&mut reader, &options, |mtl| {
         let full = dir.join(mtl);
+        mtl_files.borrow_mut().push(full.display().to_string());
         let text = std::fs::read_to_string(&full).map_err(|_| tobj::LoadError::OpenFileFailed)?;
         if let Err(problem) = mtl_prescan(&full, &text) {
             *mtl_problem.borrow_mut() = Some(problem);
@@ -297,6 +305,8 @@ pub fn load_obj(path: &Path, warnings: &mut Vec<String>) -> Result<MeshDesc> {
             Vec::new()
         }
     };
+    let mtl_files = mtl_files.into_inner().join(", ");
+    notes.extend(emission::note(&mtl_files, "Ke", emission::materials(&mats)));
     let mut default_mat: Option<u32> = None;
     let mut positions = Vec::new();
     let mut triangles = Vec::new();
@@ -394,7 +404,9 @@ pub fn load_obj(path: &Path, warnings: &mut Vec<String>) -> Result<MeshDesc> {
 }
 
 /// Writes `mesh` (object space, without its transform) as `path` plus a
-/// `.mtl` beside it. Coordinates are written so they read back bit-exact.
+/// `.mtl` beside it, emission as `Ke` = radiance `M / pi`
+/// ([`emission::radiance`]). Coordinates are written so they read back
+/// bit-exact (emission too, where an `f32` radiance gives back `M`).
 pub fn write_obj(mesh: &MeshDesc, path: &Path) -> Result<()> {
     let mtl_path = path.with_extension("mtl");
     let mtl_name = mtl_path.file_name().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
@@ -402,7 +414,8 @@ pub fn write_obj(mesh: &MeshDesc, path: &Path) -> Result<()> {
     for m in &mesh.materials {
         let _ = writeln!(mtl, "newmtl {}\nKd {} {} {}", m.name, m.albedo.x, m.albedo.y, m.albedo.z);
         if m.emission != Vec3::ZERO {
-            let _ = writeln!(mtl, "Ke {} {} {}", m.emission.x, m.emission.y, m.emission.z);
+            let ke = emission::radiance(m.emission);
+            let _ = writeln!(mtl, "Ke {} {} {}", ke.x, ke.y, ke.z);
         }
         let _ = writeln!(mtl);
     }

@@ -2,13 +2,22 @@
 //! Radiance `.hdr` through `image`): linear radiance in W/(m^2 sr) per
 //! pixel, RGB.
 //!
-//! Mapping: pixel column `i` of `w` has azimuth `phi = 2 pi (i + 0.5) / w`,
-//! measured from +x counter-clockwise seen from above (toward -z first);
-//! row `j` of `h` has polar angle `theta = pi (j + 0.5) / h` from +y (the
-//! top row is the zenith). The direction is
-//! `(sin theta cos phi, cos theta, -sin theta sin phi)`; a pixel covers
-//! `(2 pi / w)(pi / h) sin theta` sr. Lookups are bilinear, wrapping in
-//! azimuth and clamping at the poles.
+//! Mapping (Mitsuba 3's, `src/emitters/envmap.cpp` `uv_to_direction`, so
+//! a sky image lights and looks here as it does there):
+//! pixel column `i` of `w` has azimuth `phi = 2 pi (i + 0.5) / w`, measured
+//! from -z clockwise seen from above (toward +x first); row `j` of `h` has
+//! polar angle `theta = pi (j + 0.5) / h` from +y (the top row is the
+//! zenith). The direction is
+//! `(sin theta sin phi, cos theta, -sin theta cos phi)`, and back
+//! `phi = atan2(x, -z)`. So the left edge of the image faces -z, the
+//! quarter column +x, the centre column +z, the three-quarter column -x;
+//! a viewer inside looking horizontally sees the columns increase to the
+//! right (unmirrored). A pixel covers `(2 pi / w)(pi / h) sin theta` sr.
+//! Lookups are bilinear, wrapping in azimuth and clamping at the poles.
+//! (Mitsuba puts its first and last rows on the poles, `theta = pi j /
+//! (h - 1)`; here rows are pixel centres, half a row apart from that.)
+//! `shaders/render.wgsl` (`sky_fs`) reads the baked sky texture with the
+//! same mapping.
 
 use crate::{Error, Result};
 use glam::Vec3;
@@ -80,7 +89,7 @@ impl EnvMap {
     /// Bilinear radiance along unit direction `d`.
     pub fn lookup(&self, d: Vec3) -> Vec3 {
         let theta = d.y.clamp(-1.0, 1.0).acos();
-        let mut phi = (-d.z).atan2(d.x);
+        let mut phi = d.x.atan2(-d.z);
         if phi < 0.0 {
             phi += std::f32::consts::TAU;
         }
@@ -103,7 +112,8 @@ pub fn pixel_direction(i: usize, j: usize, width: usize, height: usize) -> Vec3 
     let phi = std::f64::consts::TAU * (i as f64 + 0.5) / width as f64;
     let theta = std::f64::consts::PI * (j as f64 + 0.5) / height as f64;
     let (st, ct) = theta.sin_cos();
-    Vec3::new((st * phi.cos()) as f32, ct as f32, (-st * phi.sin()) as f32)
+    let (sp, cp) = phi.sin_cos();
+    Vec3::new((st * sp) as f32, ct as f32, (-st * cp) as f32)
 }
 
 /// Checks a declared image size against [`MAX_PIXELS`] and `max_by_file`.

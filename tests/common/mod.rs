@@ -24,7 +24,7 @@ pub fn solve_with(scene: prep::PreparedScene, params: SolveParams) -> (Solver, S
 }
 
 /// A scene of `meshes` and `lights` (optional sky) with `rays` per vertex,
-/// `bounces` and smoothing off, the default camera.
+/// `bounces` and smoothing off, no camera (renders frame it).
 pub fn scene_desc(
     name: &str,
     meshes: Vec<linkgi::scene::MeshDesc>,
@@ -41,11 +41,12 @@ pub fn scene_desc(
             smoothing_angle_deg: 0.0,
             ..Default::default()
         },
-        camera: linkgi::scene::Camera::default(),
+        camera: None,
         meshes,
         lights,
         sky,
         warnings: vec![],
+        notes: vec![],
     }
 }
 

@@ -292,6 +292,15 @@ impl Display {
         }
     }
 
+    /// Renders `frame` offscreen at `params`' size (linear radiance), on the
+    /// renderer that draws the window: the automatic exposure's probe.
+    pub fn probe(&mut self, frame: &Frame, params: &RenderParams) -> Result<linkgi::render::HdrImage> {
+        Ok(match self {
+            Display::Surface(s) => s.renderer.render(frame, params)?.0,
+            Display::Blit(b) => b.renderer.render(frame, params)?.0,
+        })
+    }
+
     /// Draws one frame; `ui` builds the panel (swap-chain mode only).
     pub fn draw(
         &mut self,

@@ -22,6 +22,9 @@ impl Viewer {
     pub(super) fn set_light(&mut self, index: usize, light: Light) {
         self.lights[index] = light;
         self.engine.send(Change::MoveLight { index, light });
+        if let Some(a) = self.auto_exposure.as_mut() {
+            a.hold();
+        }
     }
 
     pub(super) fn light(&self, index: usize) -> Result<Light> {

@@ -40,7 +40,13 @@ impl Viewer {
             UiAction::Intensity(v) => self.set_intensity(self.selected, v)?,
             UiAction::RaysSlider(k) => self.rays_k = k,
             UiAction::Rays(n) => self.set_rays(n),
-            UiAction::Exposure(e) => self.exposure = e.clamp(1e-4, 1e4),
+            UiAction::Exposure(e) => {
+                self.exposure = e.clamp(1e-4, 1e4);
+                self.auto_exposure = None;
+            }
+            UiAction::AutoExposure(on) => {
+                self.auto_exposure = on.then(|| linkgi::render::exposure::AutoExposure::new(self.exposure));
+            }
             UiAction::Screenshot => self.pending.scene = Some(self.screenshot_path(None)),
             UiAction::AddLight => self.add_light()?,
             UiAction::RemoveLight => self.remove_light(self.selected)?,

@@ -74,9 +74,11 @@ pub struct ViewArgs {
     /// Where `P` and the script's `screenshot` write PNGs.
     #[arg(long, value_name = "DIR", default_value = "screenshots")]
     pub screenshot_dir: PathBuf,
-    /// Radiance scale before tone mapping.
-    #[arg(long, default_value_t = 0.6)]
-    pub exposure: f32,
+    /// Radiance scale before tone mapping; automatic when not given (small
+    /// probe renders' log-average luminance mapped to middle grey, followed
+    /// smoothly and held while a light moves).
+    #[arg(long)]
+    pub exposure: Option<f32>,
     #[command(flatten)]
     pub overrides: Overrides,
     /// Present without waiting for the display's refresh (measures the real frame rate).
@@ -119,7 +121,10 @@ struct Viewer {
     orbit: Orbit,
     extent: f32,
     view: View,
+    /// The exposure shown.
     exposure: f32,
+    /// Automatic exposure (`None`: fixed, from `--exposure` or the panel).
+    auto_exposure: Option<linkgi::render::exposure::AutoExposure>,
     playing: bool,
     anim_time: f32,
     last_tick: Instant,
@@ -149,8 +154,8 @@ struct Viewer {
 
 pub fn run(args: ViewArgs) -> Result<()> {
     let (width, height) = super::render::parse_size(&args.size)?;
-    if !(args.exposure.is_finite() && args.exposure > 0.0) {
-        bail!("--exposure must be positive");
+    if let Some(e) = args.exposure.filter(|e| !(e.is_finite() && *e > 0.0)) {
+        bail!("--exposure {e}: must be positive and finite");
     }
     let (script, script_file) = match &args.script {
         Some(f) => {
@@ -186,7 +191,8 @@ pub fn run(args: ViewArgs) -> Result<()> {
     }
     let compute = compute(backend, 1)?;
     let gi_device = compute.describe();
-    let extent = Frame::of(&prepared, &prepared.positions, desc.camera).extent();
+    let camera = super::setup::camera(&desc, &prepared, None);
+    let extent = Frame::of(&prepared, &prepared.positions, camera).extent();
     let engine = Engine::start(
         prepared.clone(),
         SolveParams::from_settings(&settings),
@@ -238,10 +244,14 @@ pub fn run(args: ViewArgs) -> Result<()> {
         display: None,
         display_name: String::new(),
         selected: 0,
-        orbit: Orbit::from_camera(desc.camera),
+        orbit: Orbit::from_camera(camera),
         extent,
         view: View::Combined,
-        exposure: args.exposure,
+        exposure: args.exposure.unwrap_or(linkgi::render::DEFAULT_EXPOSURE),
+        auto_exposure: args
+            .exposure
+            .is_none()
+            .then(|| linkgi::render::exposure::AutoExposure::new(linkgi::render::DEFAULT_EXPOSURE)),
         playing: false,
         anim_time: 0.0,
         last_tick: Instant::now(),

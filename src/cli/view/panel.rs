@@ -46,6 +46,7 @@ pub struct PanelModel<'a> {
     /// The rays slider's position, k for k x k rays (may lead `rays_per_vertex` while dragged).
     pub rays_k: u32,
     pub exposure: f32,
+    pub auto_exposure: bool,
     /// Window pixels of each point light (markers), `None` when off screen.
     pub light_pixels: &'a [Option<Vec2>],
     pub pixels_per_point: f32,
@@ -68,7 +69,10 @@ pub enum UiAction {
     RaysSlider(u32),
     /// Rays per vertex (a square number): solve with it.
     Rays(u32),
+    /// A fixed exposure (automatic exposure off).
     Exposure(f32),
+    /// Automatic exposure on or off.
+    AutoExposure(bool),
     Screenshot,
     /// A new point light in front of the camera.
     AddLight,
@@ -155,10 +159,16 @@ pub fn panel(ctx: &egui::Context, m: &PanelModel) -> Vec<UiAction> {
                     }
                 }
             });
-            let mut exposure = m.exposure;
-            if ui.add(egui::Slider::new(&mut exposure, 0.01..=100.0).logarithmic(true).text("exposure")).changed() {
-                out.push(UiAction::Exposure(exposure));
-            }
+            ui.horizontal(|ui| {
+                let mut exposure = m.exposure;
+                if ui.add(egui::Slider::new(&mut exposure, 1e-4..=1e4).logarithmic(true).text("exposure")).changed() {
+                    out.push(UiAction::Exposure(exposure));
+                }
+                let mut auto = m.auto_exposure;
+                if ui.checkbox(&mut auto, "auto").changed() {
+                    out.push(UiAction::AutoExposure(auto));
+                }
+            });
             ui.horizontal(|ui| {
                 let can_add = m.lights.len() < linkgi::render::MAX_LIGHTS;
                 if ui.add_enabled(can_add, egui::Button::new("add light")).clicked() {

@@ -32,6 +32,9 @@ pub(super) struct PendingShots {
 }
 
 /// The view's name in the window title.
+/// Size of the automatic exposure's probe renders, pixels.
+const PROBE_SIZE: (u32, u32) = (96, 72);
+
 fn view_name(v: View) -> &'static str {
     match v {
         View::Combined => "combined",
@@ -99,6 +102,9 @@ impl Viewer {
         let now = Instant::now();
         let dt = now.duration_since(self.last_tick).as_secs_f32().min(0.1);
         self.last_tick = now;
+        if let Some(a) = self.auto_exposure.as_mut() {
+            self.exposure = a.step(dt);
+        }
         if self.playing && self.deforms {
             self.anim_time += dt;
             let (p, n) = deform_scene(&self.prepared, &self.rest, &self.rest_normals, self.anim_time);
@@ -140,6 +146,11 @@ impl Viewer {
                 exposure: self.exposure,
                 ..Default::default()
             };
+            if let Some(a) = self.auto_exposure.as_mut().filter(|a| a.wants_probe()) {
+                // A small render of the same frame measures the key.
+                let probe = RenderParams { width: PROBE_SIZE.0, height: PROBE_SIZE.1, ..params };
+                a.probed(display.probe(&frame, &probe)?.pixels);
+            }
             let model = PanelModel {
                 scene: &self.prepared.name,
                 renderer: &self.display_name,
@@ -164,6 +175,7 @@ impl Viewer {
                 rays_per_vertex: self.settings.rays_per_vertex,
                 rays_k: self.rays_k,
                 exposure: self.exposure,
+                auto_exposure: self.auto_exposure.is_some(),
                 light_pixels: &light_pixels,
                 pixels_per_point: display.pixels_per_point(),
                 meshes: &self.mesh_emission,

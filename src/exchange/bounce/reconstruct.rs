@@ -324,6 +324,7 @@ mod tests {
             lights: Vec::new(),
             sky: None,
             warnings: Vec::new(),
+            notes: Vec::new(),
         };
         prep::prepare(&desc).expect("floor prepares")
     }

@@ -122,6 +122,6 @@ pub(super) fn dancer() -> SceneDesc {
     let mut s = tearoom();
     s.name = "dancer".into();
     s.meshes.push(figure("dancer/figure", Vec3::new(1.4, 0.0, -1.1)));
-    s.camera = camera(Vec3::new(-0.9, 1.6, 2.0), Vec3::new(0.7, 0.95, -0.7), 60.0);
+    s.camera = Some(camera(Vec3::new(-0.9, 1.6, 2.0), Vec3::new(0.7, 0.95, -0.7), 60.0));
     s
 }

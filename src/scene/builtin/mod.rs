@@ -98,11 +98,12 @@ fn scene(name: &str, camera: Camera, meshes: Vec<MeshDesc>, lights: Vec<Light>) 
     SceneDesc {
         name: name.to_string(),
         settings: Settings::default(),
-        camera,
+        camera: Some(camera),
         meshes,
         lights,
         sky: None,
         warnings: Vec::new(),
+        notes: Vec::new(),
     }
 }
 

@@ -302,7 +302,7 @@ fn cameras_and_lights_inside_rooms() {
         let (lo, hi) =
             room.positions.iter().fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), &p| (lo.min(p), hi.max(p)));
         let inside = |p: Vec3| p.cmpgt(lo).all() && p.cmplt(hi).all();
-        assert!(inside(s.camera.position), "{name}: camera outside");
+        assert!(inside(s.camera.expect("built-in scenes have cameras").position), "{name}: camera outside");
         for l in &s.lights {
             if let Light::Point { position, .. } = l {
                 assert!(inside(*position), "{name}: light outside");
