@@ -9,11 +9,19 @@
 // hardware 2x2 comparison). Point lights use six 2D layers (one per cube
 // face, picked by the major axis of the light-to-point vector); directional
 // lights one layer each. Back faces are black (surfaces are one-sided).
+// rho is interpolated from the vertices, or on a textured triangle (map !=
+// NO_MAP) the albedo texture at the pixel times the interpolated factor,
+// clamped to [0, MAX_ALBEDO] (src/render/textures.rs; sample_texture is
+// the copy of scene::texture::TextureMap::sample).
 // The HDR target holds linear L; exposure and tone mapping run on read-back.
 
 const PI: f32 = 3.14159265358979323846264338327950288;
 const MAX_LIGHTS: u32 = 8u;
 const MAX_SHADOW_LAYERS: u32 = 56u;
+// Untextured triangle (scene::texture::NO_MAP).
+const NO_MAP: u32 = 4294967295u;
+// Largest albedo (scene::MAX_ALBEDO).
+const MAX_ALBEDO: f32 = 0.999;
 
 // radiosity-begin: the radiosity of a Lambertian surface, rho/pi E + M/pi,
 // W/(m^2 sr): `exchange::bounce::operator::radiosity`, which tests/gpu.rs
@@ -69,6 +77,60 @@ struct LightArray {
 @group(0) @binding(5) var sky_map: texture_2d<f32>;
 @group(0) @binding(6) var sky_sampler: sampler;
 
+// One albedo texture: first texel in `texels`, size, and mode (bits 0-1
+// wrap along u, 2-3 along v: 0 clamp to edge, 1 repeat, 2 mirrored repeat;
+// bit 4 nearest, else bilinear).
+struct TextureInfo {
+    offset: u32,
+    width: u32,
+    height: u32,
+    mode: u32,
+}
+
+// Linear RGB texels, rows from the top: (pack2x16float(r, g), pack2x16float(b, 0)).
+@group(0) @binding(7) var<storage, read> texels: array<vec2<u32>>;
+@group(0) @binding(8) var<storage, read> maps: array<TextureInfo>;
+
+fn wrap_index(i: i32, n: i32, mode: u32) -> i32 {
+    if mode == 0u {
+        return clamp(i, 0, n - 1);
+    }
+    if mode == 1u {
+        return ((i % n) + n) % n;
+    }
+    let m = ((i % (2 * n)) + 2 * n) % (2 * n);
+    return select(2 * n - 1 - m, m, m < n);
+}
+
+fn fetch_texel(t: TextureInfo, x: i32, y: i32) -> vec3<f32> {
+    let w = i32(t.width);
+    let xi = wrap_index(x, w, t.mode & 3u);
+    let yi = wrap_index(y, i32(t.height), (t.mode >> 2u) & 3u);
+    let p = texels[t.offset + u32(yi * w + xi)];
+    return vec3<f32>(unpack2x16float(p.x), unpack2x16float(p.y).x);
+}
+
+fn lerp3(a: vec3<f32>, b: vec3<f32>, t: f32) -> vec3<f32> {
+    return a + (b - a) * t;
+}
+
+// Texel centres at half-integers; nearest rounds half away from zero.
+fn sample_texture(index: u32, uv: vec2<f32>) -> vec3<f32> {
+    let t = maps[index];
+    let p = clamp(uv * vec2<f32>(f32(t.width), f32(t.height)) - 0.5, vec2<f32>(-1e9), vec2<f32>(1e9));
+    if (t.mode & 16u) != 0u {
+        let r = select(ceil(p - 0.5), floor(p + 0.5), p >= vec2<f32>(0.0));
+        return fetch_texel(t, i32(r.x), i32(r.y));
+    }
+    let f = floor(p);
+    let w = p - f;
+    let x = i32(f.x);
+    let y = i32(f.y);
+    let top = lerp3(fetch_texel(t, x, y), fetch_texel(t, x + 1, y), w.x);
+    let bottom = lerp3(fetch_texel(t, x, y + 1), fetch_texel(t, x + 1, y + 1), w.x);
+    return lerp3(top, bottom, w.y);
+}
+
 struct VsOut {
     @builtin(position) clip: vec4<f32>,
     @location(0) world: vec3<f32>,
@@ -77,6 +139,8 @@ struct VsOut {
     @location(3) e_indirect: vec3<f32>,
     @location(4) e_sky: vec3<f32>,
     @location(5) emitted: vec3<f32>,
+    @location(6) uv: vec2<f32>,
+    @location(7) @interpolate(flat) map: u32,
 }
 
 @vertex
@@ -87,6 +151,8 @@ fn vs_main(
     @location(3) e_indirect: vec3<f32>,
     @location(4) e_sky: vec3<f32>,
     @location(5) emitted: vec3<f32>,
+    @location(6) uv: vec2<f32>,
+    @location(7) map: u32,
 ) -> VsOut {
     var out: VsOut;
     out.clip = frame.view_proj * vec4<f32>(position, 1.0);
@@ -96,6 +162,8 @@ fn vs_main(
     out.e_indirect = e_indirect;
     out.e_sky = e_sky;
     out.emitted = emitted;
+    out.uv = uv;
+    out.map = map;
     return out;
 }
 
@@ -166,11 +234,15 @@ fn fs_main(in: VsOut, @builtin(front_facing) front: bool) -> @location(0) vec4<f
         }
     }
     let none = vec3<f32>(0.0);
-    var l = lambert_radiosity(in.albedo, e_d + in.e_sky + in.e_indirect, none) + in.emitted;
+    var rho = in.albedo;
+    if in.map != NO_MAP {
+        rho = clamp(in.albedo * sample_texture(in.map, in.uv), none, vec3<f32>(MAX_ALBEDO));
+    }
+    var l = lambert_radiosity(rho, e_d + in.e_sky + in.e_indirect, none) + in.emitted;
     if frame.view_mode == 1u {
-        l = lambert_radiosity(in.albedo, e_d + in.e_sky, none) + in.emitted;
+        l = lambert_radiosity(rho, e_d + in.e_sky, none) + in.emitted;
     } else if frame.view_mode == 2u {
-        l = lambert_radiosity(in.albedo, in.e_indirect, none);
+        l = lambert_radiosity(rho, in.e_indirect, none);
     }
     return vec4<f32>(l, 1.0);
 }

@@ -1,7 +1,9 @@
 //! Every struct shared with WGSL has the same size and field offsets in
 //! Rust and in the shaders (parsed with naga). No GPU needed.
 
-use linkgi::gpu::layout::{shared_constants, shared_structs, GATHER_WGSL, RENDER_WGSL, SHOOT_WGSL, TONEMAP_WGSL};
+use linkgi::gpu::layout::{
+    shared_constants, shared_f32_constants, shared_structs, GATHER_WGSL, RENDER_WGSL, SHOOT_WGSL, TONEMAP_WGSL,
+};
 use std::collections::HashMap;
 
 /// `name -> (size, [(field, offset)])` of every struct in a WGSL source.
@@ -52,24 +54,39 @@ fn every_wgsl_struct_outside_the_shader_is_listed() {
     }
 }
 
+/// The initializer of `const name` in the shader `file`.
+fn wgsl_constant(file: &str, name: &str) -> naga::Literal {
+    let src = match file {
+        "gather.wgsl" => GATHER_WGSL,
+        "shoot.wgsl" => SHOOT_WGSL,
+        "render.wgsl" => RENDER_WGSL,
+        other => panic!("no shader {other}"),
+    };
+    let module = naga::front::wgsl::parse_str(src).unwrap_or_else(|e| panic!("{file}: {}", e.emit_to_string(src)));
+    let (_, c) = module
+        .constants
+        .iter()
+        .find(|(_, c)| c.name.as_deref() == Some(name))
+        .unwrap_or_else(|| panic!("{file} declares no const {name}"));
+    match module.global_expressions[c.init] {
+        naga::Expression::Literal(l) => l,
+        ref e => panic!("{file}: {name} is {e:?}, not a literal"),
+    }
+}
+
 /// Every shared constant has its Rust value in its shader.
 #[test]
 fn shared_constants_match_wgsl() {
     for (file, name, value) in shared_constants() {
-        let src = match file {
-            "gather.wgsl" => GATHER_WGSL,
-            "shoot.wgsl" => SHOOT_WGSL,
-            other => panic!("no shader {other}"),
-        };
-        let module = naga::front::wgsl::parse_str(src).unwrap_or_else(|e| panic!("{file}: {}", e.emit_to_string(src)));
-        let (_, c) = module
-            .constants
-            .iter()
-            .find(|(_, c)| c.name.as_deref() == Some(name))
-            .unwrap_or_else(|| panic!("{file} declares no const {name}"));
-        match module.global_expressions[c.init] {
-            naga::Expression::Literal(naga::Literal::U32(v)) => assert_eq!(v, value, "{file}: {name}"),
-            ref e => panic!("{file}: {name} is {e:?}, not a u32 literal"),
+        match wgsl_constant(file, name) {
+            naga::Literal::U32(v) => assert_eq!(v, value, "{file}: {name}"),
+            l => panic!("{file}: {name} is {l:?}, not a u32 literal"),
+        }
+    }
+    for (file, name, value) in shared_f32_constants() {
+        match wgsl_constant(file, name) {
+            naga::Literal::F32(v) => assert_eq!(v, value, "{file}: {name}"),
+            l => panic!("{file}: {name} is {l:?}, not an f32 literal"),
         }
     }
 }

@@ -238,6 +238,8 @@ fn grey(name: &str, positions: Vec<Vec3>, triangles: Vec<[u32; 3]>) -> MeshDesc 
         triangles,
         materials: vec![Material { name: "grey".into(), albedo: Vec3::splat(0.8), emission: Vec3::ZERO }],
         vertex_albedo: None,
+        vertex_emission: None,
+        textures: None,
         crease_angle_deg: 60.0,
         transform: Default::default(),
         dynamic: false,

@@ -150,6 +150,7 @@ pub fn run(args: AnimateArgs) -> Result<()> {
             normals: &normals,
             albedo: &prepared.albedo,
             triangles: &prepared.triangles,
+            textures: prepared.textures.as_deref(),
             e_indirect: &gi.e_indirect,
             e_sky: &gi.e_sky,
             emission: &gi.emission,

@@ -107,6 +107,19 @@ pub struct LightGpu {
     pub _pad0: u32,
 }
 
+/// One albedo texture of the renderer (`render.wgsl`, 16 bytes): where its
+/// texels start in the texel buffer and how it is sampled.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct TextureInfo {
+    /// Index of its first texel (row by row from the top).
+    pub offset: u32,
+    pub width: u32,
+    pub height: u32,
+    /// Bits 0-1: wrap along u, 2-3: wrap along v (`Wrap::code`); bit 4: nearest.
+    pub mode: u32,
+}
+
 /// Uniforms of the display pass (`shaders/tonemap.wgsl`).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
@@ -154,6 +167,7 @@ pub fn shared_structs() -> Vec<SharedStruct> {
         ),
         shared!(LightGpu, "LightGpu", [position, kind, color, layer, direction, _pad0]),
         shared!(ToneMapUniforms, "ToneMapUniforms", [exposure, encode_srgb, _pad0, _pad1]),
+        shared!(TextureInfo, "TextureInfo", [offset, width, height, mode]),
     ]
 }
 
@@ -163,7 +177,13 @@ pub fn shared_constants() -> Vec<(&'static str, &'static str, u32)> {
     vec![
         ("gather.wgsl", "GAP_BYTES", crate::links::packed::GAP_BYTES_WORD),
         ("gather.wgsl", "WORKGROUP", GATHER_WORKGROUP),
+        ("render.wgsl", "NO_MAP", crate::scene::texture::NO_MAP),
     ]
+}
+
+/// Float constants shared with WGSL, checked like [`shared_constants`].
+pub fn shared_f32_constants() -> Vec<(&'static str, &'static str, f32)> {
+    vec![("render.wgsl", "MAX_ALBEDO", crate::scene::MAX_ALBEDO)]
 }
 
 /// The WGSL sources, for pipelines and the layout test.

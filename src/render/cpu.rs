@@ -1,6 +1,8 @@
 //! CPU fallback renderer (no adapter): one primary ray per pixel centre
 //! through a CPU tracer (a wide BVH of the frame's triangles unless one is given); at a front-face hit the
-//! normal, albedo and `E_i` are interpolated with the hit's barycentrics and
+//! normal, albedo and `E_i` are interpolated with the hit's barycentrics (on a
+//! textured triangle the albedo is the texture's at the hit, the same
+//! sampling as the GPU's) and
 //! each light's visibility is one shadow ray from the hit offset along the
 //! normal (hard shadows). Back faces are black, misses show the sky's
 //! radiance along the ray (black in the indirect view or without a sky). Radiance as in [`super`]:
@@ -65,7 +67,7 @@ fn shade(frame: &Frame, kd: &dyn CpuTracer, view: View, offset: f32, ray: Ray) -
     let lerp = |a: &[Vec3]| a[t[0] as usize] * b[0] + a[t[1] as usize] * b[1] + a[t[2] as usize] * b[2];
     let p = ray.origin + ray.dir * hit.t;
     let n = lerp(frame.normals).normalize_or_zero();
-    let rho = lerp(frame.albedo);
+    let rho = frame.textures.and_then(|tex| tex.albedo(hit.tri as usize, b)).unwrap_or_else(|| lerp(frame.albedo));
     let e_i = lerp(frame.e_indirect);
     let at = |f: &dyn Fn(usize) -> Vec3| f(t[0] as usize) * b[0] + f(t[1] as usize) * b[1] + f(t[2] as usize) * b[2];
     let e_sky = at(&|v| frame.sky_at(v));

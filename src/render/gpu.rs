@@ -7,15 +7,18 @@
 //! for the lights present: a frame without point lights has no cube maps.
 //! They are kept between frames and redrawn only when the lights, the
 //! geometry or the shadow-map size change (orbiting the camera, switching
-//! views or a new indirect result reuse them).
+//! views or a new indirect result reuse them). Albedo textures are drawn per
+//! pixel from storage buffers ([`super::gpu_data`]), uploaded once while
+//! the frame's maps stay the same.
 
+pub use super::gpu_data::RenderVertex;
+use super::gpu_data::{mesh_data, GpuTextures};
 use super::{camera_matrices, up_for, Frame, HdrImage, RenderParams, RenderStats, MAX_LIGHTS};
 use crate::error::{Error, Result};
 use crate::gpu::buffers::{map_staging, uniform_init};
 use crate::gpu::layout::{FrameUniforms, LightGpu, RENDER_WGSL};
 use crate::gpu::GpuDevice;
 use crate::scene::Light;
-use bytemuck::{Pod, Zeroable};
 use glam::{Mat4, Vec3};
 use std::hash::Hasher;
 use std::sync::{Arc, Mutex};
@@ -26,20 +29,6 @@ use wgpu::util::DeviceExt;
 pub const MAX_SHADOW_LAYERS: usize = 56;
 const HDR_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
 const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
-
-/// One vertex of the render mesh (72 bytes): `vs_main` locations 0-5.
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
-pub struct RenderVertex {
-    pub position: [f32; 3],
-    pub normal: [f32; 3],
-    pub albedo: [f32; 3],
-    pub e_indirect: [f32; 3],
-    /// Irradiance from the sky, W/m^2.
-    pub e_sky: [f32; 3],
-    /// Emitted radiance `M_e / pi`, W/(m^2 sr).
-    pub emitted: [f32; 3],
-}
 
 /// Pipelines on one device, reused for every frame.
 pub struct GpuRenderer {
@@ -56,6 +45,8 @@ pub struct GpuRenderer {
     sky_sampler: wgpu::Sampler,
     /// The last frame's sky image and its key (the sky's description).
     sky_cache: Mutex<Option<(String, wgpu::Texture)>>,
+    /// The last frame's albedo textures (reused while the maps are the same).
+    texture_cache: Mutex<Option<Arc<GpuTextures>>>,
 }
 
 /// Size of the equirectangular image the sky pass samples (the sky baked
@@ -126,7 +117,8 @@ impl GpuRenderer {
             source: wgpu::ShaderSource::Wgsl(RENDER_WGSL.into()),
         });
         let all = wgpu::vertex_attr_array![
-            0 => Float32x3, 1 => Float32x3, 2 => Float32x3, 3 => Float32x3, 4 => Float32x3, 5 => Float32x3
+            0 => Float32x3, 1 => Float32x3, 2 => Float32x3, 3 => Float32x3, 4 => Float32x3, 5 => Float32x3,
+            6 => Float32x2, 7 => Uint32
         ];
         let pos_only = wgpu::vertex_attr_array![0 => Float32x3];
         let main = d.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
@@ -234,6 +226,7 @@ impl GpuRenderer {
             sky,
             sky_sampler,
             sky_cache: Mutex::new(None),
+            texture_cache: Mutex::new(None),
         })
     }
 
@@ -316,16 +309,7 @@ impl GpuRenderer {
             depth_bias: 0.0,
         };
 
-        let verts: Vec<RenderVertex> = (0..frame.positions.len())
-            .map(|i| RenderVertex {
-                position: frame.positions[i].into(),
-                normal: frame.normals[i].into(),
-                albedo: frame.albedo[i].into(),
-                e_indirect: frame.e_indirect[i].into(),
-                e_sky: frame.sky_at(i).into(),
-                emitted: frame.emitted_at(i).into(),
-            })
-            .collect();
+        let (verts, triangles) = mesh_data(frame);
         let vbuf = d.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("render vertices"),
             contents: bytemuck::cast_slice(&verts),
@@ -333,10 +317,22 @@ impl GpuRenderer {
         });
         let ibuf = d.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("render indices"),
-            contents: bytemuck::cast_slice(frame.triangles),
+            contents: bytemuck::cast_slice(&triangles),
             usage: wgpu::BufferUsages::INDEX,
         });
-        let index_count = frame.triangles.len() as u32 * 3;
+        let index_count = triangles.len() as u32 * 3;
+        let textures = {
+            let mut cache = self.texture_cache.lock().unwrap_or_else(|p| p.into_inner());
+            match &*cache {
+                Some(t) if t.holds(frame.textures) => t.clone(),
+                _ => {
+                    let limit = self.dev.limits.max_storage_buffer_binding_size.min(self.dev.limits.max_buffer_size);
+                    let t = Arc::new(GpuTextures::new(d, frame.textures, limit));
+                    *cache = Some(t.clone());
+                    t
+                }
+            }
+        };
         let frame_buf = uniform_init(d, "render frame uniforms", &uniforms);
         let light_buf = uniform_init(d, "render lights", &lights);
         let mat_buf = uniform_init(d, "render shadow matrices", &mat_data);
@@ -382,6 +378,8 @@ impl GpuRenderer {
                 wgpu::BindGroupEntry { binding: 2, resource: mat_buf.as_entire_binding() },
                 wgpu::BindGroupEntry { binding: 3, resource: wgpu::BindingResource::TextureView(&shadow_array) },
                 wgpu::BindGroupEntry { binding: 4, resource: wgpu::BindingResource::Sampler(&self.sampler) },
+                wgpu::BindGroupEntry { binding: 7, resource: textures.texels.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 8, resource: textures.infos.as_entire_binding() },
             ],
         });
 

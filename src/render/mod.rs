@@ -5,6 +5,12 @@
 //! where `E_d` is the direct irradiance evaluated at the pixel (point lights
 //! `I cos / r^2`, directional `E cos`, times visibility) and `E_i` the
 //! solver's indirect irradiance interpolated from the triangle's vertices.
+//! `rho` is interpolated from the vertices too, except on textured triangles
+//! ([`Frame::textures`]), where it is the albedo texture at the pixel's
+//! interpolated coordinates times the interpolated factor
+//! ([`crate::scene::texture::CornerTextures::albedo`]): irradiance from the
+//! vertices times albedo from the texture, as engines draw baked vertex or
+//! lightmap light.
 //! The `direct` and `indirect` views keep one of the two terms.
 //!
 //! Two renderers produce the same [`HdrImage`] of linear radiance:
@@ -22,10 +28,12 @@ pub mod cpu;
 pub mod exposure;
 pub mod framing;
 pub mod gpu;
+pub mod gpu_data;
 pub mod present;
 
 use crate::exchange::bounce::operator::radiosity;
 use crate::scene::prep::PreparedScene;
+use crate::scene::texture::CornerTextures;
 use crate::scene::{Camera, Light};
 use glam::{Mat4, Vec3};
 use std::path::Path;
@@ -86,13 +94,16 @@ impl Default for RenderParams {
 }
 
 /// What a frame draws: geometry (possibly deformed), per-vertex albedo and
-/// indirect irradiance (W/m^2), lights and camera.
+/// indirect irradiance (W/m^2), albedo textures, lights and camera.
 #[derive(Clone, Copy, Debug)]
 pub struct Frame<'a> {
     pub positions: &'a [Vec3],
     pub normals: &'a [Vec3],
     pub albedo: &'a [Vec3],
     pub triangles: &'a [[u32; 3]],
+    /// Albedo textures per triangle corner (`None`: every triangle draws its
+    /// vertices' albedo).
+    pub textures: Option<&'a CornerTextures>,
     pub e_indirect: &'a [Vec3],
     /// Irradiance from the sky per vertex, W/m^2 (empty: none).
     pub e_sky: &'a [Vec3],
@@ -114,6 +125,7 @@ impl<'a> Frame<'a> {
             normals: &scene.normals,
             albedo: &scene.albedo,
             triangles: &scene.triangles,
+            textures: scene.textures.as_deref(),
             e_indirect,
             e_sky: &[],
             emission: &scene.emission,
@@ -166,6 +178,9 @@ impl<'a> Frame<'a> {
         }
         if let Some(t) = self.triangles.iter().find(|t| t.iter().any(|&i| i as usize >= n)) {
             return Err(crate::Error::Setting(format!("render: triangle {t:?} indexes past {n} vertices")));
+        }
+        if let Some(t) = self.textures {
+            t.validate(self.triangles.len()).map_err(|m| crate::Error::Setting(format!("render: {m}")))?;
         }
         Ok(())
     }

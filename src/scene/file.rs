@@ -426,6 +426,8 @@ pub fn parse_toml(path: &Path, text: &str) -> Result<SceneDesc> {
         for mut mesh in loaded {
             if let Some(e) = emission {
                 mesh.materials.iter_mut().for_each(|mat| mat.emission = e);
+                // Uniform over the mesh: replaces an emissive texture's per-vertex values.
+                mesh.vertex_emission = None;
             }
             mesh.crease_angle_deg = m.crease_angle_deg;
             mesh.transform = transform;

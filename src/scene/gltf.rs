@@ -107,7 +107,7 @@ pub fn load_gltf(path: &Path, warnings: &mut Vec<String>, notes: &mut Vec<String
     let doc = &loaded.doc;
     let warn = |warnings: &mut Vec<String>, m: String| warnings.push(format!("{}: {m}", path.display()));
     for ext in doc.extensions_used() {
-        if ext != "KHR_lights_punctual" {
+        if ext != "KHR_lights_punctual" && ext != "KHR_materials_emissive_strength" {
             warn(warnings, format!("extension {ext} is not supported and is ignored"));
         }
     }

@@ -1,4 +1,4 @@
-//! glTF mesh primitives and their base colour, for [`super::gltf`].
+//! glTF mesh primitives, their base colour and emission, for [`super::gltf`].
 //!
 //! Each primitive's positions go through the node's world transform
 //! (metres); its indices (or `0..n` without any) make triangles by the
@@ -7,23 +7,33 @@
 //!
 //! Albedo (linear RGB, unitless) follows glTF's base colour:
 //! `baseColorFactor.rgb * texture(uv).rgb * COLOR_0.rgb`, alpha ignored.
-//! The texture is the material's `baseColorTexture`, decoded from sRGB to
-//! linear, sampled at each vertex's `TEXCOORD_n` (nearest texel where the
-//! sampler's magnification filter says NEAREST, else bilinear between texel
-//! centres, with the sampler's wrap modes). Where any primitive of a mesh has
-//! a texture or `COLOR_0`, the mesh carries albedo per vertex
-//! ([`MeshDesc::vertex_albedo`]); otherwise per material. Albedo outside
-//! `[0, MAX_ALBEDO]` is clamped with a warning, a non-finite
-//! `baseColorFactor` becomes grey [`DEFAULT_ALBEDO`] with a warning, as in
-//! OBJ. A primitive without a material gets [`DEFAULT_ALBEDO`] grey with a
-//! warning (deviation: glTF's default material is white, which would be
-//! clamped to `MAX_ALBEDO` and make the bounce series stiff).
+//! The texture is the material's `baseColorTexture`, decoded and sampled by
+//! [`super::texture`] (sRGB to linear; nearest texel where the sampler's
+//! magnification filter says NEAREST, else bilinear, with the sampler's wrap
+//! modes) at each vertex's `TEXCOORD_n`. Where any primitive of a mesh has a
+//! texture, `COLOR_0` or an emissive texture, the mesh carries albedo per
+//! vertex ([`MeshDesc::vertex_albedo`]); otherwise per material. Textured
+//! primitives also keep their texture, coordinates and
+//! `baseColorFactor * COLOR_0` per vertex ([`MeshDesc::textures`]) for the
+//! renderer's per-pixel albedo. Albedo outside `[0, MAX_ALBEDO]` is clamped
+//! with a warning, a non-finite `baseColorFactor` becomes grey
+//! [`DEFAULT_ALBEDO`] with a warning, as in OBJ. A primitive without a
+//! material gets [`DEFAULT_ALBEDO`] grey with a warning (deviation: glTF's
+//! default material is white, which would be clamped to `MAX_ALBEDO` and
+//! make the bounce series stiff).
+//!
+//! Emission: [`emission_of`] the material (`emissiveFactor` times
+//! `KHR_materials_emissive_strength`, as exitance) times its
+//! `emissiveTexture` (sRGB, sampled like the base colour at its own
+//! `TEXCOORD_n`) per vertex, [`MeshDesc::vertex_emission`], where any
+//! primitive of the mesh has an emissive texture; otherwise per material.
 //!
 //! Every accessor is checked (element type, count, byte range within its
 //! buffer view, sparse parts likewise) before the crate reads it, since its
 //! readers index and unwrap without checking.
 
 use super::obj::DEFAULT_ALBEDO;
+use super::texture::{MeshTextures, Sampler, Texture, TextureMap, Wrap, NO_MAP};
 use super::{emission, Material, MeshDesc, Transform, MAX_ALBEDO};
 use ::gltf::accessor::{DataType, Dimensions};
 use ::gltf::mesh::{Mode, Semantic};
@@ -31,6 +41,7 @@ use ::gltf::texture::WrappingMode;
 use glam::{Mat4, Vec2, Vec3};
 use std::collections::{HashMap, HashSet};
 use std::path::Path;
+use std::sync::Arc;
 
 type Res<T> = std::result::Result<T, String>;
 
@@ -41,122 +52,57 @@ pub(super) struct MeshContext<'a> {
     base: &'a Path,
     buffers: &'a [::gltf::buffer::Data],
     /// Decoded images by image index.
-    textures: HashMap<usize, Texture>,
-    /// Materials already warned about (emission).
+    images: HashMap<usize, Arc<Texture>>,
+    /// Materials already warned about (emission, fallbacks).
     warned: HashSet<usize>,
 }
 
 impl<'a> MeshContext<'a> {
     pub(super) fn new(path: &'a Path, base: &'a Path, buffers: &'a [::gltf::buffer::Data]) -> Self {
-        Self { path, base, buffers, textures: HashMap::new(), warned: HashSet::new() }
+        Self { path, base, buffers, images: HashMap::new(), warned: HashSet::new() }
     }
 
-    fn texture(&mut self, tex: &::gltf::Texture) -> Res<&Texture> {
+    /// The texture's image (decoded once per file) with its sampler.
+    fn map(&mut self, tex: &::gltf::Texture) -> Res<TextureMap> {
         let image = tex.source();
         let i = image.index();
-        if !self.textures.contains_key(&i) {
+        if !self.images.contains_key(&i) {
             let data = ::gltf::image::Data::from_source(image.source(), Some(self.base), self.buffers)
                 .map_err(|e| format!("image {i} could not be decoded: {e}"))?;
-            let t = Texture::from_image(&data).map_err(|m| format!("image {i}: {m}"))?;
-            self.textures.insert(i, t);
+            let t = decode_image(&data).map_err(|m| format!("image {i}: {m}"))?;
+            self.images.insert(i, Arc::new(t));
         }
-        Ok(&self.textures[&i])
-    }
-}
-
-/// A decoded base colour image, linear RGB, rows from the top (v = 0).
-struct Texture {
-    width: usize,
-    height: usize,
-    texels: Vec<Vec3>,
-}
-
-fn srgb_to_linear(c: f32) -> f32 {
-    if c <= 0.04045 {
-        c / 12.92
-    } else {
-        ((c + 0.055) / 1.055).powf(2.4)
-    }
-}
-
-impl Texture {
-    fn from_image(data: &::gltf::image::Data) -> Res<Texture> {
-        use ::gltf::image::Format::*;
-        // (channels, bytes per channel); float images are taken as linear.
-        let (channels, size) = match data.format {
-            R8 => (1, 1),
-            R8G8 => (2, 1),
-            R8G8B8 => (3, 1),
-            R8G8B8A8 => (4, 1),
-            R16 => (1, 2),
-            R16G16 => (2, 2),
-            R16G16B16 => (3, 2),
-            R16G16B16A16 => (4, 2),
-            R32G32B32FLOAT => (3, 4),
-            R32G32B32A32FLOAT => (4, 4),
+        let s = tex.sampler();
+        let wrap = |w: WrappingMode| match w {
+            WrappingMode::ClampToEdge => Wrap::ClampToEdge,
+            WrappingMode::Repeat => Wrap::Repeat,
+            WrappingMode::MirroredRepeat => Wrap::MirroredRepeat,
         };
-        let (width, height) = (data.width as usize, data.height as usize);
-        let texel_bytes = channels * size;
-        let needed = width.checked_mul(height).and_then(|n| n.checked_mul(texel_bytes));
-        if width == 0 || height == 0 || needed.is_none_or(|n| n > data.pixels.len()) {
-            return Err(format!("{width}x{height} image has {} bytes of pixels", data.pixels.len()));
-        }
-        let channel = |b: &[u8]| -> f32 {
-            match size {
-                1 => srgb_to_linear(b[0] as f32 / 255.0),
-                2 => srgb_to_linear(u16::from_ne_bytes([b[0], b[1]]) as f32 / 65535.0),
-                _ => f32::from_ne_bytes([b[0], b[1], b[2], b[3]]),
-            }
+        let sampler = Sampler {
+            wrap: [wrap(s.wrap_s()), wrap(s.wrap_t())],
+            nearest: s.mag_filter() == Some(::gltf::texture::MagFilter::Nearest),
         };
-        let texels: Vec<Vec3> = data.pixels[..width * height * texel_bytes]
-            .chunks_exact(texel_bytes)
-            .map(|t| {
-                let c: Vec<f32> = t.chunks_exact(size).map(channel).collect();
-                if channels < 3 {
-                    Vec3::splat(c[0])
-                } else {
-                    Vec3::new(c[0], c[1], c[2])
-                }
-            })
-            .collect();
-        if let Some(bad) = texels.iter().find(|t| !t.is_finite()) {
-            return Err(format!("texel {bad} is not finite"));
-        }
-        Ok(Texture { width, height, texels })
+        Ok(TextureMap { image: self.images[&i].clone(), sampler })
     }
+}
 
-    fn fetch(&self, x: i64, y: i64, wrap: [WrappingMode; 2]) -> Vec3 {
-        fn wrap_index(i: i64, n: usize, mode: WrappingMode) -> usize {
-            let n = n as i64;
-            (match mode {
-                WrappingMode::ClampToEdge => i.clamp(0, n - 1),
-                WrappingMode::Repeat => i.rem_euclid(n),
-                WrappingMode::MirroredRepeat => {
-                    let m = i.rem_euclid(2 * n);
-                    if m < n {
-                        m
-                    } else {
-                        2 * n - 1 - m
-                    }
-                }
-            }) as usize
-        }
-        self.texels[wrap_index(y, self.height, wrap[1]) * self.width + wrap_index(x, self.width, wrap[0])]
-    }
-
-    /// Colour at texture coordinates `uv` (finite), texel centres at half-integers.
-    fn sample(&self, uv: Vec2, wrap: [WrappingMode; 2], nearest: bool) -> Vec3 {
-        let p =
-            (uv * Vec2::new(self.width as f32, self.height as f32) - 0.5).clamp(Vec2::splat(-1e9), Vec2::splat(1e9));
-        if nearest {
-            return self.fetch(p.x.round() as i64, p.y.round() as i64, wrap);
-        }
-        let f = p.floor();
-        let t = p - f;
-        let (x, y) = (f.x as i64, f.y as i64);
-        let row = |y: i64| self.fetch(x, y, wrap).lerp(self.fetch(x + 1, y, wrap), t.x);
-        row(y).lerp(row(y + 1), t.y)
-    }
+/// A glTF image's pixels as a [`Texture`] (8 and 16 bits sRGB, floats linear).
+fn decode_image(data: &::gltf::image::Data) -> Res<Texture> {
+    use ::gltf::image::Format::*;
+    // (channels, bytes per channel).
+    let (channels, size) = match data.format {
+        R8 => (1, 1),
+        R8G8 => (2, 1),
+        R8G8B8 => (3, 1),
+        R8G8B8A8 => (4, 1),
+        R16 => (1, 2),
+        R16G16 => (2, 2),
+        R16G16B16 => (3, 2),
+        R16G16B16A16 => (4, 2),
+        R32G32B32FLOAT => (3, 4),
+        R32G32B32A32FLOAT => (4, 4),
+    };
+    Texture::from_pixels(data.width, data.height, channels, size, &data.pixels)
 }
 
 /// Checks that `acc` has one of the element `kinds`, at least one element,
@@ -222,14 +168,21 @@ pub(super) fn build_mesh(
 ) -> Res<Option<MeshDesc>> {
     let file = cx.path.display().to_string();
     let flip = world.determinant() < 0.0;
-    let per_vertex = mesh.primitives().any(|p| {
-        p.get(&Semantic::Colors(0)).is_some() || p.material().pbr_metallic_roughness().base_color_texture().is_some()
-    });
+    let emissive_texture = mesh.primitives().any(|p| p.material().emissive_texture().is_some());
+    let per_vertex = emissive_texture
+        || mesh.primitives().any(|p| {
+            p.get(&Semantic::Colors(0)).is_some()
+                || p.material().pbr_metallic_roughness().base_color_texture().is_some()
+        });
     if mesh.weights().is_some() || mesh.primitives().any(|p| p.morph_targets().next().is_some()) {
         warnings.push(format!("{file}: mesh {}: morph targets are ignored", mesh.index()));
     }
     let mut positions: Vec<Vec3> = Vec::new();
     let mut vertex_albedo: Vec<Vec3> = Vec::new();
+    let mut vertex_emission: Vec<Vec3> = Vec::new();
+    let mut textures = MeshTextures { maps: Vec::new(), triangle_map: Vec::new(), uv: Vec::new(), factor: Vec::new() };
+    // Maps by glTF texture index.
+    let mut map_of: HashMap<usize, u32> = HashMap::new();
     let mut triangles: Vec<[u32; 3]> = Vec::new();
     let mut triangle_material = Vec::new();
     let mut materials: Vec<Material> = Vec::new();
@@ -266,6 +219,7 @@ pub(super) fn build_mesh(
         let pos_acc = prim.get(&Semantic::Positions).ok_or_else(|| at("has no POSITION".into()))?;
         check_accessor(&pos_acc, buffers, &[(Dimensions::Vec3, DataType::F32)])
             .map_err(|m| at(format!("POSITION: {m}")))?;
+        let mut prim_map = NO_MAP;
         let (base, n) = match shared.get(&pos_acc.index()) {
             Some(&bn) if !per_vertex => bn,
             _ => {
@@ -284,8 +238,20 @@ pub(super) fn build_mesh(
                     return Err(at(format!("POSITION gave {n} of its {} vertices", pos_acc.count())));
                 }
                 if per_vertex {
-                    vertex_albedo
-                        .extend(primitive_albedo(cx, &prim, &reader, factor, n as usize, warnings).map_err(at)?);
+                    let s = primitive_surface(cx, &prim, &reader, factor, n as usize, warnings).map_err(at)?;
+                    vertex_albedo.extend(s.albedo);
+                    vertex_emission.extend(s.emission);
+                    textures.factor.extend(s.factor);
+                    match s.texture {
+                        Some((index, map, uv)) => {
+                            prim_map = *map_of.entry(index).or_insert_with(|| {
+                                textures.maps.push(map);
+                                textures.maps.len() as u32 - 1
+                            });
+                            textures.uv.extend(uv);
+                        }
+                        None => textures.uv.extend(std::iter::repeat_n(Vec2::ZERO, n as usize)),
+                    }
                 }
                 shared.insert(pos_acc.index(), (base, n));
                 (base, n)
@@ -327,6 +293,7 @@ pub(super) fn build_mesh(
             let t = if flip { [t[0], t[2], t[1]] } else { t };
             triangles.push(t.map(|i| base + i));
             triangle_material.push(mi);
+            textures.triangle_map.push(prim_map);
         }
     }
     if triangles.is_empty() {
@@ -339,6 +306,8 @@ pub(super) fn build_mesh(
         triangle_material,
         materials,
         vertex_albedo: per_vertex.then_some(vertex_albedo),
+        vertex_emission: emissive_texture.then_some(vertex_emission),
+        textures: (!textures.maps.is_empty()).then_some(textures),
         crease_angle_deg: 30.0,
         transform: Transform::default(),
         dynamic: false,
@@ -379,12 +348,6 @@ fn material_factor(cx: &mut MeshContext, m: &::gltf::Material, warnings: &mut Ve
         return Vec3::splat(DEFAULT_ALBEDO);
     };
     let first = cx.warned.insert(index);
-    if first && m.emissive_texture().is_some() {
-        warnings.push(format!(
-            "{file}: material '{}' has an emissiveTexture, which is ignored (emission is uniform per material: emissiveFactor)",
-            material_name(m),
-        ));
-    }
     if first && emission_of(m) == Vec3::ZERO && Vec3::from(m.emissive_factor()) != Vec3::ZERO {
         warnings.push(format!(
             "{file}: material '{}' has emissiveFactor {:?} x strength {:?}, not finite and non-negative; using 0",
@@ -407,54 +370,73 @@ fn material_factor(cx: &mut MeshContext, m: &::gltf::Material, warnings: &mut Ve
     factor
 }
 
-/// Albedo of each of the primitive's `n` vertices (clamped, with a warning).
-fn primitive_albedo<'a, 's, F>(
+/// What a primitive's vertices carry besides positions, in a mesh with
+/// per-vertex values.
+struct Surface {
+    /// Albedo, clamped.
+    albedo: Vec<Vec3>,
+    /// Radiant exitance, W/m^2.
+    emission: Vec<Vec3>,
+    /// `baseColorFactor * COLOR_0`.
+    factor: Vec<Vec3>,
+    /// The base colour texture (glTF texture index, map) and its coordinates.
+    texture: Option<(usize, TextureMap, Vec<Vec2>)>,
+}
+
+/// Texture coordinates `TEXCOORD_set` of the primitive's `n` vertices, or
+/// `None` with a warning when it has none (`what` names the texture).
+fn read_uv<'a, 's, F>(
+    cx: &MeshContext,
+    prim: &::gltf::Primitive,
+    reader: &::gltf::mesh::Reader<'a, 's, F>,
+    set: u32,
+    n: usize,
+    what: &str,
+    warnings: &mut Vec<String>,
+) -> Res<Option<Vec<Vec2>>>
+where
+    F: Clone + Fn(::gltf::Buffer<'a>) -> Option<&'s [u8]>,
+{
+    let Some(acc) = prim.get(&Semantic::TexCoords(set)) else {
+        warnings.push(format!(
+            "{}: mesh primitive {}: its {what} texture uses TEXCOORD_{set}, which it lacks; using the factor alone",
+            cx.path.display(),
+            prim.index()
+        ));
+        return Ok(None);
+    };
+    let kinds = [DataType::F32, DataType::U8, DataType::U16].map(|t| (Dimensions::Vec2, t));
+    check_accessor(&acc, cx.buffers, &kinds).map_err(|m| format!("TEXCOORD_{set}: {m}"))?;
+    let uvs: Vec<Vec2> = reader
+        .read_tex_coords(set)
+        .ok_or_else(|| format!("TEXCOORD_{set} could not be read"))?
+        .into_f32()
+        .map(Vec2::from)
+        .collect();
+    if uvs.len() != n {
+        return Err(format!("TEXCOORD_{set} has {} elements for {n} vertices", uvs.len()));
+    }
+    if let Some(i) = uvs.iter().position(|uv| !uv.is_finite()) {
+        return Err(format!("vertex {i} has non-finite texture coordinates {}", uvs[i]));
+    }
+    Ok(Some(uvs))
+}
+
+/// Albedo (clamped, with a warning), emission and texture of each of the
+/// primitive's `n` vertices.
+fn primitive_surface<'a, 's, F>(
     cx: &mut MeshContext,
     prim: &::gltf::Primitive,
     reader: &::gltf::mesh::Reader<'a, 's, F>,
     factor: Vec3,
     n: usize,
     warnings: &mut Vec<String>,
-) -> Res<Vec<Vec3>>
+) -> Res<Surface>
 where
     F: Clone + Fn(::gltf::Buffer<'a>) -> Option<&'s [u8]>,
 {
-    let mut out = vec![factor; n];
     let material = prim.material();
-    if let Some(info) = material.pbr_metallic_roughness().base_color_texture() {
-        let set = info.tex_coord();
-        match prim.get(&Semantic::TexCoords(set)) {
-            None => warnings.push(format!(
-                "{}: mesh primitive {}: its base colour texture uses TEXCOORD_{set}, which it lacks; using baseColorFactor",
-                cx.path.display(),
-                prim.index()
-            )),
-            Some(acc) => {
-                let kinds = [DataType::F32, DataType::U8, DataType::U16].map(|t| (Dimensions::Vec2, t));
-                check_accessor(&acc, cx.buffers, &kinds).map_err(|m| format!("TEXCOORD_{set}: {m}"))?;
-                let uvs: Vec<[f32; 2]> = reader
-                    .read_tex_coords(set)
-                    .ok_or_else(|| format!("TEXCOORD_{set} could not be read"))?
-                    .into_f32()
-                    .collect();
-                if uvs.len() != n {
-                    return Err(format!("TEXCOORD_{set} has {} elements for {n} vertices", uvs.len()));
-                }
-                let texture = info.texture();
-                let sampler = texture.sampler();
-                let wrap = [sampler.wrap_s(), sampler.wrap_t()];
-                let nearest = sampler.mag_filter() == Some(::gltf::texture::MagFilter::Nearest);
-                let tex = cx.texture(&texture)?;
-                for (i, (o, uv)) in out.iter_mut().zip(uvs).enumerate() {
-                    let uv = Vec2::from(uv);
-                    if !uv.is_finite() {
-                        return Err(format!("vertex {i} has non-finite texture coordinates {uv}"));
-                    }
-                    *o *= tex.sample(uv, wrap, nearest);
-                }
-            }
-        }
-    }
+    let mut base = vec![factor; n];
     if let Some(acc) = prim.get(&Semantic::Colors(0)) {
         let kinds = [Dimensions::Vec3, Dimensions::Vec4]
             .into_iter()
@@ -463,7 +445,7 @@ where
         check_accessor(&acc, cx.buffers, &kinds).map_err(|m| format!("COLOR_0: {m}"))?;
         let colours = reader.read_colors(0).ok_or_else(|| "COLOR_0 could not be read".to_string())?.into_rgba_f32();
         let mut count = 0;
-        for (i, (o, c)) in out.iter_mut().zip(colours).enumerate() {
+        for (i, (o, c)) in base.iter_mut().zip(colours).enumerate() {
             let c = Vec3::new(c[0], c[1], c[2]);
             if !c.is_finite() {
                 return Err(format!("vertex {i} has non-finite COLOR_0 {c}"));
@@ -475,7 +457,18 @@ where
             return Err(format!("COLOR_0 has {count} elements for {n} vertices"));
         }
     }
-    let clamped = out.iter_mut().map(clamp_albedo).filter(|&c| c).count();
+    let mut albedo = base.clone();
+    let mut texture = None;
+    if let Some(info) = material.pbr_metallic_roughness().base_color_texture() {
+        if let Some(uv) = read_uv(cx, prim, reader, info.tex_coord(), n, "base colour", warnings)? {
+            let map = cx.map(&info.texture())?;
+            for (a, (b, u)) in albedo.iter_mut().zip(base.iter().zip(&uv)) {
+                *a = map.albedo(*u, *b);
+            }
+            texture = Some((info.texture().index(), map, uv));
+        }
+    }
+    let clamped = albedo.iter_mut().map(clamp_albedo).filter(|&c| c).count();
     if clamped > 0 {
         warnings.push(format!(
             "{}: mesh primitive {}: {clamped} of {n} vertices have albedo outside [0, {MAX_ALBEDO}]; clamped",
@@ -483,5 +476,15 @@ where
             prim.index()
         ));
     }
-    Ok(out)
+    let exitance = emission_of(&material);
+    let mut emission = vec![exitance; n];
+    if let Some(info) = material.emissive_texture().filter(|_| exitance != Vec3::ZERO) {
+        if let Some(uv) = read_uv(cx, prim, reader, info.tex_coord(), n, "emissive", warnings)? {
+            let map = cx.map(&info.texture())?;
+            for (e, u) in emission.iter_mut().zip(&uv) {
+                *e = map.albedo(*u, exitance).max(Vec3::ZERO);
+            }
+        }
+    }
+    Ok(Surface { albedo, emission, factor: base, texture })
 }

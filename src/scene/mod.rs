@@ -24,6 +24,7 @@ pub mod prep;
 pub mod rings;
 pub mod shapes;
 pub mod terms;
+pub mod texture;
 
 use glam::{Mat4, Quat, Vec3};
 use std::path::PathBuf;
@@ -89,6 +90,13 @@ pub struct MeshDesc {
     /// colours). Triangles still carry materials, which split vertices at
     /// material borders; corners whose albedo differs are split as well.
     pub vertex_albedo: Option<Vec<Vec3>>,
+    /// Emitted radiant exitance per position, W/m^2 (same length as
+    /// `positions`), used instead of the material's when present (glTF
+    /// emissive textures); corners whose emission differs are split.
+    pub vertex_emission: Option<Vec<Vec3>>,
+    /// Albedo textures drawn per pixel by the renderer (the solver reads
+    /// `vertex_albedo`, which the loaders sample from them).
+    pub textures: Option<texture::MeshTextures>,
     /// Vertices are split where adjacent face normals differ by more than this.
     pub crease_angle_deg: f32,
     pub transform: Transform,

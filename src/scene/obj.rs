@@ -10,7 +10,19 @@
 //! `Kd` is the diffuse albedo; `Ke` the emitted radiance, W/(m^2 sr), read
 //! as exitance `pi Ke` ([`super::emission`]; the loader adds a note saying
 //! so for every MTL with an emitting material, and [`write_obj`] writes
-//! `Ke = M / pi` back). Fallbacks, each reported as a warning: an MTL
+//! `Ke = M / pi` back). With a `map_Kd` texture ([`super::texture`], path
+//! relative to the MTL file; a line with options such as `-bm` takes its
+//! last word as the file) the albedo of a vertex is `Kd` (1 where the MTL
+//! gives none) times the texture at the vertex's coordinates, clamped to
+//! `[0, MAX_ALBEDO]` ([`MeshDesc::vertex_albedo`]), and the texture is kept
+//! for the renderer's per-pixel albedo ([`MeshDesc::textures`]). OBJ texture
+//! coordinates have `v` up (origin at the image's bottom-left): they are read
+//! as `(u, 1 - v)`, the top-left origin of [`super::texture`]. A position
+//! used with several texture coordinates becomes one position per pair (the
+//! preparation welds them again by position and splits only where the
+//! albedo differs). A texture that is missing or unreadable, or faces
+//! without texture coordinates, fall back to `Kd` with a warning naming the
+//! MTL file (or OBJ), material and texture. Fallbacks, each reported as a warning: an MTL
 //! that is missing or unreadable gives grey albedo [`DEFAULT_ALBEDO`]; faces
 //! without a material get the same; albedo above [`MAX_ALBEDO`] or below 0 is
 //! clamped. Non-finite coordinates and out-of-range face indices are errors
@@ -19,11 +31,14 @@
 //! without three numbers makes its library unreadable (the warning names the
 //! MTL file and line): `tobj` would panic on it.
 
+use super::texture::{MeshTextures, Sampler, Texture, TextureMap, NO_MAP};
 use super::{emission, Material, MeshDesc, Transform, MAX_ALBEDO};
 use crate::{Error, Result};
-use glam::Vec3;
+use glam::{Vec2, Vec3};
+use std::collections::HashMap;
 use std::fmt::Write as _;
-use std::path::Path;
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
 
 /// Albedo used where an OBJ names no usable material.
 pub const DEFAULT_ALBEDO: f32 = 0.5;
@@ -66,6 +81,17 @@ fn prescan(path: &Path, text: &str) -> Result<()> {
                     }
                 }
                 vertex_count += 1;
+            }
+            Some("vt") => {
+                for c in parts.take(3) {
+                    if !c.parse::<f32>().is_ok_and(f32::is_finite) {
+                        return Err(geometry_err(
+                            path,
+                            Some(line_no),
+                            format!("texture coordinate '{c}' is not a finite number"),
+                        ));
+                    }
+                }
             }
             Some("f") => {
                 let mut corners = 0;
@@ -159,6 +185,61 @@ fn checked_emission(path: &Path, name: &str, ke: Vec3, warnings: &mut Vec<String
     Vec3::ZERO
 }
 
+/// The `map_Kd` of each material, read once per file into `maps`: the
+/// map's index and the factor it multiplies (`Kd`, 1 where absent, clamped
+/// to [0, 1]); `None` where there is none or it cannot be read (a warning
+/// naming the MTL file, material and texture).
+fn diffuse_maps(
+    obj: &Path,
+    materials: &[tobj::Material],
+    libraries: &[(PathBuf, usize)],
+    maps: &mut Vec<TextureMap>,
+    warnings: &mut Vec<String>,
+) -> Vec<Option<(u32, Vec3)>> {
+    let mut read: HashMap<PathBuf, Option<u32>> = HashMap::new();
+    // The MTL file of material `i` (libraries are merged in order).
+    let library = |i: usize| {
+        let mut first = 0;
+        for (file, count) in libraries {
+            if i < first + count {
+                return file.clone();
+            }
+            first += count;
+        }
+        obj.to_path_buf()
+    };
+    materials
+        .iter()
+        .enumerate()
+        .map(|(i, m)| {
+            let name = m.diffuse_texture.as_deref().map(str::trim).filter(|t| !t.is_empty())?;
+            // Options (`-bm 1 file.png`) come before the file name.
+            let file = if name.starts_with('-') { name.split_whitespace().last().unwrap_or(name) } else { name };
+            let mtl = library(i);
+            let full = mtl.parent().unwrap_or(Path::new(".")).join(file.replace('\\', "/"));
+            let map = read.entry(full.clone()).or_insert_with(|| match Texture::open(&full) {
+                Ok(t) => {
+                    maps.push(TextureMap { image: Arc::new(t), sampler: Sampler::default() });
+                    Some(maps.len() as u32 - 1)
+                }
+                Err(why) => {
+                    warnings.push(format!(
+                        "{}: material '{}': map_Kd '{file}' ({}) {why}; using Kd",
+                        mtl.display(),
+                        m.name,
+                        full.display()
+                    ));
+                    None
+                }
+            });
+            let map = (*map)?;
+            let kd = Vec3::from(m.diffuse.unwrap_or([1.0; 3]));
+            let kd = if kd.is_finite() { kd.clamp(Vec3::ZERO, Vec3::ONE) } else { Vec3::ONE };
+            Some((map, kd))
+        })
+        .collect()
+}
+
 /// Loads an OBJ (and its MTL) as one mesh. Settings from the scene file
 /// (crease angle, transform, dynamic) are left at defaults for the caller.
 /// Problems worked around go to `warnings`, what was assumed (how `Ke` was
@@ -177,6 +258,8 @@ pub fn load_obj(path: &Path, warnings: &mut Vec<String>, notes: &mut Vec<String>
     let mut reader = std::io::BufReader::new(text.as_bytes());
     let mtl_problem = std::cell::RefCell::new(None);
     let mtl_files = std::cell::RefCell::new(Vec::new());
+    // The MTL files read, in order, with their material counts.
+    let libraries = std::cell::RefCell::new(Vec::<(PathBuf, usize)>::new());
     let (models, materials) = tobj::load_obj_buf(&mut reader, &options, |mtl| {
         let full = dir.join(mtl);
         mtl_files.borrow_mut().push(full.display().to_string());
@@ -185,23 +268,32 @@ pub fn load_obj(path: &Path, warnings: &mut Vec<String>, notes: &mut Vec<String>
             *mtl_problem.borrow_mut() = Some(problem);
             return Err(tobj::LoadError::MaterialParseError);
         }
-        tobj::load_mtl_buf(&mut text.as_bytes())
+        let loaded = tobj::load_mtl_buf(&mut text.as_bytes())?;
+        libraries.borrow_mut().push((full, loaded.0.len()));
+        Ok(loaded)
     })
     .map_err(|e| Error::Obj { path: path.to_path_buf(), message: e.to_string() })?;
 
+    let mut maps: Vec<TextureMap> = Vec::new();
+    // Per material: its map_Kd (index into `maps`) and the factor it multiplies.
+    let mut textured: Vec<Option<(u32, Vec3)>> = Vec::new();
     let mut mats: Vec<Material> = match materials {
-        Ok(ms) => ms
-            .iter()
-            .map(|m| {
-                let kd = Vec3::from(m.diffuse.unwrap_or([DEFAULT_ALBEDO; 3]));
-                let ke = Vec3::from(m.emissive.unwrap_or([0.0; 3]));
-                Material {
-                    name: m.name.clone(),
-                    albedo: clamp_albedo(path, &m.name, kd, warnings),
-                    emission: checked_emission(path, &m.name, ke, warnings),
-                }
-            })
-            .collect(),
+        Ok(ms) => {
+            textured = diffuse_maps(path, &ms, &libraries.borrow(), &mut maps, warnings);
+            ms.iter()
+                .zip(&textured)
+                .map(|(m, tex)| {
+                    let kd = Vec3::from(m.diffuse.unwrap_or([DEFAULT_ALBEDO; 3]));
+                    let ke = Vec3::from(m.emissive.unwrap_or([0.0; 3]));
+                    // A textured material's albedo is per vertex (clamped there, counted in one warning).
+                    let albedo = match tex {
+                        Some((_, factor)) => factor.min(Vec3::splat(MAX_ALBEDO)),
+                        None => clamp_albedo(path, &m.name, kd, warnings),
+                    };
+                    Material { name: m.name.clone(), albedo, emission: checked_emission(path, &m.name, ke, warnings) }
+                })
+                .collect()
+        }
         Err(e) => {
             if text.lines().any(|l| l.trim_start().starts_with("mtllib")) {
                 let why = mtl_problem.borrow_mut().take().unwrap_or_else(|| e.to_string());
@@ -219,9 +311,44 @@ pub fn load_obj(path: &Path, warnings: &mut Vec<String>, notes: &mut Vec<String>
     let mut positions = Vec::new();
     let mut triangles = Vec::new();
     let mut triangle_material = Vec::new();
+    // Per position (kept when some face is textured): albedo, coordinates, factor; per triangle: map.
+    let (mut albedo, mut uv, mut factor, mut triangle_map) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+    let mut no_uv_warned = vec![false; textured.len()];
     for model in &models {
         let mesh = &model.mesh;
         let base = positions.len() as u32;
+        let texture = mesh.material_id.and_then(|id| textured.get(id).copied().flatten());
+        let has_uv = !mesh.texcoords.is_empty() && mesh.texcoord_indices.len() == mesh.indices.len();
+        if let (Some(_), false, Some(id)) = (texture, has_uv, mesh.material_id) {
+            if !std::mem::replace(&mut no_uv_warned[id], true) {
+                warnings.push(format!(
+                    "{}: faces with material '{}' have no texture coordinates; its map_Kd is not drawn (Kd used)",
+                    path.display(),
+                    mats[id].name
+                ));
+            }
+        }
+        if let (Some((map, kd)), true) = (texture, has_uv) {
+            // One position per (position, texture coordinate) pair of the faces.
+            let mut pair: HashMap<(u32, u32), u32> = HashMap::new();
+            for t in mesh.indices.chunks_exact(3).zip(mesh.texcoord_indices.chunks_exact(3)) {
+                let tri = [0, 1, 2].map(|k| {
+                    *pair.entry((t.0[k], t.1[k])).or_insert_with(|| {
+                        let (p, c) = (t.0[k] as usize * 3, t.1[k] as usize * 2);
+                        positions.push(Vec3::new(mesh.positions[p], mesh.positions[p + 1], mesh.positions[p + 2]));
+                        let coords = Vec2::new(mesh.texcoords[c], 1.0 - mesh.texcoords[c + 1]);
+                        albedo.push(maps[map as usize].albedo(coords, kd));
+                        uv.push(coords);
+                        factor.push(kd);
+                        positions.len() as u32 - 1
+                    })
+                });
+                triangles.push(tri);
+                triangle_material.push(mesh.material_id.unwrap_or_default() as u32);
+                triangle_map.push(map);
+            }
+            continue;
+        }
         positions.extend(mesh.positions.chunks_exact(3).map(|p| Vec3::new(p[0], p[1], p[2])));
         let mat = match mesh.material_id {
             Some(id) if id < mats.len() => id as u32,
@@ -237,18 +364,37 @@ pub fn load_obj(path: &Path, warnings: &mut Vec<String>, notes: &mut Vec<String>
         for t in mesh.indices.chunks_exact(3) {
             triangles.push([base + t[0], base + t[1], base + t[2]]);
             triangle_material.push(mat);
+            triangle_map.push(NO_MAP);
         }
+        let n = positions.len() - albedo.len();
+        albedo.extend(std::iter::repeat_n(mats[mat as usize].albedo, n));
+        uv.extend(std::iter::repeat_n(Vec2::ZERO, n));
+        factor.extend(std::iter::repeat_n(Vec3::ZERO, n));
     }
     if triangles.is_empty() {
         return Err(geometry_err(path, None, "the file has no faces"));
     }
+    let textures = triangle_map.iter().any(|&m| m != NO_MAP).then(|| {
+        let clamped = albedo.iter_mut().filter(|a| a.max_element() > MAX_ALBEDO || a.min_element() < 0.0).count();
+        if clamped > 0 {
+            warnings.push(format!(
+                "{}: {clamped} of {} vertices have albedo Kd x map_Kd outside [0, {MAX_ALBEDO}]; clamped",
+                path.display(),
+                albedo.len()
+            ));
+        }
+        albedo.iter_mut().for_each(|a| *a = a.clamp(Vec3::ZERO, Vec3::splat(MAX_ALBEDO)));
+        MeshTextures { maps, triangle_map, uv, factor }
+    });
     Ok(MeshDesc {
         name: path.display().to_string(),
         positions,
         triangles,
         triangle_material,
         materials: mats,
-        vertex_albedo: None,
+        vertex_albedo: textures.is_some().then_some(albedo),
+        vertex_emission: None,
+        textures,
         crease_angle_deg: 30.0,
         transform: Transform::default(),
         dynamic: false,

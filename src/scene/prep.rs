@@ -6,11 +6,14 @@
 //! vertices at creases and material borders: two triangles sharing an edge
 //! stay joined at that edge's ends when their face normals differ by at most
 //! the crease angle, their windings agree, their materials match and (for
-//! meshes with per-vertex albedo, [`super::MeshDesc::vertex_albedo`]) the
-//! two corners at each end have the same albedo. Every resulting class of
-//! triangle corners is one *solver vertex* with an angle-weighted normal, an
-//! albedo (its material's, or its corners' per-vertex albedo), a one-ring and
-//! a position-welded id. Triangles too large for `f32` (their edge cross
+//! meshes with per-vertex albedo or emission, [`super::MeshDesc::vertex_albedo`]
+//! and [`super::MeshDesc::vertex_emission`]) the two corners at each end have
+//! the same albedo and emission. Every resulting class of triangle corners is
+//! one *solver vertex* with an angle-weighted normal, an albedo and an
+//! emission (its material's, or its corners' per-vertex values), a one-ring
+//! and a position-welded id. Albedo textures ([`super::MeshDesc::textures`])
+//! are kept per triangle corner for the renderer
+//! ([`PreparedScene::textures`]). Triangles too large for `f32` (their edge cross
 //! product overflows) are an error. Solver vertices are numbered in the
 //! order of their first triangle corner; a mesh whose triangles come in
 //! scrambled order is renumbered breadth-first ([`super::order`]).
@@ -19,11 +22,13 @@
 //! solver vertex) or on an open border are flagged `boundary`: their ray
 //! origins are nudged into their own face group (docs/DESIGN.md §3).
 
+use super::texture::{CornerTextures, NO_MAP};
 use super::{Light, SceneDesc, Settings};
 use crate::{Error, Result};
-use glam::Vec3;
+use glam::{Vec2, Vec3};
 use std::collections::HashMap;
 use std::ops::Range;
+use std::sync::Arc;
 
 /// Which vertices and triangles of the prepared scene came from one mesh.
 #[derive(Clone, Debug)]
@@ -69,6 +74,9 @@ pub struct PreparedScene {
     pub meshes: Vec<MeshRange>,
     /// Zero-area triangles dropped during preparation.
     pub dropped_triangles: usize,
+    /// Albedo textures per triangle corner, drawn per pixel by the renderer
+    /// (`None`: no mesh has one; shared, so copies of the scene are cheap).
+    pub textures: Option<Arc<CornerTextures>>,
 }
 
 fn geom_err(name: &str, message: String) -> Error {
@@ -106,6 +114,8 @@ struct MeshPrep {
     position_id: Vec<u32>,
     welded_count: u32,
     dropped: usize,
+    /// Albedo textures of the kept triangles (maps numbered within the mesh).
+    textures: Option<CornerTextures>,
 }
 
 fn prepare_mesh(mesh: &super::MeshDesc) -> Result<MeshPrep> {
@@ -151,6 +161,20 @@ fn prepare_mesh(mesh: &super::MeshDesc) -> Result<MeshPrep> {
             return Err(geom_err(name, format!("vertex {i} has non-finite albedo {}", va[i])));
         }
     }
+    if let Some(ve) = &mesh.vertex_emission {
+        if ve.len() != mesh.positions.len() {
+            return Err(geom_err(name, format!("{} vertex emissions for {} vertices", ve.len(), mesh.positions.len())));
+        }
+        if let Some(i) = ve.iter().position(|e| !(e.is_finite() && e.min_element() >= 0.0)) {
+            return Err(geom_err(
+                name,
+                format!("vertex {i} has emission {}: it must be finite and non-negative", ve[i]),
+            ));
+        }
+    }
+    if let Some(t) = &mesh.textures {
+        t.validate(mesh.positions.len(), mesh.triangles.len()).map_err(|m| geom_err(name, m))?;
+    }
     // Weld by exact position.
     let mut weld: HashMap<[u32; 3], u32> = HashMap::with_capacity(world.len());
     let mut welded_pos: Vec<Vec3> = Vec::new();
@@ -168,6 +192,8 @@ fn prepare_mesh(mesh: &super::MeshDesc) -> Result<MeshPrep> {
     let mut tris: Vec<[u32; 3]> = Vec::with_capacity(mesh.triangles.len());
     // The kept triangles' corners as given (before welding), for per-vertex albedo.
     let mut tris_given: Vec<[u32; 3]> = Vec::with_capacity(mesh.triangles.len());
+    // The kept triangles' indices in the mesh, for textures.
+    let mut tris_index: Vec<usize> = Vec::with_capacity(mesh.triangles.len());
     let mut tri_mat = Vec::with_capacity(mesh.triangles.len());
     let mut face_n = Vec::with_capacity(mesh.triangles.len());
     let mut dropped = 0;
@@ -190,6 +216,7 @@ fn prepare_mesh(mesh: &super::MeshDesc) -> Result<MeshPrep> {
         }
         tris.push(w);
         tris_given.push(*t);
+        tris_index.push(ti);
         tri_mat.push(mat);
         face_n.push(cross.normalize());
     }
@@ -214,6 +241,15 @@ fn prepare_mesh(mesh: &super::MeshDesc) -> Result<MeshPrep> {
             None => mesh.materials[tri_mat[ti as usize] as usize].albedo,
         }
     };
+    // Emission of the corner of triangle `ti` at welded vertex `v`.
+    let corner_emission = |ti: u32, v: u32| -> Vec3 {
+        match &mesh.vertex_emission {
+            Some(ve) => ve[tris_given[ti as usize][(corner(ti, v) % 3) as usize] as usize],
+            None => mesh.materials[tri_mat[ti as usize] as usize].emission,
+        }
+    };
+    let same_emission =
+        |t1: u32, t2: u32, v: u32| mesh.vertex_emission.is_none() || corner_emission(t1, v) == corner_emission(t2, v);
     let mut uf = UnionFind((0..tris.len() as u32 * 3).collect());
     let mut keys: Vec<_> = edges.keys().copied().collect();
     keys.sort_unstable();
@@ -227,7 +263,9 @@ fn prepare_mesh(mesh: &super::MeshDesc) -> Result<MeshPrep> {
                     && tri_mat[t1 as usize] == tri_mat[t2 as usize]
                     && face_n[t1 as usize].dot(face_n[t2 as usize]) >= cos_crease
                     && corner_albedo(t1, key.0) == corner_albedo(t2, key.0)
-                    && corner_albedo(t1, key.1) == corner_albedo(t2, key.1);
+                    && corner_albedo(t1, key.1) == corner_albedo(t2, key.1)
+                    && same_emission(t1, t2, key.0)
+                    && same_emission(t1, t2, key.1);
                 if joined {
                     uf.union(corner(t1, key.0), corner(t2, key.0));
                     uf.union(corner(t1, key.1), corner(t2, key.1));
@@ -251,7 +289,7 @@ fn prepare_mesh(mesh: &super::MeshDesc) -> Result<MeshPrep> {
                 positions.push(welded_pos[t[k] as usize]);
                 normals.push(Vec3::ZERO);
                 albedo.push(corner_albedo(ti as u32, t[k]));
-                emission.push(mesh.materials[tri_mat[ti] as usize].emission);
+                emission.push(corner_emission(ti as u32, t[k]));
                 position_id.push(t[k]);
                 (positions.len() - 1) as u32
             });
@@ -271,6 +309,12 @@ fn prepare_mesh(mesh: &super::MeshDesc) -> Result<MeshPrep> {
             face_n[triangles.iter().position(|t: &[u32; 3]| t.contains(&(i as u32))).unwrap_or(0)]
         });
     }
+    let textures = mesh.textures.as_ref().map(|mt| CornerTextures {
+        maps: mt.maps.clone(),
+        triangle_map: tris_index.iter().map(|&ti| mt.triangle_map[ti]).collect(),
+        uv: tris_given.iter().map(|t| t.map(|i| mt.uv[i as usize])).collect(),
+        factor: tris_given.iter().map(|t| t.map(|i| mt.factor[i as usize])).collect(),
+    });
     let mut mp = MeshPrep {
         positions,
         normals,
@@ -280,6 +324,7 @@ fn prepare_mesh(mesh: &super::MeshDesc) -> Result<MeshPrep> {
         position_id,
         welded_count: welded_pos.len() as u32,
         dropped,
+        textures,
     };
     if let Some(order) = super::order::better_order(&mp.triangles, mp.positions.len()) {
         mp.renumber(&order);
@@ -327,10 +372,27 @@ pub fn prepare(scene: &SceneDesc) -> Result<PreparedScene> {
         vertex_triangles: Csr::default(),
         meshes: vec![],
         dropped_triangles: 0,
+        textures: None,
     };
+    let mut textures = CornerTextures::default();
     let mut pos_base = 0u32;
     for mesh in &scene.meshes {
         let mp = prepare_mesh(mesh)?;
+        let n = mp.triangles.len();
+        match &mp.textures {
+            Some(t) => {
+                let base = textures.maps.len() as u32;
+                textures.maps.extend(t.maps.iter().cloned());
+                textures.triangle_map.extend(t.triangle_map.iter().map(|&m| if m == NO_MAP { m } else { m + base }));
+                textures.uv.extend(&t.uv);
+                textures.factor.extend(&t.factor);
+            }
+            None => {
+                textures.triangle_map.extend(std::iter::repeat_n(NO_MAP, n));
+                textures.uv.extend(std::iter::repeat_n([Vec2::ZERO; 3], n));
+                textures.factor.extend(std::iter::repeat_n([Vec3::ZERO; 3], n));
+            }
+        }
         let vbase = out.positions.len() as u32;
         let tbase = out.triangles.len() as u32;
         out.positions.extend(&mp.positions);
@@ -351,6 +413,9 @@ pub fn prepare(scene: &SceneDesc) -> Result<PreparedScene> {
     }
     if out.triangles.is_empty() {
         return Err(Error::EmptyScene(scene.name.clone()));
+    }
+    if textures.triangle_map.iter().any(|&m| m != NO_MAP) {
+        out.textures = Some(Arc::new(textures));
     }
     for l in &out.lights {
         let ok = match *l {

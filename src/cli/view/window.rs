@@ -131,6 +131,7 @@ impl Viewer {
                 normals: &self.normals,
                 albedo: &self.prepared.albedo,
                 triangles: &self.prepared.triangles,
+                textures: self.prepared.textures.as_deref(),
                 e_indirect: current.map_or(&self.zeros, |g| &g.e_indirect),
                 e_sky: current.map_or(&[][..], |g| &g.e_sky),
                 emission: current.map_or(&self.prepared.emission, |g| &g.emission),

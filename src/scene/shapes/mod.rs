@@ -121,6 +121,8 @@ impl MeshBuilder {
             triangle_material: self.triangle_material,
             materials: self.materials,
             vertex_albedo: None,
+            vertex_emission: None,
+            textures: None,
             crease_angle_deg,
             transform: Transform::default(),
             dynamic: false,
