@@ -113,7 +113,10 @@ pub struct EmitterLinks {
     /// Per vertex, `(group, F_vg)` entries (`F_vg` unitless, finite, >= 0).
     pub rows: Csr<(u32, f32)>,
     pub shadow_rays: u64,
+    /// Time of the computation, ms, and the part of it the tracer took
+    /// to answer the shadow rays (the rest: form factors and sampling).
     pub ms: f64,
+    pub trace_ms: f64,
     /// Why there are no emitter links although some surface emits.
     pub fallback: Option<String>,
 }
@@ -201,7 +204,9 @@ impl EmitterLinks {
                 (first..end).into_par_iter().map(|v| vertex_rays(scene, &emitters, groups, v, params, seed)).collect();
             let rays: Vec<Ray> = per_vertex.iter().flat_map(|r| r.rays.iter().copied()).collect();
             out.shadow_rays += rays.len() as u64;
+            let traced = Instant::now();
             let visible = tracer.visible(&rays)?;
+            out.trace_ms += traced.elapsed().as_secs_f64() * 1e3;
             let mut at = 0usize;
             for r in &per_vertex {
                 let vis = &visible[at..at + r.rays.len()];
