@@ -78,7 +78,8 @@ fn flat_shaded_convex_vertices_read_exact_direct_light() {
         for &lp in &lights {
             let scene = prepared(mesh.clone(), vec![Light::Point { position: lp, intensity }]);
             // Crease angle 0: every position of a curved mesh has several solver vertices.
-            let copies = scene.position_id.iter().filter(|&&p| scene.position_id.iter().filter(|&&q| q == p).count() > 1);
+            let copies =
+                scene.position_id.iter().filter(|&&p| scene.position_id.iter().filter(|&&q| q == p).count() > 1);
             assert!(copies.count() > scene.vertex_count() / 2, "{}: the mesh is split", mesh.name);
             let bvh = Bvh::build(&scene.positions, &scene.triangles, &BvhBuildParams::default());
             let kd = KdTree::build(&scene.positions, &scene.triangles, &KdBuildParams::default());
