@@ -50,6 +50,7 @@ pub fn run(args: BenchArgs) -> Result<()> {
         descs.push(match bench::scenes::scene(n) {
             Some(mut d) => {
                 d.settings = overrides.apply(d.settings);
+                d.settings.validate().with_context(|| format!("settings of scene {n}"))?;
                 d
             }
             None => setup::load(n, &overrides)?,
