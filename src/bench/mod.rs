@@ -19,6 +19,7 @@ pub mod memory;
 pub mod paper;
 pub mod peer;
 pub mod report;
+pub mod scenes;
 
 pub use paper::{paper_rows, PaperRow};
 pub use peer::PeerFigures;
@@ -123,6 +124,11 @@ pub struct RunTimes {
     pub near_ms: f64,
     /// The emitter links ([`crate::exchange::sources::emitter_links`]), ms.
     pub emitter_links_ms: f64,
+    /// Their shadow rays over the whole stage's time (form factors,
+    /// sampling and tracing), rays/s; NaN without emitter links.
+    pub emitter_shadow_rays_per_s: f64,
+    /// The same rays over the tracer's time alone, rays/s.
+    pub emitter_trace_rays_per_s: f64,
     pub bounces_ms: f64,
     /// From the prepared scene to smoothed `E_i`: kd + links + light links
     /// (near hits' and emitters' included) + bounces + smoothing.
@@ -177,6 +183,11 @@ pub struct BenchRow {
     pub near_ms: Stat,
     /// Emitter links, ms (NaN without emitters).
     pub emitter_links_ms: Stat,
+    /// Their shadow rays per second over the whole stage, and over the
+    /// tracer's time alone, k rays/s (NaN without emitters): beside
+    /// `k_shadow_rays_per_s`, the light links' rate in the same runs.
+    pub k_emitter_shadow_rays_per_s: Stat,
+    pub k_emitter_trace_rays_per_s: Stat,
     pub bounces_ms: Stat,
     pub first_solution_ms: Stat,
     pub light_preview_ms: Stat,
@@ -242,6 +253,8 @@ impl BenchRow {
             near_hits: sizes.near_hits,
             near_ms: st(|r| r.near_ms),
             emitter_links_ms: st(|r| r.emitter_links_ms),
+            k_emitter_shadow_rays_per_s: st(|r| r.emitter_shadow_rays_per_s / 1e3),
+            k_emitter_trace_rays_per_s: st(|r| r.emitter_trace_rays_per_s / 1e3),
             bounces_ms: st(|r| r.bounces_ms),
             first_solution_ms: st(|r| r.first_solution_ms),
             light_preview_ms: st(|r| r.light_preview_ms),
@@ -380,7 +393,13 @@ pub fn run_once(
     // Read before the light move below replaces them.
     let (light_links_ms, shadow_rays) = (solver.light_links().ms, solver.light_links().shadow_rays);
     let near_ms = crate::exchange::near::NearTerm::cost(&solver.near().light).ms;
-    let emitter_links_ms = if solver.emitter_links().is_active() { solver.emitter_links().ms } else { f64::NAN };
+    let em = solver.emitter_links();
+    let (emitter_links_ms, emitter_shadow_rays_per_s, emitter_trace_rays_per_s) = if em.is_active() {
+        let rays = em.shadow_rays as f64;
+        (em.ms, rays / (em.ms.max(1e-9) * 1e-3), rays / (em.trace_ms.max(1e-9) * 1e-3))
+    } else {
+        (f64::NAN, f64::NAN, f64::NAN)
+    };
     let (light_preview_ms, light_move_ms) = time_light_move(&mut solver);
     let sky_turn_ms = time_sky_turn(&mut solver);
     let l = solver.links().stats;
@@ -411,6 +430,8 @@ pub fn run_once(
         shadow_rays_per_s: shadow_rays as f64 / (light_links_ms.max(1e-9) * 1e-3),
         near_ms,
         emitter_links_ms,
+        emitter_shadow_rays_per_s,
+        emitter_trace_rays_per_s,
         bounces_ms: solution.gather.ms,
         first_solution_ms,
         light_preview_ms,

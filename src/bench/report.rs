@@ -161,6 +161,32 @@ pub fn markdown(rows: &[BenchRow]) -> String {
             );
         }
     }
+    let emitting: Vec<&BenchRow> = rows.iter().filter(|r| r.k_emitter_shadow_rays_per_s.median.is_finite()).collect();
+    if !emitting.is_empty() {
+        let _ = writeln!(
+            out,
+            "\n### Shadow rays of the light links beside the emitter links' (median [min, max] of {runs} runs, k rays/s)\n"
+        );
+        let _ = writeln!(out, "| scene | source | light links | emitter links | emitter rays, tracing alone |");
+        let _ = writeln!(out, "|---|---|---|---|---|");
+        for r in &emitting {
+            let _ = writeln!(
+                out,
+                "| {} | linkgi {} | {} | {} | {} |",
+                r.scene,
+                r.backend,
+                // No light, no light links' rays: their rate of 0 would read as a measurement.
+                if r.k_shadow_rays_per_s.median > 0.0 { stat(&r.k_shadow_rays_per_s, 0) } else { "-".into() },
+                stat(&r.k_emitter_shadow_rays_per_s, 0),
+                stat(&r.k_emitter_trace_rays_per_s, 0)
+            );
+        }
+        let _ = writeln!(
+            out,
+            "\nEach stage's rays over its whole time (the emitter links' includes a form factor per vertex \
+             and emitter triangle, and the sampling), and the emitter rays over the tracer's time alone."
+        );
+    }
     let skies: Vec<&BenchRow> = rows.iter().filter(|r| r.sky_turn_ms.median.is_finite()).collect();
     if !skies.is_empty() {
         let _ = writeln!(
@@ -298,6 +324,8 @@ mod tests {
                 shadow_rays_per_s: 2e5 * k,
                 near_ms: k / 8.0,
                 emitter_links_ms: f64::NAN,
+                emitter_shadow_rays_per_s: f64::NAN,
+                emitter_trace_rays_per_s: f64::NAN,
                 bounces_ms: k / 5.0,
                 first_solution_ms: 100.0 * k,
                 light_preview_ms: k / 20.0,
@@ -403,6 +431,30 @@ mod tests {
         // One row: the GPU row and the scene without figures are left out.
         assert!(lines[h + 5].is_empty(), "{md}");
         assert!(md.contains("best of 3 traces"), "{md}");
+    }
+
+    #[test]
+    fn emitter_shadow_rays_beside_light_shadow_rays() {
+        let md = markdown(&[synthetic("tearoom")]);
+        assert!(!md.contains("beside the emitter links'"), "{md}");
+        let mut r = synthetic("window");
+        // Light links 2e5 k rays/s (median 4000 k); emitter links 1.5 and 6 M rays/s.
+        r.k_emitter_shadow_rays_per_s = Stat { median: 1500.0, min: 1400.0, max: 1600.0 };
+        r.k_emitter_trace_rays_per_s = Stat { median: 6000.0, min: 5000.0, max: 7000.0 };
+        let mut dark = r.clone();
+        dark.scene = "unlit".into();
+        dark.k_shadow_rays_per_s = Stat { median: 0.0, min: 0.0, max: 0.0 };
+        let md = markdown(&[r, synthetic("tearoom"), dark]);
+        let lines: Vec<&str> = md.lines().collect();
+        let h = lines.iter().position(|l| l.starts_with("### Shadow rays of the light links")).expect("{md}");
+        assert_eq!(
+            lines[h + 4],
+            "| window | linkgi CPU | 4000 [2000, 6000] | 1500 [1400, 1600] | 6000 [5000, 7000] |",
+            "{md}"
+        );
+        // Without lights there is no light links' rate; tearoom has no emitters.
+        assert_eq!(lines[h + 5], "| unlit | linkgi CPU | - | 1500 [1400, 1600] | 6000 [5000, 7000] |", "{md}");
+        assert!(lines[h + 6].is_empty(), "{md}");
     }
 
     #[test]

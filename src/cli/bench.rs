@@ -11,7 +11,8 @@ use std::path::PathBuf;
 /// Arguments of `linkgi bench`.
 #[derive(clap::Args, Debug)]
 pub struct BenchArgs {
-    /// Scene files or built-in names.
+    /// Scene files, built-in names, or a benchmark scene (`glowsphere`:
+    /// the Cornell box with a sphere whose every vertex emits).
     pub scenes: Vec<String>,
     /// Ray-shooting backend: cpu, gpu or both.
     #[arg(long, default_value = "cpu")]
@@ -46,7 +47,14 @@ pub fn run(args: BenchArgs) -> Result<()> {
     for n in &names {
         // Each run prepares the scene itself (src/bench); rays and backend come from the flags above.
         let overrides = Overrides { rays: Some(args.rays), tracer: args.tracer, ..Default::default() };
-        descs.push(setup::load(n, &overrides)?);
+        descs.push(match bench::scenes::scene(n) {
+            Some(mut d) => {
+                d.settings = overrides.apply(d.settings);
+                d.settings.validate().with_context(|| format!("settings of scene {n}"))?;
+                d
+            }
+            None => setup::load(n, &overrides)?,
+        });
     }
     let per_scene = (params.warmup + params.runs) as u64;
     let bar = ProgressBar::new(per_scene * (descs.len() * computes.len()) as u64);

@@ -59,22 +59,24 @@
 //! exact to rounding (`tests/emission.rs`).
 //!
 //! Cost: one evaluation of Lambert's formula per vertex and emitter
-//! triangle, and at most `samples + 1` shadow rays per vertex. Above
+//! triangle above its horizon (edge and corner terms shared between
+//! triangles, [`super::emitter_geometry`]), and at most `samples + 1`
+//! shadow rays per vertex. Above
 //! [`EmitterLinkParams::max_pairs`] vertex-triangle pairs there are no
 //! emitter links and every emitter's light travels through the vertex
 //! links (documented fallback; [`EmitterLinks::fallback`] says why).
 
+use super::emitter_geometry::{form_factor, polygon_point, EmitterMesh, FormFactorScratch};
 use crate::csr::{Csr, RowBuilder};
 use crate::kdtree::traverse::Ray;
 use crate::links::shoot::ray_origin;
 use crate::sampling::stream::Stream;
 use crate::scene::prep::PreparedScene;
 use crate::trace::{Tracer, RAY_OFFSET};
-use glam::{DVec3, Vec2, Vec3};
+use glam::{Vec2, Vec3};
 use rand::{Rng, SeedableRng};
 use rayon::prelude::*;
 use std::borrow::Cow;
-use std::f64::consts::PI;
 use std::time::Instant;
 
 /// Parameters of the emitter links.
@@ -113,7 +115,10 @@ pub struct EmitterLinks {
     /// Per vertex, `(group, F_vg)` entries (`F_vg` unitless, finite, >= 0).
     pub rows: Csr<(u32, f32)>,
     pub shadow_rays: u64,
+    /// Time of the computation, ms, and the part of it the tracer took
+    /// to answer the shadow rays (the rest: form factors and sampling).
     pub ms: f64,
+    pub trace_ms: f64,
     /// Why there are no emitter links although some surface emits.
     pub fallback: Option<String>,
 }
@@ -193,15 +198,20 @@ impl EmitterLinks {
                 }
             }
         }
+        let mesh = EmitterMesh::new(scene, &emitters);
         let mut rows = RowBuilder::new();
         for first in (0..n).step_by(CHUNK_VERTICES) {
             let end = (first + CHUNK_VERTICES).min(n);
             let groups = out.group_vertex.len();
-            let per_vertex: Vec<VertexRays> =
-                (first..end).into_par_iter().map(|v| vertex_rays(scene, &emitters, groups, v, params, seed)).collect();
+            let per_vertex: Vec<VertexRays> = (first..end)
+                .into_par_iter()
+                .map_init(Scratch::default, |s, v| vertex_rays(scene, &emitters, &mesh, groups, v, params, seed, s))
+                .collect();
             let rays: Vec<Ray> = per_vertex.iter().flat_map(|r| r.rays.iter().copied()).collect();
             out.shadow_rays += rays.len() as u64;
+            let traced = Instant::now();
             let visible = tracer.visible(&rays)?;
+            out.trace_ms += traced.elapsed().as_secs_f64() * 1e3;
             let mut at = 0usize;
             for r in &per_vertex {
                 let vis = &visible[at..at + r.rays.len()];
@@ -300,100 +310,56 @@ pub(crate) fn emitters(scene: &PreparedScene) -> (Vec<Emitter>, Vec<u32>) {
     (out, group_vertex)
 }
 
-/// The part of triangle `q` (corners relative to the vertex) with
-/// `n·y >= 0`: up to four corners, f64.
-fn clip(n: DVec3, q: [DVec3; 3]) -> ([DVec3; 4], usize) {
-    let h = q.map(|c| n.dot(c));
-    let mut out = [DVec3::ZERO; 4];
-    let mut m = 0;
-    for k in 0..3 {
-        let (a, b) = (k, (k + 1) % 3);
-        if h[a] >= 0.0 {
-            out[m] = q[a];
-            m += 1;
-        }
-        if (h[a] >= 0.0) != (h[b] >= 0.0) {
-            let s = h[a] / (h[a] - h[b]);
-            let mut y = q[a] + (q[b] - q[a]) * s;
-            y -= n * n.dot(y).min(0.0); // exactly on the horizon, not below it
-            out[m] = y;
-            m += 1;
-        }
-    }
-    (out, m)
+/// Per-thread buffers of [`vertex_rays`].
+#[derive(Default)]
+struct Scratch {
+    form: FormFactorScratch,
+    /// `F_t` per emitter triangle at the current vertex.
+    f: Vec<f64>,
 }
 
-/// Projected solid angle of the polygon `poly` (corners relative to the
-/// vertex, none below its horizon) over `pi`: Lambert's formula, two-sided.
-fn lambert(n: DVec3, poly: &[DVec3]) -> f64 {
-    let mut s = 0.0;
-    for k in 0..poly.len() {
-        let a = poly[k].normalize_or_zero();
-        let b = poly[(k + 1) % poly.len()].normalize_or_zero();
-        let c = a.cross(b);
-        let len = c.length();
-        if len > 0.0 {
-            s += len.atan2(a.dot(b)) * n.dot(c) / len;
-        }
-    }
-    (0.5 * s.abs() / PI).min(1.0)
-}
-
-/// `F_t` of one triangle at a vertex at `p` with normal `n`, with the clipped polygon.
-fn form_factor(p: Vec3, n: Vec3, corners: &[Vec3; 3]) -> (f64, [DVec3; 4], usize) {
-    let (pd, nd) = (p.as_dvec3(), n.as_dvec3());
-    let q = corners.map(|c| c.as_dvec3() - pd);
-    // A corner on the vertex puts the vertex in the triangle's plane: no solid angle.
-    let scale = q.iter().map(|c| c.length()).fold(0.0, f64::max);
-    if q.iter().any(|c| c.length() <= 1e-9 * scale) || q.iter().all(|c| nd.dot(*c) <= 0.0) {
-        return (0.0, [DVec3::ZERO; 4], 0);
-    }
-    let (poly, m) = clip(nd, q);
-    if m < 3 {
-        return (0.0, poly, 0);
-    }
-    (lambert(nd, &poly[..m]), poly, m)
-}
-
-/// A point drawn uniformly on the convex polygon `poly` (3 or 4 corners) for `u` in `[0, 1)^2`.
-fn polygon_point(poly: &[DVec3], u: Vec2) -> DVec3 {
-    let tri_area = |a: DVec3, b: DVec3, c: DVec3| (b - a).cross(c - a).length();
-    let (a, mut b, mut c) = (poly[0], poly[1], poly[2]);
-    let mut x = u.x as f64;
-    if poly.len() == 4 {
-        let (a1, a2) = (tri_area(poly[0], poly[1], poly[2]), tri_area(poly[0], poly[2], poly[3]));
-        let split = a1 / (a1 + a2).max(f64::MIN_POSITIVE);
-        if x < split {
-            x /= split.max(f64::MIN_POSITIVE);
-        } else {
-            (b, c) = (poly[2], poly[3]);
-            x = (x - split) / (1.0 - split).max(f64::MIN_POSITIVE);
-        }
-    }
-    let s = x.clamp(0.0, 1.0).sqrt();
-    let (b0, b1) = (1.0 - s, u.y as f64 * s);
-    a * b0 + b * b1 + c * (1.0 - b0 - b1)
-}
-
-/// Vertex `v`'s shadow rays toward the emitters (of `groups` groups).
+/// Vertex `v`'s shadow rays toward the emitters (of `groups` groups;
+/// `mesh` is made of `emitters`).
+#[allow(clippy::too_many_arguments)]
 fn vertex_rays(
     scene: &PreparedScene,
     emitters: &[Emitter],
+    mesh: &EmitterMesh,
     groups: usize,
     v: usize,
     params: &EmitterLinkParams,
     seed: u64,
+    scratch: &mut Scratch,
 ) -> VertexRays {
     let (p, n) = (scene.positions[v], scene.normals[v]);
-    let f: Vec<f64> = emitters.iter().map(|e| form_factor(p, n, &e.corners).0).collect();
-    let f_sum: f64 = f.iter().sum();
+    mesh.form_factors(emitters, p, n, &mut scratch.form, &mut scratch.f);
+    let f = &scratch.f;
+    // `F_sum` and each group's `F_g` summed in emitter order; zeros are
+    // left out (adding +0 changes no sum), and the group at hand is
+    // summed in a register.
+    let (mut f_sum, mut f_group) = (0f64, vec![0f64; groups]);
+    let mut at: Option<(u32, f64)> = None;
+    for (e, &ft) in emitters.iter().zip(f) {
+        if ft > 0.0 {
+            f_sum += ft;
+            let sum = match at {
+                Some((g, ref mut sum)) if g == e.group => sum,
+                _ => {
+                    if let Some((g, sum)) = at {
+                        f_group[g as usize] = sum;
+                    }
+                    &mut at.insert((e.group, f_group[e.group as usize])).1
+                }
+            };
+            *sum += ft;
+        }
+    }
+    if let Some((g, sum)) = at {
+        f_group[g as usize] = sum;
+    }
     let mut out = VertexRays::default();
     if !(f_sum > 0.0) {
         return out;
-    }
-    let mut f_group = vec![0f64; groups];
-    for (e, &ft) in emitters.iter().zip(&f) {
-        f_group[e.group as usize] += ft;
     }
     out.unshaded = f_group.iter().enumerate().filter(|(_, &x)| x > 0.0).map(|(g, &x)| (g as u32, x)).collect();
     let VertexRays { rays, weights, picks, .. } = &mut out;
@@ -403,14 +369,19 @@ fn vertex_rays(
     let total = params.samples as f64;
     let origin = ray_origin(scene, v, params.nudge);
     let eps = RAY_OFFSET * scene.mean_edge_length(v).max(f32::MIN_POSITIVE);
+    // Triangle t covers [lo, hi) of the `total` samples; its `lo` is the
+    // `hi` of the triangle before it, so its rounding is carried over.
     let mut below = 0.0;
-    for (e, &ft) in emitters.iter().zip(&f) {
+    let mut lo_up = (below / f_sum * total - xi).ceil();
+    for (e, &ft) in emitters.iter().zip(f) {
         if ft <= 0.0 {
             continue;
         }
-        let (lo, hi) = (below / f_sum * total, (below + ft) / f_sum * total);
+        let hi = (below + ft) / f_sum * total;
         below += ft;
-        let count = ((hi - xi).ceil() - (lo - xi).ceil()).max(0.0) as u32;
+        let hi_up = (hi - xi).ceil();
+        let count = (hi_up - lo_up).max(0.0) as u32;
+        lo_up = hi_up;
         if count == 0 {
             continue;
         }
@@ -476,95 +447,4 @@ fn finish_vertex(visible: &[bool], r: &VertexRays) -> Vec<(u32, f32)> {
             (f > 0.0).then_some((g, f))
         })
         .collect()
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    /// Lambert's formula against brute-force cosine-weighted sampling of
-    /// the hemisphere (the share of cosine-distributed directions that meet
-    /// the triangle), for triangles above, across and below the horizon.
-    #[test]
-    fn form_factor_equals_cosine_sampling() {
-        let n = Vec3::new(0.2, 1.0, -0.1).normalize();
-        let tris = [
-            [Vec3::new(-1.0, 1.0, -1.0), Vec3::new(1.0, 1.2, -0.5), Vec3::new(0.2, 0.8, 1.0)],
-            [Vec3::new(-1.0, -0.5, 0.5), Vec3::new(1.5, 0.7, 0.3), Vec3::new(0.2, 0.4, -1.5)],
-            [Vec3::new(0.3, -1.0, 0.5), Vec3::new(1.5, -0.2, 0.3), Vec3::new(0.2, -0.4, -1.5)],
-            [Vec3::new(0.01, 0.02, 0.0), Vec3::new(3.0, 0.5, 0.1), Vec3::new(0.1, 0.3, 2.0)],
-        ];
-        let (t, b) = crate::sampling::basis(n);
-        let k = 400;
-        for corners in tris {
-            let (f, _, _) = form_factor(Vec3::ZERO, n, &corners);
-            let mut hits = 0u32;
-            for i in 0..k {
-                for j in 0..k {
-                    let u = Vec2::new((i as f32 + 0.5) / k as f32, (j as f32 + 0.5) / k as f32);
-                    let d = crate::sampling::cosine_hemisphere(u);
-                    let dir = t * d.x + b * d.y + n * d.z;
-                    if meets(dir, &corners) {
-                        hits += 1;
-                    }
-                }
-            }
-            let brute = hits as f64 / (k * k) as f64;
-            assert!((f - brute).abs() < 2e-3, "{corners:?}: Lambert {f}, sampled {brute}");
-        }
-    }
-
-    /// Moller-Trumbore: does the ray from the origin along `d` meet the triangle?
-    fn meets(d: Vec3, c: &[Vec3; 3]) -> bool {
-        let (e1, e2) = (c[1] - c[0], c[2] - c[0]);
-        let pv = d.cross(e2);
-        let det = e1.dot(pv);
-        if det.abs() < 1e-12 {
-            return false;
-        }
-        let tv = -c[0];
-        let u = tv.dot(pv) / det;
-        let qv = tv.cross(e1);
-        let v = d.dot(qv) / det;
-        u >= 0.0 && v >= 0.0 && u + v <= 1.0 && e2.dot(qv) / det > 0.0
-    }
-
-    /// A unit square 1 m above a point, facing it: the analytic
-    /// point-to-parallel-rectangle factor at its corner, four times.
-    #[test]
-    fn form_factor_of_a_square_over_a_point() {
-        let n = Vec3::Y;
-        let (a, h) = (0.8f64, 1.0f64);
-        let q = |x: f32, z: f32| Vec3::new(x, h as f32, z);
-        let s = a as f32;
-        let tris = [[q(-s, -s), q(s, -s), q(s, s)], [q(-s, -s), q(s, s), q(-s, s)]];
-        let f: f64 = tris.iter().map(|t| form_factor(Vec3::ZERO, n, t).0).sum();
-        // Corner of an a x a rectangle at height h: 1/(2 pi) (X/sqrt(1+X^2) atan(Y/sqrt(1+X^2)) + Y/.. atan(X/..)).
-        let (x, y) = (a / h, a / h);
-        let corner = (x / (1.0 + x * x).sqrt() * (y / (1.0 + x * x).sqrt()).atan()
-            + y / (1.0 + y * y).sqrt() * (x / (1.0 + y * y).sqrt()).atan())
-            / (2.0 * PI);
-        assert!((f - 4.0 * corner).abs() < 1e-7, "{f} vs {}", 4.0 * corner);
-        // Fully overhead and huge: the whole hemisphere.
-        let big = 1e4f32;
-        let tris = [[q(-big, -big), q(big, -big), q(big, big)], [q(-big, -big), q(big, big), q(-big, big)]];
-        let f: f64 = tris.iter().map(|t| form_factor(Vec3::ZERO, n, t).0).sum();
-        assert!((f - 1.0).abs() < 1e-3, "{f}");
-    }
-
-    /// Points on a clipped polygon stay on it and cover its two halves in proportion to their areas.
-    #[test]
-    fn polygon_points_are_uniform() {
-        let poly = [DVec3::ZERO, DVec3::new(2.0, 0.0, 0.0), DVec3::new(2.0, 1.0, 0.0), DVec3::new(0.0, 1.0, 0.0)];
-        let mut left = 0;
-        let k = 100;
-        for i in 0..k {
-            for j in 0..k {
-                let y = polygon_point(&poly, Vec2::new((i as f32 + 0.5) / k as f32, (j as f32 + 0.5) / k as f32));
-                assert!(y.x >= -1e-12 && y.x <= 2.0 + 1e-12 && y.y >= -1e-12 && y.y <= 1.0 + 1e-12 && y.z == 0.0);
-                left += (y.x < 1.0) as u32;
-            }
-        }
-        assert!((left as f64 / (k * k) as f64 - 0.5).abs() < 0.01, "{left}");
-    }
 }

@@ -5,5 +5,6 @@
 //! ([`emitter_cv`]). Irradiance in W/m^2.
 
 pub mod emitter_cv;
+pub(crate) mod emitter_geometry;
 pub mod emitter_links;
 pub mod light_links;
