@@ -146,9 +146,8 @@ fn builtin_rooms_are_framed_from_inside_their_rooms() {
         assert!(f.inside, "{name}");
         let room = &scene.meshes[0];
         let r = room.vertices.start as usize..room.vertices.end as usize;
-        let (lo, hi) = scene.positions[r]
-            .iter()
-            .fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), &p| (lo.min(p), hi.max(p)));
+        let (lo, hi) =
+            scene.positions[r].iter().fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), &p| (lo.min(p), hi.max(p)));
         let c = f.camera.position;
         // Inside the room, or standing in an opening of its walls (the window's).
         assert!(c.cmpge(lo).all() && c.cmple(hi).all(), "{name}: camera {c} outside [{lo}, {hi}]");

@@ -7,9 +7,7 @@ mod common;
 
 use glam::Vec3;
 use linkgi::exchange::bounce::gather::gather_bounce;
-use linkgi::scene::{
-    builtin, prep, shapes::MeshBuilder, Bounces, Light, Material, MeshDesc, SceneDesc, Settings,
-};
+use linkgi::scene::{builtin, prep, shapes::MeshBuilder, Bounces, Light, Material, MeshDesc, SceneDesc, Settings};
 use linkgi::solver::{Solution, SolveParams, Solver};
 
 fn area_weighted_mean(s: &prep::PreparedScene, e: &[Vec3]) -> Vec3 {

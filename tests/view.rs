@@ -89,7 +89,17 @@ fn scripted_view_writes_screenshots_that_follow_the_script() {
     )
     .unwrap();
     let mut child = Command::new("xvfb-run")
-        .args(["-a", env!("CARGO_BIN_EXE_linkgi"), "view", "cornell", "--exposure", "0.6", "--size", &format!("{W}x{H}"), "--script"])
+        .args([
+            "-a",
+            env!("CARGO_BIN_EXE_linkgi"),
+            "view",
+            "cornell",
+            "--exposure",
+            "0.6",
+            "--size",
+            &format!("{W}x{H}"),
+            "--script",
+        ])
         .arg(&script)
         .arg("--screenshot-dir")
         .arg(&shots)
@@ -153,7 +163,18 @@ fn scripted_emission_and_sky_edits() {
     )
     .unwrap();
     let out = Command::new("xvfb-run")
-        .args(["-a", env!("CARGO_BIN_EXE_linkgi"), "view", "window", "--exposure", "0.6", "--rays", "64", "--size", &format!("{W}x{H}")])
+        .args([
+            "-a",
+            env!("CARGO_BIN_EXE_linkgi"),
+            "view",
+            "window",
+            "--exposure",
+            "0.6",
+            "--rays",
+            "64",
+            "--size",
+            &format!("{W}x{H}"),
+        ])
         .arg("--script")
         .arg(&script)
         .arg("--screenshot-dir")
@@ -403,7 +424,19 @@ fn wait_gi_catches_up_while_deforming() {
         .unwrap();
     let out = Command::new("timeout")
         .arg("400")
-        .args(["xvfb-run", "-a", env!("CARGO_BIN_EXE_linkgi"), "view", "torso", "--exposure", "0.6", "--rays", "16", "--size", "160x120"])
+        .args([
+            "xvfb-run",
+            "-a",
+            env!("CARGO_BIN_EXE_linkgi"),
+            "view",
+            "torso",
+            "--exposure",
+            "0.6",
+            "--rays",
+            "16",
+            "--size",
+            "160x120",
+        ])
         .arg("--script")
         .arg(&script)
         .arg("--screenshot-dir")

@@ -28,7 +28,8 @@
 
 use super::{hit_albedo, hit_frame, rank_on_triangle, trace_by_vertex, Bounce, Cost, Fields, NearTerm, Shape};
 use crate::csr::{Csr, RowBuilder};
-use crate::exchange::sources::emitter_links::{emitters, Emitter, EmitterLinks};
+use crate::exchange::sources::emitter_geometry::Emitter;
+use crate::exchange::sources::emitter_links::{emitters, EmitterLinks};
 use crate::kdtree::traverse::{Ray, NO_SKIP};
 use crate::links::{NearHit, NearHits};
 use crate::sampling::stream::{splitmix64, unit, Stream};

@@ -21,11 +21,19 @@
 //! component by component). Triangles that cross the horizon take
 //! [`form_factor`] itself.
 
-use super::emitter_links::Emitter;
 use crate::scene::prep::PreparedScene;
 use glam::{DVec3, Vec2, Vec3};
 use std::collections::HashMap;
 use std::f64::consts::PI;
+
+/// One emissive triangle.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Emitter {
+    pub(crate) corners: [Vec3; 3],
+    pub(crate) group: u32,
+    /// Its index in the scene's triangles.
+    pub(crate) triangle: u32,
+}
 
 /// The part of triangle `q` (corners relative to the vertex) with
 /// `n·y >= 0`: up to four corners, f64.

@@ -66,7 +66,7 @@
 //! emitter links and every emitter's light travels through the vertex
 //! links (documented fallback; [`EmitterLinks::fallback`] says why).
 
-use super::emitter_geometry::{form_factor, polygon_point, EmitterMesh, FormFactorScratch};
+use super::emitter_geometry::{form_factor, polygon_point, Emitter, EmitterMesh, FormFactorScratch};
 use crate::csr::{Csr, RowBuilder};
 use crate::kdtree::traverse::Ray;
 use crate::links::shoot::ray_origin;
@@ -125,15 +125,6 @@ pub struct EmitterLinks {
 
 /// [`EmitterLinks::vertex_group`] of a vertex outside every group.
 pub const NO_GROUP: u32 = u32::MAX;
-
-/// One emissive triangle.
-#[derive(Clone, Copy, Debug)]
-pub(crate) struct Emitter {
-    pub(crate) corners: [Vec3; 3],
-    pub(crate) group: u32,
-    /// Its index in the scene's triangles.
-    pub(crate) triangle: u32,
-}
 
 /// A triangle a vertex sends rays to, and what its rays found.
 #[derive(Clone, Copy, Debug)]
