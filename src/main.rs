@@ -52,6 +52,8 @@ fn main() -> Result<()> {
             view: linkgi::render::View::Combined,
             overrides: cli::setup::Overrides::default(),
             exposure: None,
+            reference: false,
+            spp: 64,
         }),
         Some(Command::Solve(args)) => cli::solve::run(args),
         Some(Command::Render(args)) => cli::render::run(args),

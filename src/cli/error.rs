@@ -37,6 +37,18 @@ pub struct ErrorArgs {
     /// Optional terms of the solve to switch off, comma-separated (as `solve --off`), to measure what they buy.
     #[arg(long, value_name = "TERM[,TERM]", value_parser = super::setup::parse_off)]
     pub off: Option<linkgi::scene::terms::Terms>,
+    /// Also score the picture: render the link solution (scene's settings, CPU
+    /// renderer) and the reference image at the scene's camera, this size
+    /// (WIDTHxHEIGHT), and print the mean luminance ratio and the mean 8x8-block
+    /// relative error; writes image.png and image_reference.png (same exposure).
+    #[arg(long, value_name = "WxH")]
+    pub image: Option<String>,
+    /// Paths per pixel of the reference image (`--image`).
+    #[arg(long, default_value_t = 256)]
+    pub image_spp: u32,
+    /// Only the picture's score (`--image`): no sweep, no path-tracer ladder.
+    #[arg(long)]
+    pub image_only: bool,
 }
 
 fn bar(len: usize, msg: &'static str) -> ProgressBar {
@@ -51,9 +63,15 @@ fn bar(len: usize, msg: &'static str) -> ProgressBar {
 
 pub fn run(args: ErrorArgs) -> Result<()> {
     // The sweep sets rays and bounces itself and runs on the CPU.
-    let Setup { prepared, .. } =
+    let Setup { desc, prepared, .. } =
         setup(&args.scene, &Overrides { tracer: args.tracer, off: args.off, ..Default::default() })?;
     std::fs::create_dir_all(&args.out).with_context(|| format!("creating {}", args.out.display()))?;
+    if let Some(size) = &args.image {
+        image_score(&args, size, &desc, &prepared)?;
+        if args.image_only {
+            return Ok(());
+        }
+    }
     let cache = args.cache.clone().unwrap_or_else(reference::cache::default_dir);
     let rp = ReferenceParams { samples_per_vertex: args.ref_samples, ..Default::default() };
     eprintln!(
@@ -141,5 +159,54 @@ pub fn run(args: ErrorArgs) -> Result<()> {
         );
     }
     println!("wrote {} and {}", csv_path.display(), png_path.display());
+    Ok(())
+}
+
+/// `error --image`: the link solution's picture against the reference image.
+fn image_score(
+    args: &ErrorArgs,
+    size: &str,
+    desc: &linkgi::scene::SceneDesc,
+    prepared: &linkgi::scene::prep::PreparedScene,
+) -> Result<()> {
+    use linkgi::render::{cpu::render_cpu, exposure::auto_exposure, write_png, Frame, RenderParams};
+    let (w, h) = super::render::parse_size(size)?;
+    if args.image_spp == 0 {
+        anyhow::bail!("--image-spp must be at least 1");
+    }
+    let solver = linkgi::solver::Solver::new(
+        prepared.clone(),
+        linkgi::solver::SolveParams::from_settings(&prepared.settings),
+        &|_, _| {},
+    );
+    let sol = solver.solve();
+    let bvh = linkgi::bvh::Bvh::build(&prepared.positions, &prepared.triangles, &Default::default());
+    let camera = super::setup::camera(desc, prepared, Some(&bvh));
+    let params = RenderParams { width: w, height: h, ..Default::default() };
+    let frame = Frame::of(solver.scene(), &sol.e_indirect, camera).with_sky(&sol.e_sky);
+    let (ours, _) = render_cpu(&frame, &params, Some(&bvh))?;
+    let b = bar(h as usize, "image ref");
+    let rp = ReferenceParams { seed: prepared.settings.seed, ..Default::default() };
+    let t = Instant::now();
+    let reference = reference::image::render(prepared, &bvh, &camera, w, h, args.image_spp, &rp, &|| b.inc(1));
+    b.finish_and_clear();
+    let exposure = auto_exposure(&reference);
+    let (a, r) = (args.out.join("image.png"), args.out.join("image_reference.png"));
+    write_png(&ours, exposure, &a)?;
+    write_png(&reference, exposure, &r)?;
+    match reference::image::score(&ours, &reference) {
+        Some(s) => println!(
+            "picture {w}x{h} against the reference image ({} paths a pixel, {:.1} s): mean luminance ratio {:.4}, \
+             mean 8x8-block error {:.4} over {} lit blocks; wrote {} and {}",
+            args.image_spp,
+            t.elapsed().as_secs_f64(),
+            s.mean_ratio,
+            s.block_error,
+            s.blocks,
+            a.display(),
+            r.display()
+        ),
+        None => println!("the reference image is black: no score; wrote {} and {}", a.display(), r.display()),
+    }
     Ok(())
 }

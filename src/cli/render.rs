@@ -32,6 +32,13 @@ pub struct RenderArgs {
     /// image's log-average luminance mapped to middle grey 0.18).
     #[arg(long)]
     pub exposure: Option<f32>,
+    /// Render the reference path tracer's image instead of the link
+    /// solution (same camera and size): ground truth to compare with.
+    #[arg(long)]
+    pub reference: bool,
+    /// Paths per pixel of `--reference`.
+    #[arg(long, default_value_t = 64)]
+    pub spp: u32,
 }
 
 /// `WxH` -> (W, H).
@@ -54,6 +61,9 @@ pub fn run(args: RenderArgs) -> Result<()> {
         bail!("--exposure {e}: must be positive and finite");
     }
     let Setup { desc, prepared, settings } = setup(&args.scene, &args.overrides)?;
+    if args.reference {
+        return reference(&args, &desc, &prepared, width, height);
+    }
     let compute = compute(settings.backend, 1)?;
     let t0 = Instant::now();
     let solver = Solver::new_on(prepared, SolveParams::from_settings(&settings), &compute, &|_, _| {})?;
@@ -80,6 +90,50 @@ pub fn run(args: RenderArgs) -> Result<()> {
         stats.ms,
         gi_ms,
         compute.describe(),
+        exposure,
+        if args.exposure.is_some() { "" } else { " (auto)" },
+        args.out.display()
+    );
+    Ok(())
+}
+
+/// `render --reference`: the reference path tracer's image, with a progress bar.
+fn reference(
+    args: &RenderArgs,
+    desc: &linkgi::scene::SceneDesc,
+    prepared: &linkgi::scene::prep::PreparedScene,
+    width: u32,
+    height: u32,
+) -> Result<()> {
+    if args.spp == 0 {
+        bail!("--spp must be at least 1");
+    }
+    let t0 = Instant::now();
+    let bvh = linkgi::bvh::Bvh::build(&prepared.positions, &prepared.triangles, &Default::default());
+    let camera = super::setup::camera(desc, prepared, Some(&bvh));
+    let bar = indicatif::ProgressBar::new(height as u64);
+    bar.set_style(
+        indicatif::ProgressStyle::with_template("reference rows [{bar:40}] {pos}/{len} ({eta})")
+            .expect("template")
+            .progress_chars("=> "),
+    );
+    let params = linkgi::reference::ReferenceParams { seed: prepared.settings.seed, ..Default::default() };
+    let img =
+        linkgi::reference::image::render(prepared, &bvh, &camera, width, height, args.spp, &params, &|| bar.inc(1));
+    bar.finish_and_clear();
+    let exposure = args.exposure.unwrap_or_else(|| auto_exposure(&img));
+    write_png(&img, exposure, &args.out)?;
+    if let Some(exr) = &args.exr {
+        write_exr(&img, exr)?;
+        println!("wrote {} (linear radiance, W/(m^2 sr))", exr.display());
+    }
+    println!(
+        "rendered the reference of {} ({}x{}, {} paths a pixel) on the CPU in {:.1} s; exposure {:.4}{}; wrote {}",
+        prepared.name,
+        width,
+        height,
+        args.spp,
+        t0.elapsed().as_secs_f64(),
         exposure,
         if args.exposure.is_some() { "" } else { " (auto)" },
         args.out.display()

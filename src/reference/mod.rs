@@ -64,6 +64,7 @@
 //! lights and parameters.
 
 pub mod cache;
+pub mod image;
 pub mod path;
 
 use crate::bvh::{Bvh, BvhBuildParams};

@@ -163,7 +163,7 @@ impl<'a> Tracer<'a> {
                 (j1, j2)
             };
             let dir = cosine_direction(n, u1.min(1.0 - f32::EPSILON), u2);
-            let (sky_part, est) = self.path(v, origin, n, e_d, dir, &mut rng);
+            let (sky_part, est) = self.path(At::Vertex, v, origin, n, e_d, dir, &mut rng);
             let (sky_part, est) = (sky_part.as_dvec3(), est.as_dvec3());
             moments(&mut ind, i, est);
             moments(&mut sky, i, sky_part);
@@ -195,8 +195,10 @@ impl<'a> Tracer<'a> {
     /// `dir`: the sky seen along `dir` itself is direct sky light, all
     /// else (emission and sky met after a surface, light reflected by
     /// surfaces) is indirect.
+    #[allow(clippy::too_many_arguments)]
     fn path(
         &self,
+        start: At,
         v: usize,
         v_origin: Vec3,
         v_normal: Vec3,
@@ -205,7 +207,7 @@ impl<'a> Tracer<'a> {
         rng: &mut Pcg64Mcg,
     ) -> (Vec3, Vec3) {
         let s = self.scene;
-        let mut at = At::Vertex;
+        let mut at = start;
         let mut beta = Vec3::ONE;
         let mut est = Vec3::ZERO;
         for depth in 0..self.params.max_depth {
@@ -264,6 +266,57 @@ impl<'a> Tracer<'a> {
             at = next;
         }
         (Vec3::ZERO, est)
+    }
+}
+
+impl Tracer<'_> {
+    /// Outgoing radiance, W/(m^2 sr), toward the eye of `ray`'s first
+    /// surface: `M_e / pi + rho / pi (E_d + E_sky + E_i)` at the hit point
+    /// `y`, with `E_d` exact at `y` (one shadow ray a light, as at path
+    /// vertices) and `E_sky + E_i` the mean of `spp` paths from `y`
+    /// (cosine-sampled on a jittered `k x k` grid when `spp` is square),
+    /// the same estimator as at the vertices with the triangle's
+    /// geometric normal. Albedo: the texture's at `y` on a textured
+    /// triangle, else interpolated; emission interpolated. A miss shows the
+    /// sky's radiance (black without one); a back face is black.
+    pub fn pixel(&self, ray: &Ray, spp: u32, seed: u64) -> Vec3 {
+        let s = self.scene;
+        let Some(hit) = self.kd.intersect(ray) else {
+            return s.sky.as_ref().map_or(Vec3::ZERO, |sky| sky.radiance(ray.dir));
+        };
+        if !hit.front {
+            return Vec3::ZERO;
+        }
+        let tri = s.triangles[hit.tri as usize];
+        let w = hit.barycentrics();
+        let lerp = |a: &[Vec3]| (0..3).map(|k| a[tri[k] as usize] * w[k]).sum::<Vec3>();
+        let p = lerp(&s.positions);
+        let rho = s.textures.as_ref().and_then(|t| t.albedo(hit.tri as usize, w)).unwrap_or_else(|| lerp(&s.albedo));
+        let m_e = lerp(&s.emission);
+        let normal = self.tri_normals[hit.tri as usize];
+        let offset = self.tri_offsets[hit.tri as usize];
+        let origin = p + normal * offset;
+        let e_d = self.direct(p, normal, origin, offset);
+        let spp = spp.max(1);
+        let k = (spp as f64).sqrt() as u32;
+        let stratified = k * k == spp;
+        let mut rng = Pcg64Mcg::seed_from_u64(seed);
+        let _: u64 = rng.random();
+        let mut e = DVec3::ZERO;
+        for i in 0..spp {
+            let (j1, j2): (f32, f32) = (rng.random(), rng.random());
+            let (u1, u2) = if stratified {
+                (((i % k) as f32 + j1) / k as f32, ((i / k) as f32 + j2) / k as f32)
+            } else {
+                (j1, j2)
+            };
+            let dir = cosine_direction(normal, u1.min(1.0 - f32::EPSILON), u2);
+            let start = At::Triangle { origin, normal };
+            let (sky, ind) = self.path(start, usize::MAX, origin, normal, e_d, dir, &mut rng);
+            e += (sky + ind).as_dvec3();
+        }
+        let e_total = e_d + (e / spp as f64).as_vec3();
+        crate::exchange::bounce::operator::radiosity(rho, e_total, m_e)
     }
 }
 
