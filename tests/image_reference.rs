@@ -62,11 +62,8 @@ fn a_plate_under_a_point_light_shows_rho_over_pi_i_cos_over_r2() {
 
 #[test]
 fn the_score_of_an_image_against_itself_and_a_brighter_copy() {
-    let img = HdrImage {
-        width: 20,
-        height: 12,
-        pixels: (0..240).map(|i| Vec3::splat(0.1 + (i % 7) as f32 * 0.3)).collect(),
-    };
+    let img =
+        HdrImage { width: 20, height: 12, pixels: (0..240).map(|i| Vec3::splat(0.1 + (i % 7) as f32 * 0.3)).collect() };
     let same = score(&img, &img).unwrap();
     assert_eq!((same.mean_ratio, same.block_error), (1.0, 0.0));
     assert_eq!(same.blocks, 3 * 2);
@@ -91,7 +88,10 @@ fn the_link_solution_of_the_cornell_box_agrees_with_the_image_reference() {
     let (ours, _) = render_cpu(&Frame::of(scene, &sol.e_indirect, camera), &p, Some(&bvh)).unwrap();
     let reference = render(scene, &bvh, &camera, w, h, 64, &ReferenceParams::default(), &|| {});
     let s = score(&ours, &reference).unwrap();
-    eprintln!("cornell 64x48: mean ratio {:.4}, block error {:.4} over {} blocks", s.mean_ratio, s.block_error, s.blocks);
+    eprintln!(
+        "cornell 64x48: mean ratio {:.4}, block error {:.4} over {} blocks",
+        s.mean_ratio, s.block_error, s.blocks
+    );
     // Auto bounces: with the scene's 3 the picture is 13% dark (0.87).
     assert!((s.mean_ratio - 1.0).abs() < 0.03, "{s:?}");
     assert!(s.block_error < 0.06, "{s:?}");

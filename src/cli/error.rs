@@ -46,6 +46,9 @@ pub struct ErrorArgs {
     /// Paths per pixel of the reference image (`--image`).
     #[arg(long, default_value_t = 256)]
     pub image_spp: u32,
+    /// Split mesh edges longer than this many metres first (as `render --max-edge`).
+    #[arg(long, value_name = "METRES")]
+    pub max_edge: Option<f32>,
     /// Only the picture's score (`--image`): no sweep, no path-tracer ladder.
     #[arg(long)]
     pub image_only: bool,
@@ -63,8 +66,10 @@ fn bar(len: usize, msg: &'static str) -> ProgressBar {
 
 pub fn run(args: ErrorArgs) -> Result<()> {
     // The sweep sets rays and bounces itself and runs on the CPU.
-    let Setup { desc, prepared, .. } =
-        setup(&args.scene, &Overrides { tracer: args.tracer, off: args.off, ..Default::default() })?;
+    let Setup { desc, prepared, .. } = setup(
+        &args.scene,
+        &Overrides { tracer: args.tracer, off: args.off, max_edge: args.max_edge, ..Default::default() },
+    )?;
     std::fs::create_dir_all(&args.out).with_context(|| format!("creating {}", args.out.display()))?;
     if let Some(size) = &args.image {
         image_score(&args, size, &desc, &prepared)?;

@@ -41,6 +41,10 @@ pub struct Overrides {
     /// noise_check, smoothing, sky_smoothing); added to the scene's `off` list.
     #[arg(long, value_name = "TERM[,TERM]", value_parser = parse_off)]
     pub off: Option<Terms>,
+    /// Split mesh edges longer than this many metres before solving (a-priori
+    /// refinement of coarse meshes: `scene::refine`); off when not given.
+    #[arg(long, value_name = "METRES")]
+    pub max_edge: Option<f32>,
     /// Number of bounces (`solve --bounces`).
     #[arg(skip)]
     pub bounces: Option<Bounces>,
@@ -144,7 +148,17 @@ pub fn default_sky() -> linkgi::sky::Sky {
 /// Steps 1-4: [`load`], then prepares the scene and warns about dropped
 /// triangles and a scene without any light (lights, emitters or sky).
 pub fn setup(scene: &str, overrides: &Overrides) -> Result<Setup> {
-    let desc = load(scene, overrides)?;
+    let mut desc = load(scene, overrides)?;
+    if let Some(max_edge) = overrides.max_edge {
+        if !(max_edge.is_finite() && max_edge > 0.0) {
+            anyhow::bail!("--max-edge {max_edge}: must be positive and finite");
+        }
+        let params = linkgi::scene::refine::RefineParams { max_edge, max_vertices: 4_000_000 };
+        let (refined, stats) = linkgi::scene::refine::refine_scene(&desc, &params);
+        let (before, after) = stats.iter().fold((0, 0), |(b, a), s| (b + s.triangles_before, a + s.triangles_after));
+        eprintln!("note: edges split to at most {max_edge} m: {before} triangles became {after}");
+        desc = refined;
+    }
     let prepared = prep::prepare(&desc).with_context(|| format!("preparing scene {scene}"))?;
     if prepared.dropped_triangles > 0 {
         eprintln!("warning: dropped {} zero-area triangles", prepared.dropped_triangles);

@@ -101,7 +101,8 @@ pub fn score(ours: &HdrImage, reference: &HdrImage) -> Option<ImageScore> {
         return None;
     }
     let (a, b) = (block_means(ours), block_means(reference));
-    let lit: Vec<f64> = a.iter().zip(&b).filter(|(_, &r)| r > 0.01 * ref_mean).map(|(o, r)| (o - r).abs() / r).collect();
+    let lit: Vec<f64> =
+        a.iter().zip(&b).filter(|(_, &r)| r > 0.01 * ref_mean).map(|(o, r)| (o - r).abs() / r).collect();
     Some(ImageScore {
         mean_ratio: mean(ours) / ref_mean,
         block_error: if lit.is_empty() { 0.0 } else { lit.iter().sum::<f64>() / lit.len() as f64 },

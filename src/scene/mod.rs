@@ -21,6 +21,7 @@ pub mod motion;
 pub mod obj;
 pub mod order;
 pub mod prep;
+pub mod refine;
 pub mod rings;
 pub mod shapes;
 pub mod terms;

@@ -1,0 +1,249 @@
+//! A-priori refinement of coarse meshes (issue 31, first part): conforming
+//! edge splits until no edge is longer than a target length, so one value
+//! per vertex can carry the light across large faces.
+//!
+//! Each pass marks every edge longer than [`RefineParams::max_edge`]
+//! (world metres: object length times the mesh's scale) and splits it at
+//! its midpoint `(p + q) / 2`; each triangle is then cut by how many of its
+//! edges were marked: one (two triangles, the midpoint to the opposite
+//! corner), two (three: the midpoints joined, the quad left split along its
+//! shorter diagonal) or three (four, the midpoints joined). Marks belong to
+//! edges, so the two triangles beside an edge split it alike: the result is
+//! conforming (no T-junctions) wherever the input was, and edges that
+//! coincide in space but are indexed twice (an OBJ's separate groups) split
+//! at bit-identical midpoints, which preparation welds. A median is never
+//! longer than the longer of its triangle's two other sides, so passes
+//! shorten edges until none is too long, the vertex budget
+//! ([`RefineParams::max_vertices`], per mesh) would be passed, or
+//! [`MAX_PASSES`] have run.
+//!
+//! Kept: every input position keeps its index and value (new positions
+//! are appended), triangles keep their materials and winding, per-position
+//! attributes (albedo, emission, texture coordinates and factors) are
+//! averaged at midpoints. Deviations: a textured mesh's new vertices take
+//! the mean of their edge's albedo, not the texture's value there; dynamic
+//! meshes (with deformers) are left as they are.
+
+use super::{MeshDesc, SceneDesc};
+use glam::Vec3;
+use std::collections::HashMap;
+
+/// Most passes of [`refine_mesh`].
+pub const MAX_PASSES: u32 = 32;
+
+/// What [`refine_scene`] refines to.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RefineParams {
+    /// Longest edge kept, world metres.
+    pub max_edge: f32,
+    /// Most positions a mesh may reach; a pass that would pass it is not made.
+    pub max_vertices: usize,
+}
+
+/// What refinement did to one mesh.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct RefineStats {
+    pub positions_before: usize,
+    pub positions_after: usize,
+    pub triangles_before: usize,
+    pub triangles_after: usize,
+    pub passes: u32,
+}
+
+fn edge_key(a: u32, b: u32) -> (u32, u32) {
+    (a.min(b), a.max(b))
+}
+
+/// `mesh` with its edges split to at most `params.max_edge` (world metres).
+pub fn refine_mesh(mesh: &MeshDesc, params: &RefineParams) -> (MeshDesc, RefineStats) {
+    let mut out = mesh.clone();
+    let mut stats = RefineStats {
+        positions_before: mesh.positions.len(),
+        triangles_before: mesh.triangles.len(),
+        ..Default::default()
+    };
+    let scale = mesh.transform.scale.abs();
+    if mesh.dynamic || !(params.max_edge > 0.0 && scale > 0.0 && params.max_edge.is_finite()) {
+        stats.positions_after = mesh.positions.len();
+        stats.triangles_after = mesh.triangles.len();
+        return (out, stats);
+    }
+    let limit2 = (params.max_edge / scale).powi(2);
+    for _ in 0..MAX_PASSES {
+        let long = |a: u32, b: u32| out.positions[a as usize].distance_squared(out.positions[b as usize]) > limit2;
+        let mut marked: Vec<(u32, u32)> = Vec::new();
+        let mut seen = std::collections::HashSet::new();
+        for t in &out.triangles {
+            for k in 0..3 {
+                let (a, b) = (t[k], t[(k + 1) % 3]);
+                if long(a, b) && seen.insert(edge_key(a, b)) {
+                    marked.push(edge_key(a, b));
+                }
+            }
+        }
+        if marked.is_empty() || out.positions.len() + marked.len() > params.max_vertices {
+            break;
+        }
+        let mut mid: HashMap<(u32, u32), u32> = HashMap::with_capacity(marked.len());
+        for &(a, b) in &marked {
+            mid.insert((a, b), push_midpoint(&mut out, a as usize, b as usize));
+        }
+        let mut triangles = Vec::with_capacity(out.triangles.len() * 2);
+        let mut materials = Vec::with_capacity(out.triangles.len() * 2);
+        let mut maps = out.textures.as_ref().map(|_| Vec::with_capacity(out.triangles.len() * 2));
+        for (i, t) in out.triangles.iter().enumerate() {
+            let m: [Option<u32>; 3] = std::array::from_fn(|k| mid.get(&edge_key(t[k], t[(k + 1) % 3])).copied());
+            let pieces = split(*t, m, &out.positions);
+            for p in pieces {
+                triangles.push(p);
+                materials.push(out.triangle_material[i]);
+                if let (Some(maps), Some(tex)) = (maps.as_mut(), out.textures.as_ref()) {
+                    maps.push(tex.triangle_map[i]);
+                }
+            }
+        }
+        out.triangles = triangles;
+        out.triangle_material = materials;
+        if let (Some(maps), Some(tex)) = (maps, out.textures.as_mut()) {
+            tex.triangle_map = maps;
+        }
+        stats.passes += 1;
+    }
+    stats.positions_after = out.positions.len();
+    stats.triangles_after = out.triangles.len();
+    (out, stats)
+}
+
+/// Appends the midpoint of positions `a` and `b` with averaged attributes.
+fn push_midpoint(m: &mut MeshDesc, a: usize, b: usize) -> u32 {
+    let avg = |v: &[Vec3]| (v[a] + v[b]) * 0.5;
+    let p = avg(&m.positions);
+    m.positions.push(p);
+    if let Some(v) = m.vertex_albedo.as_mut() {
+        let x = avg(v);
+        v.push(x);
+    }
+    if let Some(v) = m.vertex_emission.as_mut() {
+        let x = avg(v);
+        v.push(x);
+    }
+    if let Some(t) = m.textures.as_mut() {
+        let uv = (t.uv[a] + t.uv[b]) * 0.5;
+        let f = (t.factor[a] + t.factor[b]) * 0.5;
+        t.uv.push(uv);
+        t.factor.push(f);
+    }
+    (m.positions.len() - 1) as u32
+}
+
+/// The pieces of triangle `t` whose edge `k` (from corner `k` to `k + 1`)
+/// has midpoint `m[k]` where marked; counter-clockwise as `t`.
+fn split(t: [u32; 3], m: [Option<u32>; 3], positions: &[Vec3]) -> Vec<[u32; 3]> {
+    let marked = m.iter().filter(|x| x.is_some()).count();
+    // Rotate so that the pattern is canonical: one mark on edge 0, or the
+    // unmarked edge of two at edge 2.
+    let r = match marked {
+        1 => m.iter().position(|x| x.is_some()).unwrap_or(0),
+        2 => (m.iter().position(|x| x.is_none()).unwrap_or(2) + 1) % 3,
+        _ => 0,
+    };
+    let (a, b, c) = (t[r], t[(r + 1) % 3], t[(r + 2) % 3]);
+    let (m0, m1, m2) = (m[r], m[(r + 1) % 3], m[(r + 2) % 3]);
+    match (m0, m1, m2) {
+        (None, None, None) => vec![t],
+        (Some(m0), None, None) => vec![[a, m0, c], [m0, b, c]],
+        (Some(m0), Some(m1), None) => {
+            let d = |x: u32, y: u32| positions[x as usize].distance_squared(positions[y as usize]);
+            let mut out = vec![[m0, b, m1]];
+            if d(a, m1) <= d(m0, c) {
+                out.extend([[a, m0, m1], [a, m1, c]]);
+            } else {
+                out.extend([[a, m0, c], [m0, m1, c]]);
+            }
+            out
+        }
+        (Some(m0), Some(m1), Some(m2)) => vec![[a, m0, m2], [m0, b, m1], [m2, m1, c], [m0, m1, m2]],
+        _ => vec![t], // not reached: the rotation makes the patterns above
+    }
+}
+
+/// Every mesh of `scene` refined; the stats per mesh.
+pub fn refine_scene(scene: &SceneDesc, params: &RefineParams) -> (SceneDesc, Vec<RefineStats>) {
+    let mut out = scene.clone();
+    let mut stats = Vec::with_capacity(scene.meshes.len());
+    for (o, m) in out.meshes.iter_mut().zip(&scene.meshes) {
+        let (r, s) = refine_mesh(m, params);
+        *o = r;
+        stats.push(s);
+    }
+    (out, stats)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::shapes::MeshBuilder;
+
+    /// How many triangles use each edge, positions welded by their bits
+    /// (as preparation welds them): 2 everywhere on a closed surface.
+    fn edge_uses(m: &MeshDesc) -> HashMap<(u32, u32), u32> {
+        let mut first: HashMap<[u32; 3], u32> = HashMap::new();
+        let id: Vec<u32> = (0..m.positions.len())
+            .map(|i| *first.entry(m.positions[i].to_array().map(f32::to_bits)).or_insert(i as u32))
+            .collect();
+        let mut uses = HashMap::new();
+        for t in &m.triangles {
+            for k in 0..3 {
+                *uses.entry(edge_key(id[t[k] as usize], id[t[(k + 1) % 3] as usize])).or_insert(0) += 1;
+            }
+        }
+        uses
+    }
+
+    fn coarse_box() -> MeshDesc {
+        let mut b = MeshBuilder::new();
+        let m = b.add_material("w", Vec3::splat(0.5));
+        b.cuboid(Vec3::ZERO, Vec3::new(2.0, 1.0, 3.0), 1, m, true);
+        b.finish("box", 30.0)
+    }
+
+    #[test]
+    fn a_closed_box_stays_closed_and_keeps_its_vertices() {
+        let mesh = coarse_box();
+        let before = edge_uses(&mesh);
+        assert!(before.values().all(|&u| u == 2), "the input box is closed");
+        let (r, s) = refine_mesh(&mesh, &RefineParams { max_edge: 0.3, max_vertices: 100_000 });
+        eprintln!("{s:?}");
+        assert!(s.triangles_after > 10 * s.triangles_before && s.passes > 1);
+        assert!(edge_uses(&r).values().all(|&u| u == 2), "a T-junction or a hole after refinement");
+        assert_eq!(&r.positions[..mesh.positions.len()], &mesh.positions[..], "input positions moved");
+        let longest = r
+            .triangles
+            .iter()
+            .flat_map(|t| (0..3).map(move |k| (t[k], t[(k + 1) % 3])))
+            .map(|(a, b)| r.positions[a as usize].distance(r.positions[b as usize]))
+            .fold(0f32, f32::max);
+        assert!(longest <= 0.3, "an edge of {longest} m is left");
+        // Area and orientation kept: the signed area vectors sum as before per face direction.
+        let area = |m: &MeshDesc| -> Vec3 {
+            m.triangles
+                .iter()
+                .map(|t| {
+                    let [a, b, c] = t.map(|i| m.positions[i as usize]);
+                    (b - a).cross(c - a).abs() * 0.5
+                })
+                .sum()
+        };
+        assert!((area(&r) - area(&mesh)).abs().max_element() < 1e-4, "{} vs {}", area(&r), area(&mesh));
+    }
+
+    #[test]
+    fn a_fine_mesh_refines_nothing_and_the_budget_holds() {
+        let mesh = coarse_box();
+        let (same, s) = refine_mesh(&mesh, &RefineParams { max_edge: 10.0, max_vertices: 100_000 });
+        assert_eq!((same.triangles.clone(), s.passes), (mesh.triangles.clone(), 0));
+        let (r, s) = refine_mesh(&mesh, &RefineParams { max_edge: 0.01, max_vertices: 500 });
+        assert!(r.positions.len() <= 500 && s.passes > 0, "{s:?}");
+        assert!(edge_uses(&r).values().all(|&u| u == 2));
+    }
+}
