@@ -191,6 +191,42 @@ fn scripted_emission_and_sky_edits() {
     assert!(mean(&c) < 1.0, "no lamp, no sky, yet the picture has mean {:.2}", mean(&c));
 }
 
+/// Automatic exposure in the viewer (no `--exposure`): the first picture is
+/// exposed; a light made 1000x stronger brightens the picture at once (the
+/// exposure holds while lights change), and seconds later the exposure has
+/// followed it back to a picture like the first.
+#[test]
+fn auto_exposure_holds_while_a_light_changes_then_adapts() {
+    if !tools_present("auto_exposure_holds_while_a_light_changes_then_adapts", &["xvfb-run"]) {
+        return;
+    }
+    let dir = fresh_dir("view_auto_exposure");
+    let shots = dir.join("shots");
+    let script = dir.join("script.txt");
+    std::fs::write(
+        &script,
+        "0 wait_gi\n4 screenshot a.png\n4 set_intensity 0 4000\n4 screenshot b.png\n12 screenshot c.png\n12 quit\n",
+    )
+    .unwrap();
+    let out = Command::new("xvfb-run")
+        .args(["-a", env!("CARGO_BIN_EXE_linkgi"), "view", "cornell", "--rays", "64", "--size", &format!("{W}x{H}")])
+        .arg("--script")
+        .arg(&script)
+        .arg("--screenshot-dir")
+        .arg(&shots)
+        .output()
+        .expect("run linkgi view");
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "linkgi view failed: {stderr}");
+    let mean = |i: &image::RgbImage| i.as_raw().iter().map(|&v| v as f64).sum::<f64>() / i.as_raw().len() as f64;
+    let (a, b, c) = (load(&shots.join("a.png")), load(&shots.join("b.png")), load(&shots.join("c.png")));
+    let (ma, mb, mc) = (mean(&a), mean(&b), mean(&c));
+    eprintln!("means: first {ma:.1}, light x1000 at once {mb:.1}, seconds later {mc:.1}");
+    assert!(ma > 40.0 && ma < 200.0, "the first picture is not exposed: mean {ma:.1}");
+    assert!(mb > ma + 50.0, "the exposure did not hold while the light changed: {ma:.1} -> {mb:.1}");
+    assert!((mc - ma).abs() < 25.0, "the exposure did not adapt back: {ma:.1} then {mc:.1}");
+}
+
 #[test]
 fn bad_script_names_file_and_line() {
     let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("view_bad_script");
