@@ -74,12 +74,7 @@ pub fn run(args: RenderArgs) -> Result<()> {
     let camera = super::setup::camera(&desc, solver.scene(), Some(solver.accel()));
     let frame = Frame::of(solver.scene(), &sol.e_indirect, camera).with_sky(&sol.e_sky);
     let (img, stats) = renderer.render(&frame, &params)?;
-    let exposure = args.exposure.unwrap_or_else(|| auto_exposure(&img));
-    write_png(&img, exposure, &args.out)?;
-    if let Some(exr) = &args.exr {
-        write_exr(&img, exr)?;
-        println!("wrote {} (linear radiance, W/(m^2 sr))", exr.display());
-    }
+    let exposure = write_outputs(&img, &args)?;
     println!(
         "rendered {} ({}x{}, {:?}) on {} in {:.1} ms (GI {:.0} ms on {}); exposure {:.4}{}; wrote {}",
         solver.scene().name,
@@ -95,6 +90,18 @@ pub fn run(args: RenderArgs) -> Result<()> {
         args.out.display()
     );
     Ok(())
+}
+
+/// Writes the PNG (at `--exposure`, else the automatic one) and the EXR
+/// when asked; returns the exposure used.
+fn write_outputs(img: &linkgi::render::HdrImage, args: &RenderArgs) -> Result<f32> {
+    let exposure = args.exposure.unwrap_or_else(|| auto_exposure(img));
+    write_png(img, exposure, &args.out)?;
+    if let Some(exr) = &args.exr {
+        write_exr(img, exr)?;
+        println!("wrote {} (linear radiance, W/(m^2 sr))", exr.display());
+    }
+    Ok(exposure)
 }
 
 /// `render --reference`: the reference path tracer's image, with a progress bar.
@@ -121,12 +128,7 @@ fn reference(
     let img =
         linkgi::reference::image::render(prepared, &bvh, &camera, width, height, args.spp, &params, &|| bar.inc(1));
     bar.finish_and_clear();
-    let exposure = args.exposure.unwrap_or_else(|| auto_exposure(&img));
-    write_png(&img, exposure, &args.out)?;
-    if let Some(exr) = &args.exr {
-        write_exr(&img, exr)?;
-        println!("wrote {} (linear radiance, W/(m^2 sr))", exr.display());
-    }
+    let exposure = write_outputs(&img, args)?;
     println!(
         "rendered the reference of {} ({}x{}, {} paths a pixel) on the CPU in {:.1} s; exposure {:.4}{}; wrote {}",
         prepared.name,

@@ -39,6 +39,17 @@ fn frame(n: Vec3) -> (Vec3, Vec3) {
     (Vec3::new(1.0 + s * n.x * n.x * a, s * b, -s * n.x), Vec3::new(b, s + n.y * n.y * a, -n.y))
 }
 
+/// Sample `i`'s point in `[0, 1)^2`: jittered in cell `i` of a `k x k`
+/// grid when `stratified`, else uniform; two draws of `rng` either way.
+fn jittered(i: u32, k: u32, stratified: bool, rng: &mut Pcg64Mcg) -> (f32, f32) {
+    let (j1, j2): (f32, f32) = (rng.random(), rng.random());
+    if stratified {
+        (((i % k) as f32 + j1) / k as f32, ((i / k) as f32 + j2) / k as f32)
+    } else {
+        (j1, j2)
+    }
+}
+
 /// Cosine-distributed direction around `n` from `(u1, u2)` in `[0, 1)^2` (pdf `cos / pi`).
 fn cosine_direction(n: Vec3, u1: f32, u2: f32) -> Vec3 {
     let r = u1.sqrt();
@@ -156,12 +167,7 @@ impl<'a> Tracer<'a> {
             }
         };
         for i in 0..samples {
-            let (j1, j2): (f32, f32) = (rng.random(), rng.random());
-            let (u1, u2) = if stratified {
-                (((i % k) as f32 + j1) / k as f32, ((i / k) as f32 + j2) / k as f32)
-            } else {
-                (j1, j2)
-            };
+            let (u1, u2) = jittered(i, k, stratified, &mut rng);
             let dir = cosine_direction(n, u1.min(1.0 - f32::EPSILON), u2);
             let (sky_part, est) = self.path(At::Vertex, v, origin, n, e_d, dir, &mut rng);
             let (sky_part, est) = (sky_part.as_dvec3(), est.as_dvec3());
@@ -304,12 +310,7 @@ impl Tracer<'_> {
         let _: u64 = rng.random();
         let mut e = DVec3::ZERO;
         for i in 0..spp {
-            let (j1, j2): (f32, f32) = (rng.random(), rng.random());
-            let (u1, u2) = if stratified {
-                (((i % k) as f32 + j1) / k as f32, ((i / k) as f32 + j2) / k as f32)
-            } else {
-                (j1, j2)
-            };
+            let (u1, u2) = jittered(i, k, stratified, &mut rng);
             let dir = cosine_direction(normal, u1.min(1.0 - f32::EPSILON), u2);
             let start = At::Triangle { origin, normal };
             let (sky, ind) = self.path(start, usize::MAX, origin, normal, e_d, dir, &mut rng);
