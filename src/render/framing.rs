@@ -198,9 +198,8 @@ fn inside_camera(tracer: &dyn CpuTracer, p: Vec3, lo: Vec3, hi: Vec3) -> Framing
         let offset = 0.85 * room.min(side);
         (offset, (2.0 * (half / (offset + far_side).max(1e-6)).atan()).to_degrees().clamp(45.0, 75.0))
     } else {
-        // An opening: back out through it until a 45 degree field holds
-        // the opening ([`unburied`] brings the camera back in where the
-        // opening was a window in a wall).
+        // An open side (a window was told apart by `open_share`): back out
+        // through it until a 45 degree field holds the opening.
         let fov_deg = 45.0f32;
         (side + half / (0.5 * fov_deg.to_radians()).tan(), fov_deg)
     };
