@@ -3,6 +3,9 @@
 //! the bounces agree, and the multi-device scheduler splits work by speed
 //! and loses nothing. Runs on any adapter (lavapipe in CI). With no adapter
 //! these tests fail when `CI` is set and skip with a message otherwise.
+//! lavapipe gives the CPU's bits and is held to exact rules; a hardware
+//! GPU rounds its hits differently (FMA contraction) and is held to what
+//! that rounding implies (measured on an H200: docs/GPU.md).
 
 mod common;
 
@@ -42,13 +45,18 @@ fn gpu_compute(dev: &Arc<GpuDevice>, logical: usize) -> Compute {
 }
 
 /// Same triangle (and face flag) for at least 99.9% of rays; where they
-/// agree, the same distance and barycentrics to float precision.
+/// agree, the same distance and barycentrics to float precision at all but
+/// 1 in 10^4 of them. lavapipe gives the CPU's bits; a hardware GPU
+/// contracts the watertight test's products into FMAs and rounds
+/// differently (H200: u, v differ at 97-99% of rays, by at most 2e-5 on
+/// cornell and furnace), and a ray that grazes its triangle magnifies that
+/// rounding (torso: one ray of 1.86 M off by 1.1e-3 in u).
 fn compare_rays(
     name: &str,
     dev: &Arc<GpuDevice>,
     scene: &prep::PreparedScene,
     kd: &linkgi::kdtree::KdTree,
-) -> Vec<bool> {
+) -> RayAgreement {
     let params = LinkParams::default();
     let setup = RaySetup::new(scene, &params);
     let mut tracer = GpuTracer::new(dev.clone(), kd).expect("tracer");
@@ -58,7 +66,8 @@ fn compare_rays(
     let rays = setup.directions.len();
     assert_eq!(gpu_hits.len(), verts.len() * rays);
     let mut cpu = Vec::new();
-    let (mut same, mut total) = (0usize, 0usize);
+    let (mut same, mut total, mut hits, mut off) = (0usize, 0usize, 0usize, 0usize);
+    let (mut max_duv, mut max_dt) = (0f32, 0f32);
     let mut vertex_same = vec![true; verts.len()];
     for v in 0..verts.len() {
         let g = &mut gpu_hits[v * rays..(v + 1) * rays];
@@ -69,9 +78,11 @@ fn compare_rays(
             if c.tri == g.tri {
                 same += 1;
                 if c.tri != linkgi::links::HIT_MISS {
-                    let scale = c.t.abs().max(1.0);
-                    assert!((c.t - g.t).abs() <= 1e-4 * scale, "{name}: vertex {v}: t {} vs {}", c.t, g.t);
-                    assert!((c.u - g.u).abs() <= 1e-3 && (c.v - g.v).abs() <= 1e-3, "{name}: barycentrics differ");
+                    hits += 1;
+                    let dt = (c.t - g.t).abs() / c.t.abs().max(1.0);
+                    let duv = (c.u - g.u).abs().max((c.v - g.v).abs());
+                    (max_dt, max_duv) = (max_dt.max(dt), max_duv.max(duv));
+                    off += (dt > 1e-4 || duv > 1e-3) as usize;
                 }
             } else {
                 vertex_same[v] = false;
@@ -79,9 +90,54 @@ fn compare_rays(
         }
     }
     let frac = same as f64 / total as f64;
-    eprintln!("{name}: {same}/{total} rays hit the same triangle ({:.4}%)", frac * 100.0);
+    eprintln!(
+        "{name}: {same}/{total} rays hit the same triangle ({:.4}%); of their hits {off} differ in t by > 1e-4 or \
+         in u, v by > 1e-3 (largest: t {max_dt:.1e}, u/v {max_duv:.1e})",
+        frac * 100.0
+    );
     assert!(frac >= 0.999, "{name}: only {:.4}% of rays agree", frac * 100.0);
-    vertex_same
+    assert!(off as f64 <= 1e-4 * hits as f64, "{name}: {off} of {hits} hits differ in distance or barycentrics");
+    RayAgreement { vertex_same, other_triangle: total - same, bitwise: max_dt == 0.0 && max_duv == 0.0 }
+}
+
+struct RayAgreement {
+    /// Per vertex: every ray met the same triangle on both sides.
+    vertex_same: Vec<bool>,
+    /// Rays that met another triangle (or missed) on one side.
+    other_triangle: usize,
+    /// Every agreeing hit has the CPU's bits (lavapipe).
+    bitwise: bool,
+}
+
+/// Two link groups agree as their rounding allows. The f16 weights:
+/// `requantize` carries each weight's rounding error to the next, so a
+/// weight can move by an ulp of its neighbour's while the running sums
+/// stay within half an ulp of the current weight; checked on the running
+/// sums, within 1e-3 of the larger current weight (two half-ulps of 2^-11)
+/// plus 1e-5 of the group's whole weight (a hit on a triangle's corner
+/// gives its far corners a weight of a few 1e-6 on one side and the
+/// smallest f16 on the other; H200: up to 2e-6, of a group weighing 3). A
+/// target on one side only must carry a negligible weight (< 1e-4, a
+/// hundredth of a ray's): a hit on an edge or corner, which gives no link
+/// where its barycentric rounds to exactly 0.
+fn groups_agree((ta, wa): (&[u32], &[half::f16]), (tb, wb): (&[u32], &[half::f16])) -> bool {
+    let total: f64 = wa.iter().map(|w| w.to_f64()).sum();
+    let (mut i, mut j, mut pa, mut pb) = (0, 0, 0f64, 0f64);
+    while i < ta.len() || j < tb.len() {
+        let (x, y) = match (ta.get(i), tb.get(j)) {
+            (Some(a), Some(b)) if a == b => (wa[i].to_f64(), wb[j].to_f64()),
+            (Some(a), b) if b.is_none_or(|b| a < b) => (wa[i].to_f64(), 0.0),
+            _ => (0.0, wb[j].to_f64()),
+        };
+        let one_sided = x == 0.0 || y == 0.0;
+        i += (x != 0.0 || !one_sided) as usize;
+        j += (y != 0.0 || !one_sided) as usize;
+        (pa, pb) = (pa + x, pb + y);
+        if (one_sided && x.max(y) >= 1e-4) || (pa - pb).abs() > 1e-3 * x.max(y) + 1e-5 * total {
+            return false;
+        }
+    }
+    true
 }
 
 fn rel(a: Vec3, b: Vec3, floor: f32) -> f32 {
@@ -105,10 +161,11 @@ fn agree_on_within(name: &str, share: f64) {
     gpu.links().validate().expect("GPU links valid");
     assert_eq!(cpu_kd.nodes, gpu_kd.nodes, "the tree is built on the CPU either way");
 
-    let vertex_same = compare_rays(name, &dev, &scene, cpu_kd);
+    let rays = compare_rays(name, &dev, &scene, cpu_kd);
+    let vertex_same = &rays.vertex_same;
 
     // Merged links: where every ray of a vertex met the same triangle, the
-    // link group has the same targets and weights within two f16 ulps.
+    // link group has the same targets and weights as their rounding allows.
     let (mut equal, mut candidates) = (0, 0);
     for v in 0..scene.vertex_count() {
         if !vertex_same[v] {
@@ -117,15 +174,27 @@ fn agree_on_within(name: &str, share: f64) {
         candidates += 1;
         let (ct, cw) = cpu.links().group(v);
         let (gt, gw) = gpu.links().group(v);
-        if ct == gt && cw.iter().zip(gw).all(|(a, b)| (a.to_f32() - b.to_f32()).abs() <= 2e-3 * a.to_f32().abs() + 1e-7)
-        {
+        if groups_agree((&ct, cw), (&gt, gw)) {
             equal += 1;
+        } else if candidates - equal <= 3 {
+            let diff: Vec<_> = (0..ct.len().max(gt.len()))
+                .filter(|&i| ct.get(i) != gt.get(i) || cw.get(i) != gw.get(i))
+                .take(4)
+                .map(|i| (i, ct.get(i), cw.get(i), gt.get(i), gw.get(i)))
+                .collect();
+            eprintln!("{name}: group {v} ({} vs {} links) differs at {diff:?}", ct.len(), gt.len());
         }
     }
     eprintln!("{name}: {equal}/{candidates} link groups equal");
     assert!(equal as f64 >= 0.999 * candidates as f64, "{name}: {equal}/{candidates} link groups equal");
     let (cs, gs) = (cpu.links().stats, gpu.links().stats);
-    assert_eq!((cs.rays, cs.misses), (gs.rays, gs.misses), "{name}: ray counts");
+    assert_eq!(cs.rays, gs.rays, "{name}: ray counts");
+    assert!(
+        cs.misses.abs_diff(gs.misses) <= rays.other_triangle as u64,
+        "{name}: misses {} vs {}",
+        cs.misses,
+        gs.misses
+    );
     assert!((cs.merged_links as f64 - gs.merged_links as f64).abs() <= 1e-3 * cs.merged_links as f64);
 
     // Near hits: recorded from the GPU's hits by the same merge; where all
@@ -149,22 +218,30 @@ fn agree_on_within(name: &str, share: f64) {
         assert!(same as f64 >= 0.999 * candidates as f64, "{name}: near hits equal at {same}/{candidates} vertices");
     }
 
-    // Light links: the GPU's visibility rays give the same factors.
+    // Light links: the GPU's visibility rays give the same factors (but
+    // for rays that graze a shadow's edge).
+    let mut light_same = vec![true; scene.vertex_count()];
     for (l, (c, g)) in cpu.light_links().factors.iter().zip(&gpu.light_links().factors).enumerate() {
-        let bad = c.iter().zip(g).filter(|(a, b)| (*a - *b).abs() > 1e-5 * a.abs().max(1e-6)).count();
+        let mut bad = 0;
+        for (v, (a, b)) in c.iter().zip(g).enumerate() {
+            if (*a - *b).abs() > 1e-5 * a.abs().max(1e-6) {
+                (bad, light_same[v]) = (bad + 1, false);
+            }
+        }
         assert!(bad as f64 <= 1e-3 * c.len() as f64, "{name}: light {l}: {bad} vertices differ");
     }
 
     // Final E_i (GPU links, GPU visibility, GPU bounces vs all-CPU), before
     // smoothing, at the vertices whose rays all met the same triangles, with
-    // the same near hits, and whose links lead to such vertices only (a
-    // vertex whose ray met an emitter on one side only differs by that ray,
-    // one with a near hit more by that hit's light, 1/n of its first bounce,
-    // and a vertex linked to it by what it reflects; smoothing would spread
-    // it further).
+    // the same near hits and direct light, and whose links lead to such
+    // vertices only (a vertex whose ray met an emitter on one side only
+    // differs by that ray, one with a near hit more by that hit's light,
+    // 1/n of its first bounce, one lit on one side only by its direct
+    // light, and a vertex linked to it by what it reflects; smoothing would
+    // spread it further).
     let (cs, gs) = (cpu.solve(), gpu.solve());
     let mean = common::mean(&cs.e_indirect).max_element().max(1e-30);
-    let same = |v: usize| vertex_same[v] && near_same[v];
+    let same = |v: usize| vertex_same[v] && near_same[v] && light_same[v];
     let unaffected: Vec<bool> = (0..scene.vertex_count())
         .map(|v| same(v) && cpu.links().group(v).0.iter().all(|&u| same(u as usize)))
         .collect();
@@ -175,9 +252,37 @@ fn agree_on_within(name: &str, share: f64) {
     let worst = errs.iter().cloned().fold(0.0, f32::max);
     let within = errs.iter().filter(|&&e| e <= 1e-4).count();
     eprintln!("{name}: E_i within 1e-4 at {within}/{} vertices, worst {worst:.2e}", errs.len());
-    assert!(within as f64 >= share * errs.len() as f64, "{name}: E_i within 1e-4 at only {within}/{}", errs.len());
+    if rays.bitwise {
+        assert!(within as f64 >= share * errs.len() as f64, "{name}: E_i within 1e-4 at only {within}/{}", errs.len());
+    } else {
+        // Links that agree as their rounding allows: a weight may differ by
+        // 1e-3 of its neighbour's, so a vertex beside a bright target (a
+        // lamp) moves by that part of the target's light. In units of
+        // 2e-3 of the vertex's own E_i plus 5e-4 of the scene's mean.
+        let hw: Vec<(f32, usize)> = (0..scene.vertex_count())
+            .filter(|&v| unaffected[v])
+            .map(|v| {
+                let (a, b) = (cs.e_indirect_raw[v], gs.e_indirect_raw[v]);
+                let e = ((a - b).abs() / (2e-3 * a.abs().max(b.abs()) + Vec3::splat(5e-4 * mean))).max_element();
+                (e, v)
+            })
+            .collect();
+        let within_hw = hw.iter().filter(|e| e.0 <= 1.0).count();
+        let (w, v) = hw.iter().cloned().fold((0.0, 0), |m, e| if e.0 > m.0 { e } else { m });
+        eprintln!(
+            "{name}: E_i within 2e-3 + 5e-4 of the mean at {within_hw}/{}; worst {w:.2} units at vertex {v} \
+             (E {} vs {}, mean {mean})",
+            hw.len(),
+            cs.e_indirect_raw[v],
+            gs.e_indirect_raw[v]
+        );
+        assert!(within_hw as f64 >= share * hw.len() as f64, "{name}: E_i agrees at only {within_hw}/{}", hw.len());
+    }
     let (mc, mg) = (common::mean(&cs.e_indirect), common::mean(&gs.e_indirect));
-    assert!(rel(mc, mg, 1e-30) <= 1e-4, "{name}: mean E_i {mc} vs {mg}");
+    // Over all vertices, those whose rays or shadow rays differ too (the
+    // H200 on colorlamp: 1.0e-4 in blue).
+    let mean_tolerance = if rays.bitwise { 1e-4 } else { 5e-4 };
+    assert!(rel(mc, mg, 1e-30) <= mean_tolerance, "{name}: mean E_i {mc} vs {mg}");
     // Sky light from the GPU's misses: the same rays missed.
     let same_sky = cs.e_sky.iter().zip(&gs.e_sky).filter(|(a, b)| rel(**a, **b, 1e-6) <= 1e-5).count();
     assert!(same_sky as f64 >= 0.999 * cs.e_sky.len() as f64, "{name}: E_sky equal at {same_sky}/{}", cs.e_sky.len());

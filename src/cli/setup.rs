@@ -31,7 +31,8 @@ pub struct Overrides {
     /// CPU ray tracer: bvh (wide BVH) or kd (kd-tree with ropes); overrides the scene's setting.
     #[arg(long, value_name = "bvh|kd", value_parser = super::parse_tracer)]
     pub tracer: Option<TracerKind>,
-    /// auto (a hardware GPU, else the CPU), gpu (any adapter, software ones too) or cpu:
+    /// auto (a hardware GPU on machines with fewer than 12 CPU threads, else the CPU),
+    /// gpu (any adapter, software ones too) or cpu:
     /// where GI runs, and where `render`, `animate` and `view` rasterize (auto and gpu draw
     /// on the first adapter, software ones too, else on the CPU); overrides the scene's setting.
     #[arg(long, value_name = "auto|gpu|cpu", value_parser = parse_backend)]

@@ -10,6 +10,22 @@ use crate::trace::{Accel, Tracer};
 use std::sync::Arc;
 use std::time::Duration;
 
+/// `--backend auto` with a hardware GPU runs the GPU path only on machines
+/// with fewer CPU threads than this. Measured (docs/GPU.md, 2026-11-26): on
+/// an NVIDIA H200 beside 16 threads of a Xeon the GPU path's first solution
+/// took 1.07-1.7x the CPU path's (tearoom, sculpture, conference, dancer),
+/// its link shooting 0.4-0.75x; the CPU's link stage scales with its
+/// threads (2 Zen 4 threads: 6.3-6.8 M rays/s, 16 Xeon threads: 26-35 M), so
+/// the GPU's kd-tree path (40-65 M rays/s with merging) wins the first
+/// solution below about 16 / 1.7 ~ 9-15 threads; 12 is the middle.
+pub const AUTO_GPU_BELOW_THREADS: usize = 12;
+
+/// Whether `--backend auto` runs GI on a hardware GPU, given the CPU's
+/// worker threads (see [`AUTO_GPU_BELOW_THREADS`]).
+pub fn auto_prefers_gpu(cpu_threads: usize) -> bool {
+    cpu_threads < AUTO_GPU_BELOW_THREADS
+}
+
 /// Where links, light links and bounces are computed.
 #[derive(Clone, Debug, Default)]
 pub enum Compute {
@@ -30,8 +46,9 @@ pub struct GpuCompute {
 }
 
 impl Compute {
-    /// Resolves a backend setting. `Auto` with no hardware GPU gives the
-    /// CPU path and a one-line note saying so; `Gpu` with no adapter is an error.
+    /// Resolves a backend setting. `Auto` picks by [`auto_prefers_gpu`]
+    /// and says which path runs and why in a one-line note; `Gpu` with no
+    /// adapter is an error.
     pub fn from_backend(backend: Backend, logical_per_device: usize) -> crate::Result<(Compute, Option<String>)> {
         let devices = gpu::devices_for(backend)?;
         if devices.is_empty() {
@@ -41,6 +58,23 @@ impl Compute {
             });
             return Ok((Compute::Cpu, note));
         }
+        let threads = rayon::current_num_threads();
+        let mut note = None;
+        if backend == Backend::Auto {
+            let name = &devices[0].info.name;
+            if !auto_prefers_gpu(threads) {
+                let note = format!(
+                    "using the CPU path ({threads} threads) rather than {name}: with {AUTO_GPU_BELOW_THREADS} or more \
+                     threads it reaches the first solution sooner than the GPU path (measured on an H200 against 16 \
+                     threads, docs/GPU.md); --backend gpu uses the GPU"
+                );
+                return Ok((Compute::Cpu, Some(note)));
+            }
+            note = Some(format!(
+                "using the GPU path on {name}: with fewer than {AUTO_GPU_BELOW_THREADS} CPU threads ({threads} here) \
+                 it reaches the first solution sooner (docs/GPU.md); --backend cpu uses the CPU"
+            ));
+        }
         let schedule = ScheduleParams::default();
         Ok((
             Compute::Gpu(GpuCompute {
@@ -49,7 +83,7 @@ impl Compute {
                 delays: Vec::new(),
                 schedule,
             }),
-            None,
+            note,
         ))
     }
 
@@ -147,5 +181,18 @@ fn cpu_model() -> String {
         (Some(name), Some(family), Some(model)) => format!("{name}, family {family} model {model}"),
         (Some(name), _, _) => name,
         _ => std::env::consts::ARCH.to_string(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The measured machine (16 threads beside an H200) runs the CPU path;
+    /// the development VM's 2 threads and a 4-core laptop the GPU's.
+    #[test]
+    fn auto_follows_the_measured_crossover() {
+        assert!(!auto_prefers_gpu(16));
+        assert!(auto_prefers_gpu(2) && auto_prefers_gpu(8));
     }
 }
