@@ -287,3 +287,42 @@ fn a_glowing_plate_shows_its_radiance() {
         }
     }
 }
+
+/// Emitters are one-sided like every surface: a plate glowing downwards
+/// between a floor and a ceiling lights the floor and leaves the ceiling
+/// above its back dark (its emitter links, near hits and link rays alike;
+/// the reference path tracer stops at back faces too). Before emitter
+/// links took the emitter's side into account the ceiling over the plate
+/// read light from its back (McGuire's Cornell box: a halo around the
+/// ceiling light and the picture 8% bright).
+#[test]
+fn an_emitter_lights_its_front_only() {
+    use linkgi::scene::shapes::MeshBuilder;
+    let grid = |origin: Vec3, u: Vec3, v: Vec3, n: u32, albedo: f32| {
+        let mut b = MeshBuilder::new();
+        let m = b.add_material("m", Vec3::splat(albedo));
+        b.quad_grid(origin, u, v, n, n, m);
+        b.finish("grid", 30.0)
+    };
+    let floor = grid(Vec3::new(-1.0, 0.0, 1.0), Vec3::new(2.0, 0.0, 0.0), Vec3::new(0.0, 0.0, -2.0), 10, 0.5);
+    let ceiling = grid(Vec3::new(-1.0, 2.0, 1.0), Vec3::new(0.0, 0.0, -2.0), Vec3::new(2.0, 0.0, 0.0), 10, 0.5);
+    let mut plate = grid(Vec3::new(-0.25, 1.0, 0.25), Vec3::new(0.0, 0.0, -0.5), Vec3::new(0.5, 0.0, 0.0), 2, 0.5);
+    plate.materials[0].emission = Vec3::splat(10.0);
+    let desc = common::scene_desc("glow", vec![floor, ceiling, plate], vec![], None, 256, Bounces::Fixed(1));
+    let (solver, sol) = common::solve(&desc);
+    let s = solver.scene();
+    assert!(s.normals[s.meshes[2].vertices.start as usize].y < -0.99, "the plate faces down");
+    let (floor, ceiling) = (&s.meshes[0], &s.meshes[1]);
+    let e = |v: u32| sol.e_emitter[v as usize].x;
+    let under = floor.vertices.clone().filter(|&v| {
+        let p = s.positions[v as usize];
+        p.x.hypot(p.z) < 0.3
+    });
+    assert!(under.clone().count() > 4 && under.clone().all(|v| e(v) > 0.5), "the floor under the plate is lit");
+    let over: Vec<f32> = ceiling.vertices.clone().map(e).collect();
+    assert!(over.iter().all(|&x| x == 0.0), "the ceiling reads the plate's back: {:?}", over);
+    // And all the light the ceiling gets is what the floor reflects (one
+    // bounce): far less than the floor's.
+    let mean = |r: std::ops::Range<u32>| r.clone().map(|v| sol.e_indirect[v as usize].x).sum::<f32>() / r.len() as f32;
+    assert!(mean(ceiling.vertices.clone()) < 0.5 * mean(floor.vertices.clone()));
+}

@@ -16,7 +16,7 @@
 //!
 //! with `m` points `y_j` drawn uniformly on group `g`'s triangles (area
 //! `A_g`, m^2), `r = |y_j - h|` (m), `cos_h` at the hit's triangle,
-//! `|cos_e|` at the emitter (two-sided) and `V_j` a shadow ray from the hit
+//! `cos_e` at the emitter (its front only) and `V_j` a shadow ray from the hit
 //! point: an unbiased estimate per hit, whose noise averages over the
 //! vertex's near hits (`window` at 1024 rays, 14% of the rays near: 4
 //! points a hit read the same as 16). `D_em = sum_g M_g C_xg` is kept as
@@ -261,7 +261,8 @@ fn hit_samples(
                 continue;
             }
             let dir = d / dist;
-            let w = normal.dot(dir).max(0.0) * en.dot(dir).abs() / r2;
+            // The emitter lights its front only (`en · dir < 0`: it faces the hit).
+            let w = normal.dot(dir).max(0.0) * (-en.dot(dir)).max(0.0) / r2;
             if !(w > 0.0 && w.is_finite()) {
                 continue;
             }

@@ -3,7 +3,9 @@
 //! not sampled only by the few link rays that happen to meet it.
 //!
 //! For a vertex at `p` with normal `n` and an emissive triangle `t`
-//! (two-sided Lambertian, exitance `M_t` in W/m^2, radiance `M_t / pi`):
+//! (Lambertian, exitance `M_t` in W/m^2, radiance `M_t / pi`, from its
+//! front only: a vertex behind its plane gets none, as a link ray that
+//! meets its back brings none):
 //!
 //! ```text
 //! E_t = M_t * F_t * V_t
@@ -301,6 +303,12 @@ pub(crate) fn emitters(scene: &PreparedScene) -> (Vec<Emitter>, Vec<u32>) {
     (out, group_vertex)
 }
 
+/// Whether emitter `e`'s front (counter-clockwise side) faces the point `p`.
+pub(crate) fn faces(e: &Emitter, p: Vec3) -> bool {
+    let [a, b, c] = e.corners.map(|x| x.as_dvec3());
+    (b - a).cross(c - a).dot(p.as_dvec3() - a) > 0.0
+}
+
 /// Per-thread buffers of [`vertex_rays`].
 #[derive(Default)]
 struct Scratch {
@@ -324,6 +332,13 @@ fn vertex_rays(
 ) -> VertexRays {
     let (p, n) = (scene.positions[v], scene.normals[v]);
     mesh.form_factors(emitters, p, n, &mut scratch.form, &mut scratch.f);
+    // Emitters are one-sided like every surface: a vertex behind an
+    // emitter's plane (or in it) gets none of its light.
+    for (e, f) in emitters.iter().zip(scratch.f.iter_mut()) {
+        if *f > 0.0 && !faces(e, p) {
+            *f = 0.0;
+        }
+    }
     let f = &scratch.f;
     // `F_sum` and each group's `F_g` summed in emitter order; zeros are
     // left out (adding +0 changes no sum), and the group at hand is
