@@ -62,7 +62,7 @@ pub fn run(args: AnimateArgs) -> Result<()> {
     if !args.sky_turn.is_finite() {
         anyhow::bail!("--sky-turn must be finite");
     }
-    let Setup { desc, prepared, settings } = setup(&args.scene, &args.overrides)?;
+    let Setup { desc, prepared, settings, .. } = setup(&args.scene, &args.overrides)?;
     let compute = compute(settings.backend, 1)?;
     let renderer = Renderer::open(settings.backend);
     std::fs::create_dir_all(&args.out).with_context(|| format!("creating {}", args.out.display()))?;

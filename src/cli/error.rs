@@ -49,6 +49,9 @@ pub struct ErrorArgs {
     /// Split mesh edges longer than this many metres first (as `render --max-edge`).
     #[arg(long, value_name = "METRES")]
     pub max_edge: Option<f32>,
+    /// Refinement of coarse meshes: auto (the default) or off.
+    #[arg(long, value_name = "auto|off", value_parser = super::setup::parse_refine)]
+    pub refine: Option<linkgi::scene::refine::RefineMode>,
     /// Only the picture's score (`--image`): no sweep, no path-tracer ladder.
     #[arg(long)]
     pub image_only: bool,
@@ -66,13 +69,19 @@ fn bar(len: usize, msg: &'static str) -> ProgressBar {
 
 pub fn run(args: ErrorArgs) -> Result<()> {
     // The sweep sets rays and bounces itself and runs on the CPU.
-    let Setup { desc, prepared, .. } = setup(
+    let Setup { desc, prepared, plan, .. } = setup(
         &args.scene,
-        &Overrides { tracer: args.tracer, off: args.off, max_edge: args.max_edge, ..Default::default() },
+        &Overrides {
+            tracer: args.tracer,
+            off: args.off,
+            max_edge: args.max_edge,
+            refine: args.refine,
+            ..Default::default()
+        },
     )?;
     std::fs::create_dir_all(&args.out).with_context(|| format!("creating {}", args.out.display()))?;
     if let Some(size) = &args.image {
-        image_score(&args, size, &desc, &prepared)?;
+        image_score(&args, size, &desc, &prepared, &plan)?;
         if args.image_only {
             return Ok(());
         }
@@ -173,23 +182,31 @@ fn image_score(
     size: &str,
     desc: &linkgi::scene::SceneDesc,
     prepared: &linkgi::scene::prep::PreparedScene,
+    plan: &linkgi::solver::adaptive::Plan,
 ) -> Result<()> {
     use linkgi::render::{cpu::render_cpu, exposure::auto_exposure, write_png, Frame, RenderParams};
     let (w, h) = super::render::parse_size(size)?;
     if args.image_spp == 0 {
         anyhow::bail!("--image-spp must be at least 1");
     }
-    let solver = linkgi::solver::Solver::new(
-        prepared.clone(),
-        linkgi::solver::SolveParams::from_settings(&prepared.settings),
-        &|_, _| {},
+    // The link solution as `render` makes it (refined where the light needs it), on the CPU.
+    let mut settings = prepared.settings;
+    settings.backend = linkgi::scene::Backend::Cpu;
+    let setup = Setup { desc: desc.clone(), prepared: prepared.clone(), settings, plan: plan.clone() };
+    let refined = super::setup::solve(setup, &linkgi::solver::Compute::Cpu, &|_, _| {})?;
+    let (solver, sol) = (&refined.solver, &refined.solution);
+    eprintln!(
+        "link solution: {} vertices ({} before refinement)",
+        solver.scene().vertex_count(),
+        prepared.vertex_count()
     );
-    let sol = solver.solve();
     let bvh = linkgi::bvh::Bvh::build(&prepared.positions, &prepared.triangles, &Default::default());
     let camera = super::setup::camera(desc, prepared, Some(&bvh));
     let params = RenderParams { width: w, height: h, ..Default::default() };
     let frame = Frame::of(solver.scene(), &sol.e_indirect, camera).with_sky(&sol.e_sky);
-    let (ours, _) = render_cpu(&frame, &params, Some(&bvh))?;
+    let s = solver.scene();
+    let refined_bvh = linkgi::bvh::Bvh::build(&s.positions, &s.triangles, &Default::default());
+    let (ours, _) = render_cpu(&frame, &params, Some(&refined_bvh))?;
     let b = bar(h as usize, "image ref");
     let rp = ReferenceParams { seed: prepared.settings.seed, ..Default::default() };
     let t = Instant::now();

@@ -1,11 +1,11 @@
 //! `linkgi render`: solve a scene's GI, rasterize it (or ray trace it on the
 //! CPU when there is no adapter) and write a tone-mapped PNG.
 
-use super::setup::{compute, setup, Overrides, Setup};
+use super::setup::{compute, setup, Overrides};
 use anyhow::{bail, Context, Result};
 use linkgi::render::exposure::auto_exposure;
 use linkgi::render::{write_exr, write_png, Frame, RenderParams, Renderer, View};
-use linkgi::solver::{SolveParams, Solver};
+use linkgi::solver::adaptive::Refined;
 use std::path::PathBuf;
 use std::time::Instant;
 
@@ -60,14 +60,14 @@ pub fn run(args: RenderArgs) -> Result<()> {
     if let Some(e) = args.exposure.filter(|e| !(e.is_finite() && *e > 0.0)) {
         bail!("--exposure {e}: must be positive and finite");
     }
-    let Setup { desc, prepared, settings } = setup(&args.scene, &args.overrides)?;
+    let setup = setup(&args.scene, &args.overrides)?;
     if args.reference {
-        return reference(&args, &desc, &prepared, width, height);
+        return reference(&args, &setup.desc, &setup.prepared, width, height);
     }
+    let settings = setup.settings;
     let compute = compute(settings.backend, 1)?;
     let t0 = Instant::now();
-    let solver = Solver::new_on(prepared, SolveParams::from_settings(&settings), &compute, &|_, _| {})?;
-    let sol = solver.solve();
+    let Refined { desc, solver, solution: sol, .. } = super::setup::solve(setup, &compute, &|_, _| {})?;
     let gi_ms = t0.elapsed().as_secs_f64() * 1e3;
     let renderer = Renderer::open(settings.backend);
     let params = RenderParams { width, height, view: args.view, ..Default::default() };

@@ -19,7 +19,7 @@ use anyhow::{Context, Result};
 use linkgi::scene::prep::{self, PreparedScene};
 use linkgi::scene::terms::Terms;
 use linkgi::scene::{self, Backend, Bounces, SceneDesc, Settings, TracerKind};
-use linkgi::solver::Compute;
+use linkgi::solver::{adaptive, Compute};
 
 /// Command-line overrides of the scene's settings; `None` keeps the scene's value.
 /// The flags are flattened into `solve`, `render`, `animate` and `view`.
@@ -42,10 +42,17 @@ pub struct Overrides {
     /// noise_check, smoothing, sky_smoothing); added to the scene's `off` list.
     #[arg(long, value_name = "TERM[,TERM]", value_parser = parse_off)]
     pub off: Option<Terms>,
-    /// Split mesh edges longer than this many metres before solving (a-priori
-    /// refinement of coarse meshes: `scene::refine`); off when not given.
+    /// Refinement of coarse meshes: auto (the default: edges split to the target length, then
+    /// where the light needs it) or off; overrides the scene's `refine` setting.
+    #[arg(long, value_name = "auto|off", value_parser = parse_refine)]
+    pub refine: Option<linkgi::scene::refine::RefineMode>,
+    /// Longest edge kept by refinement, metres (default: 8% of the scene's diagonal).
     #[arg(long, value_name = "METRES")]
     pub max_edge: Option<f32>,
+    /// Error-driven refinement splits an edge where its ends' irradiance differ by more than
+    /// this share of their mean (default 0.25).
+    #[arg(long, value_name = "SHARE")]
+    pub refine_tolerance: Option<f32>,
     /// Number of bounces (`solve --bounces`).
     #[arg(skip)]
     pub bounces: Option<Bounces>,
@@ -77,7 +84,26 @@ impl Overrides {
                 settings.terms.set(name, false).expect("a name of Terms::NAMES");
             }
         }
+        if let Some(m) = self.refine {
+            settings.refine.mode = m;
+        }
+        if let Some(e) = self.max_edge {
+            settings.refine.max_edge = e;
+        }
+        if let Some(t) = self.refine_tolerance {
+            settings.refine.tolerance = t;
+        }
         settings
+    }
+}
+
+/// Parses `--refine` (clap value parser): "auto" or "off".
+pub fn parse_refine(s: &str) -> Result<linkgi::scene::refine::RefineMode, String> {
+    use linkgi::scene::refine::RefineMode;
+    match s {
+        "auto" => Ok(RefineMode::Auto),
+        "off" => Ok(RefineMode::Off),
+        _ => Err(format!("{s}: expected auto or off")),
     }
 }
 
@@ -99,6 +125,8 @@ pub struct Setup {
     pub prepared: PreparedScene,
     /// The effective settings: the scene's with the overrides applied.
     pub settings: Settings,
+    /// What refinement does (made before the a-priori step that `desc` has had).
+    pub plan: adaptive::Plan,
 }
 
 /// Where GI runs for `backend` (the effective setting), with `devices`
@@ -139,6 +167,35 @@ pub fn camera(
     camera
 }
 
+/// Whether `desc` has any light: a light, a sky, or an emissive material
+/// or vertex.
+fn has_light(desc: &SceneDesc) -> bool {
+    !desc.lights.is_empty()
+        || desc.sky.is_some()
+        || desc.meshes.iter().any(|m| {
+            m.materials.iter().any(|mat| mat.emission != glam::Vec3::ZERO)
+                || m.vertex_emission.as_ref().is_some_and(|e| e.iter().any(|x| *x != glam::Vec3::ZERO))
+        })
+}
+
+/// Solves `setup`'s scene on `compute`, refining its coarse meshes where
+/// the light needs it (`linkgi::solver::adaptive`; one solve of the
+/// prepared scene when there are none or refinement is off) and saying
+/// what the rounds did.
+pub fn solve(
+    setup: Setup,
+    compute: &Compute,
+    progress: &(dyn Fn(usize, usize) + Sync),
+) -> Result<linkgi::solver::adaptive::Refined> {
+    let refined = adaptive::solve_planned(setup.desc, setup.prepared, &setup.plan, compute, progress)?;
+    if refined.rounds.len() > 1 {
+        let list: Vec<String> =
+            refined.rounds.iter().map(|r| format!("{} ({:.1} s)", r.vertices, r.ms / 1e3)).collect();
+        eprintln!("note: refined where the light needs it: vertices per round {}", list.join(", "));
+    }
+    Ok(refined)
+}
+
 /// The light of a scene that has none (a bare OBJ or glTF of an object):
 /// a studio-like gradient sky, W/(m^2 sr): 1 at the zenith, 0.5 at the
 /// horizon, 0.1 below ([`linkgi::sky::SkyModel::Gradient`]).
@@ -150,30 +207,31 @@ pub fn default_sky() -> linkgi::sky::Sky {
 /// triangles and a scene without any light (lights, emitters or sky).
 pub fn setup(scene: &str, overrides: &Overrides) -> Result<Setup> {
     let mut desc = load(scene, overrides)?;
-    if let Some(max_edge) = overrides.max_edge {
-        if !(max_edge.is_finite() && max_edge > 0.0) {
-            anyhow::bail!("--max-edge {max_edge}: must be positive and finite");
-        }
-        let params = linkgi::scene::refine::RefineParams { max_edge, max_vertices: 4_000_000 };
-        let (refined, stats) = linkgi::scene::refine::refine_scene(&desc, &params);
-        let (before, after) = stats.iter().fold((0, 0), |(b, a), s| (b + s.triangles_before, a + s.triangles_after));
-        eprintln!("note: edges split to at most {max_edge} m: {before} triangles became {after}");
-        desc = refined;
-    }
-    let prepared = prep::prepare(&desc).with_context(|| format!("preparing scene {scene}"))?;
-    if prepared.dropped_triangles > 0 {
-        eprintln!("warning: dropped {} zero-area triangles", prepared.dropped_triangles);
-    }
-    let mut prepared = prepared;
-    let emits = prepared.emission.iter().any(|e| *e != glam::Vec3::ZERO);
-    if prepared.lights.is_empty() && prepared.sky.is_none() && !emits {
+    if !has_light(&desc) {
         let sky = default_sky();
         eprintln!(
             "note: the scene has no lights, emitters or sky: lit by a default {} (add a [[light]], emission or [sky] to replace it)",
             sky.describe()
         );
-        prepared.sky = Some(sky);
+        desc.sky = Some(sky);
+    }
+    let before: usize = desc.meshes.iter().map(|m| m.triangles.len()).sum();
+    let plan = adaptive::Plan::of(&desc);
+    if plan.refining {
+        desc = linkgi::scene::refine::apriori(&desc, &desc.settings.refine).0;
+    }
+    let prepared = prep::prepare(&desc).with_context(|| format!("preparing scene {scene}"))?;
+    if prepared.dropped_triangles > 0 {
+        eprintln!("warning: dropped {} zero-area triangles", prepared.dropped_triangles);
+    }
+    let after: usize = desc.meshes.iter().map(|m| m.triangles.len()).sum();
+    if after > before {
+        eprintln!(
+            "note: coarse meshes refined to edges of at most {:.3} m: {before} triangles became {after} \
+             (--max-edge sets the length, --refine off keeps the meshes)",
+            desc.settings.refine.target_edge(&desc)
+        );
     }
     let settings = desc.settings;
-    Ok(Setup { desc, prepared, settings })
+    Ok(Setup { desc, prepared, settings, plan })
 }

@@ -1,12 +1,12 @@
 //! `linkgi solve`: build links for a scene, solve, print the figures table,
 //! optionally export PLY + JSON.
 
-use super::setup::{compute, setup, Overrides, Setup};
+use super::setup::{compute, setup, Overrides};
 use anyhow::{Context, Result};
 use indicatif::{ProgressBar, ProgressStyle};
 use linkgi::scene::deform::{deform_scene, has_deformers};
+use linkgi::scene::refine::RefineMode;
 use linkgi::scene::Bounces;
-use linkgi::solver::{SolveParams, Solver};
 use std::path::PathBuf;
 use std::time::Instant;
 
@@ -47,35 +47,41 @@ pub fn run(args: SolveArgs) -> Result<()> {
     let t0 = Instant::now();
     overrides.bounces = bounces.as_deref().map(parse_bounces).transpose()?;
     overrides.seed = seed;
-    let Setup { mut prepared, settings, .. } = setup(&scene_name, &overrides)?;
+    let mut setup = setup(&scene_name, &overrides)?;
+    let settings = setup.settings;
     if let Some(t) = time {
         if !t.is_finite() {
             anyhow::bail!("--time {t}: expected a finite number of seconds");
         }
-        if has_deformers(&prepared) {
-            let (positions, normals) = deform_scene(&prepared, &prepared.positions, &prepared.normals, t);
+        let prepared = &mut setup.prepared;
+        if has_deformers(prepared) {
+            let (positions, normals) = deform_scene(prepared, &prepared.positions, &prepared.normals, t);
             prepared.positions = positions;
             prepared.normals = normals;
         } else {
             eprintln!("warning: scene {scene_name} has no deformers: --time {t} solves the rest pose");
         }
+        // Error-driven rounds re-prepare the rest pose: a posed solve is one solve.
+        setup.desc.settings.refine.mode = RefineMode::Off;
     }
     let compute = compute(settings.backend, devices)?;
     let prep_ms = t0.elapsed().as_secs_f64() * 1e3;
-    let n = prepared.vertex_count() as u64;
-    let bar = ProgressBar::new(n).with_message("shooting rays");
+    let bar = ProgressBar::new(setup.prepared.vertex_count() as u64).with_message("shooting rays");
     bar.set_style(
         ProgressStyle::with_template("{msg:16} [{bar:40}] {pos}/{len} vertices ({eta})")
             .expect("valid template")
             .progress_chars("=> "),
     );
-    let params = SolveParams::from_settings(&prepared.settings);
-    let solver = Solver::new_on(prepared, params, &compute, &|done, _| bar.set_position(done as u64))?;
-    bar.finish_and_clear();
     let t1 = Instant::now();
-    let solution = solver.solve();
-    let solve_ms = t1.elapsed().as_secs_f64() * 1e3;
-    let stats = solver.stats(&solution, solve_ms - solution.gather.ms);
+    let refined = super::setup::solve(setup, &compute, &|done, total| {
+        bar.set_length(total as u64);
+        bar.set_position(done as u64)
+    })?;
+    bar.finish_and_clear();
+    let (solver, solution) = (&refined.solver, &refined.solution);
+    let total_ms = t1.elapsed().as_secs_f64() * 1e3;
+    let solve_ms = refined.rounds.last().map_or(0.0, |r| r.solve_ms);
+    let stats = solver.stats(solution, solve_ms - solution.gather.ms);
     let s = &stats;
     let mb = |b: u64| b as f64 / 1e6;
     println!("scene            {}", solver.scene().name);
@@ -185,6 +191,14 @@ pub fn run(args: SolveArgs) -> Result<()> {
         }
     }
     println!("prep ms          {prep_ms:.1}");
+    if refined.rounds.len() > 1 {
+        let list: Vec<String> = refined.rounds.iter().map(|r| r.vertices.to_string()).collect();
+        println!(
+            "refine rounds    {} (vertices {}; {total_ms:.0} ms with every round's links and solve)",
+            refined.rounds.len(),
+            list.join(" -> ")
+        );
+    }
     println!("{} build ms     {:.1}", if s.bvh.is_some() { "bvh" } else { "kd " }, s.accel_build_ms);
     println!("links ms         {:.1} ({:.2} M rays/s)", s.links.shoot_ms, s.links.rays_per_second() / 1e6);
     for d in &s.devices {

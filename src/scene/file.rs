@@ -85,6 +85,15 @@ pub struct SettingsFile {
     /// Optional terms of the solve to switch off ([`super::terms::Terms::NAMES`]).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub off: Vec<String>,
+    /// "auto" or "off" ([`super::refine::RefineSettings`]).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub refine: Option<String>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub refine_max_edge: Option<f32>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub refine_tolerance: Option<f32>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub refine_max_vertices: Option<u32>,
 }
 
 /// `bounces = 3` or `bounces = "auto"`.
@@ -270,6 +279,19 @@ fn settings_from(path: &Path, s: &SettingsFile) -> Result<Settings> {
         },
         terms: super::terms::Terms::with_off(s.off.iter().map(String::as_str))
             .map_err(|e| scene_err(path, format!("settings.off: {e}")))?,
+        refine: super::refine::RefineSettings {
+            mode: match s.refine.as_deref() {
+                None => d.refine.mode,
+                Some("auto") => super::refine::RefineMode::Auto,
+                Some("off") => super::refine::RefineMode::Off,
+                Some(r) => {
+                    return Err(scene_err(path, format!("settings.refine = \"{r}\": expected \"auto\" or \"off\"")))
+                }
+            },
+            max_edge: s.refine_max_edge.unwrap_or(d.refine.max_edge),
+            tolerance: s.refine_tolerance.unwrap_or(d.refine.tolerance),
+            max_vertices: s.refine_max_vertices.unwrap_or(d.refine.max_vertices),
+        },
     };
     settings.validate().map_err(|e| scene_err(path, e.to_string()))?;
     Ok(settings)
@@ -468,7 +490,9 @@ pub fn load_bare_obj(path: &Path) -> Result<SceneDesc> {
 
 /// Builds the TOML text describing `scene`, naming mesh `i`'s OBJ as `obj_names[i]`.
 pub fn to_toml(scene: &SceneDesc, obj_names: &[String]) -> String {
+    use super::refine::{RefineMode, RefineSettings};
     let s = &scene.settings;
+    let dr = RefineSettings::default();
     let file = SceneFile {
         settings: SettingsFile {
             rays_per_vertex: Some(s.rays_per_vertex),
@@ -487,6 +511,10 @@ pub fn to_toml(scene: &SceneDesc, obj_names: &[String]) -> String {
                 t => Some(t.name().to_string()),
             },
             off: s.terms.off().into_iter().map(String::from).collect(),
+            refine: (s.refine.mode == RefineMode::Off).then(|| "off".to_string()),
+            refine_max_edge: (s.refine.max_edge != dr.max_edge).then_some(s.refine.max_edge),
+            refine_tolerance: (s.refine.tolerance != dr.tolerance).then_some(s.refine.tolerance),
+            refine_max_vertices: (s.refine.max_vertices != dr.max_vertices).then_some(s.refine.max_vertices),
         },
         camera: scene.camera.map(|c| CameraFile {
             position: c.position.into(),

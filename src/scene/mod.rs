@@ -265,6 +265,8 @@ pub struct Settings {
     pub tracer: TracerKind,
     /// Which optional terms of the solve are on (`off = [...]`; all on by default).
     pub terms: terms::Terms,
+    /// How coarse meshes are refined (`refine = "auto"` by default).
+    pub refine: refine::RefineSettings,
 }
 
 impl Default for Settings {
@@ -277,6 +279,7 @@ impl Default for Settings {
             backend: Backend::Auto,
             tracer: TracerKind::Bvh,
             terms: terms::Terms::ALL,
+            refine: refine::RefineSettings::default(),
         }
     }
 }
@@ -300,7 +303,7 @@ impl Settings {
         if self.bounces == Bounces::Fixed(0) {
             return Err(crate::Error::Setting("bounces must be at least 1 (or \"auto\")".into()));
         }
-        Ok(())
+        self.refine.validate()
     }
 }
 

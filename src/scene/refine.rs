@@ -50,6 +50,38 @@ pub struct RefineStats {
     pub passes: u32,
 }
 
+impl RefineStats {
+    fn unchanged(m: &MeshDesc) -> Self {
+        RefineStats {
+            positions_before: m.positions.len(),
+            positions_after: m.positions.len(),
+            triangles_before: m.triangles.len(),
+            triangles_after: m.triangles.len(),
+            passes: 0,
+        }
+    }
+}
+
+/// Whether refinement may touch `mesh`: every index in range and every
+/// position finite. Others are left as they are, for preparation to
+/// report (naming the mesh and the triangle).
+fn refinable(mesh: &MeshDesc) -> bool {
+    let n = mesh.positions.len();
+    !mesh.dynamic
+        && mesh.triangle_material.len() == mesh.triangles.len()
+        && mesh.positions.iter().all(|p| p.is_finite())
+        && mesh.triangles.iter().all(|t| t.iter().all(|&i| (i as usize) < n))
+}
+
+/// A triangle preparation drops (a repeated corner or zero area, by its
+/// rule): it marks no edge and is not cut.
+fn degenerate(t: &[u32; 3], p: &[Vec3]) -> bool {
+    let [a, b, c] = t.map(|i| p[i as usize]);
+    let cross = (b - a).cross(c - a);
+    let longest = (b - a).length_squared().max((c - b).length_squared()).max((a - c).length_squared());
+    t[0] == t[1] || t[1] == t[2] || t[0] == t[2] || cross.length_squared() <= 1e-24 * longest * longest
+}
+
 fn edge_key(a: u32, b: u32) -> (u32, u32) {
     (a.min(b), a.max(b))
 }
@@ -63,7 +95,7 @@ pub fn refine_mesh(mesh: &MeshDesc, params: &RefineParams) -> (MeshDesc, RefineS
         ..Default::default()
     };
     let scale = mesh.transform.scale.abs();
-    if mesh.dynamic || !(params.max_edge > 0.0 && scale > 0.0 && params.max_edge.is_finite()) {
+    if !refinable(mesh) || !(params.max_edge > 0.0 && scale > 0.0 && params.max_edge.is_finite()) {
         stats.positions_after = mesh.positions.len();
         stats.triangles_after = mesh.triangles.len();
         return (out, stats);
@@ -71,47 +103,63 @@ pub fn refine_mesh(mesh: &MeshDesc, params: &RefineParams) -> (MeshDesc, RefineS
     let limit2 = (params.max_edge / scale).powi(2);
     for _ in 0..MAX_PASSES {
         let long = |a: u32, b: u32| out.positions[a as usize].distance_squared(out.positions[b as usize]) > limit2;
-        let mut marked: Vec<(u32, u32)> = Vec::new();
-        let mut seen = std::collections::HashSet::new();
-        for t in &out.triangles {
-            for k in 0..3 {
-                let (a, b) = (t[k], t[(k + 1) % 3]);
-                if long(a, b) && seen.insert(edge_key(a, b)) {
-                    marked.push(edge_key(a, b));
-                }
-            }
-        }
+        let marked = mark_edges(&out, long);
         if marked.is_empty() || out.positions.len() + marked.len() > params.max_vertices {
             break;
         }
-        let mut mid: HashMap<(u32, u32), u32> = HashMap::with_capacity(marked.len());
-        for &(a, b) in &marked {
-            mid.insert((a, b), push_midpoint(&mut out, a as usize, b as usize));
-        }
-        let mut triangles = Vec::with_capacity(out.triangles.len() * 2);
-        let mut materials = Vec::with_capacity(out.triangles.len() * 2);
-        let mut maps = out.textures.as_ref().map(|_| Vec::with_capacity(out.triangles.len() * 2));
-        for (i, t) in out.triangles.iter().enumerate() {
-            let m: [Option<u32>; 3] = std::array::from_fn(|k| mid.get(&edge_key(t[k], t[(k + 1) % 3])).copied());
-            let pieces = split(*t, m, &out.positions);
-            for p in pieces {
-                triangles.push(p);
-                materials.push(out.triangle_material[i]);
-                if let (Some(maps), Some(tex)) = (maps.as_mut(), out.textures.as_ref()) {
-                    maps.push(tex.triangle_map[i]);
-                }
-            }
-        }
-        out.triangles = triangles;
-        out.triangle_material = materials;
-        if let (Some(maps), Some(tex)) = (maps, out.textures.as_mut()) {
-            tex.triangle_map = maps;
-        }
+        split_edges(&mut out, &marked);
         stats.passes += 1;
     }
     stats.positions_after = out.positions.len();
     stats.triangles_after = out.triangles.len();
     (out, stats)
+}
+
+/// The edges of `mesh` for which `mark(a, b)` holds, each once, in the
+/// order the triangles first use them.
+fn mark_edges(mesh: &MeshDesc, mark: impl Fn(u32, u32) -> bool) -> Vec<(u32, u32)> {
+    let mut marked = Vec::new();
+    let mut seen = std::collections::HashSet::new();
+    for t in mesh.triangles.iter().filter(|t| !degenerate(t, &mesh.positions)) {
+        for k in 0..3 {
+            let (a, b) = (t[k], t[(k + 1) % 3]);
+            if mark(a, b) && seen.insert(edge_key(a, b)) {
+                marked.push(edge_key(a, b));
+            }
+        }
+    }
+    marked
+}
+
+/// One conforming pass: splits the `marked` edges (keys from [`edge_key`])
+/// at their midpoints and cuts every triangle by its marked edges.
+fn split_edges(out: &mut MeshDesc, marked: &[(u32, u32)]) {
+    let mut mid: HashMap<(u32, u32), u32> = HashMap::with_capacity(marked.len());
+    for &(a, b) in marked {
+        mid.insert((a, b), push_midpoint(out, a as usize, b as usize));
+    }
+    let mut triangles = Vec::with_capacity(out.triangles.len() * 2);
+    let mut materials = Vec::with_capacity(out.triangles.len() * 2);
+    let mut maps = out.textures.as_ref().map(|_| Vec::with_capacity(out.triangles.len() * 2));
+    for (i, t) in out.triangles.iter().enumerate() {
+        let m: [Option<u32>; 3] = if degenerate(t, &out.positions) {
+            [None; 3]
+        } else {
+            std::array::from_fn(|k| mid.get(&edge_key(t[k], t[(k + 1) % 3])).copied())
+        };
+        for p in split(*t, m, &out.positions) {
+            triangles.push(p);
+            materials.push(out.triangle_material[i]);
+            if let (Some(maps), Some(tex)) = (maps.as_mut(), out.textures.as_ref()) {
+                maps.push(tex.triangle_map[i]);
+            }
+        }
+    }
+    out.triangles = triangles;
+    out.triangle_material = materials;
+    if let (Some(maps), Some(tex)) = (maps, out.textures.as_mut()) {
+        tex.triangle_map = maps;
+    }
 }
 
 /// Appends the midpoint of positions `a` and `b` with averaged attributes.
@@ -165,6 +213,158 @@ fn split(t: [u32; 3], m: [Option<u32>; 3], positions: &[Vec3]) -> Vec<[u32; 3]> 
         (Some(m0), Some(m1), Some(m2)) => vec![[a, m0, m2], [m0, b, m1], [m2, m1, c], [m0, m1, m2]],
         _ => vec![t], // not reached: the rotation makes the patterns above
     }
+}
+
+/// How the solver refines coarse meshes: `[settings]` keys `refine`
+/// ("auto" | "off"), `refine_max_edge`, `refine_tolerance` and
+/// `refine_max_vertices`; `--refine`, `--max-edge`, `--refine-tolerance`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RefineSettings {
+    /// `Auto` refines meshes with edges longer than the target (a priori,
+    /// in [`crate::scene::prep::prepare`]) and then where the light needs it
+    /// ([`crate::solver::adaptive`]); `Off` keeps every mesh as it is.
+    pub mode: RefineMode,
+    /// Longest edge kept a priori, metres; 0 (the default) takes
+    /// [`AUTO_EDGE_SHARE`] of the scene's bounding-box diagonal. Shorter:
+    /// more vertices (rays and links grow with them), finer light.
+    pub max_edge: f32,
+    /// Error-driven splits: an edge of a coarse mesh splits where the
+    /// irradiance of its ends differs by more than this share of their
+    /// mean (and of 5% of the scene's mean). Lower: more splits, closer to
+    /// the noise of the solution (about 5% a vertex at 256 rays).
+    pub tolerance: f32,
+    /// Most positions the scene's meshes may reach in all (the budget); a
+    /// pass or round that would pass it is not made.
+    pub max_vertices: u32,
+}
+
+/// Whether the solver refines coarse meshes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum RefineMode {
+    Auto,
+    Off,
+}
+
+/// The automatic a-priori target: this share of the scene's bounding-box
+/// diagonal. Measured on the built-ins (longest edge over diagonal):
+/// cornell 0.041, furnace 0.024, colorlamp 0.076, window 0.057, torso
+/// 0.045, tearoom and dancer 0.039, sculpture 0.031, conference 0.010, so
+/// none is refined; McGuire's Cornell box: 0.82 (34 triangles).
+pub const AUTO_EDGE_SHARE: f32 = 0.08;
+
+impl Default for RefineSettings {
+    fn default() -> Self {
+        Self { mode: RefineMode::Auto, max_edge: 0.0, tolerance: 0.25, max_vertices: 250_000 }
+    }
+}
+
+impl RefineSettings {
+    /// Refinement off.
+    pub const fn off() -> Self {
+        Self { mode: RefineMode::Off, max_edge: 0.0, tolerance: 0.25, max_vertices: 250_000 }
+    }
+
+    /// Checks ranges: finite non-negative edge, positive finite tolerance.
+    pub fn validate(&self) -> crate::Result<()> {
+        if !(self.max_edge.is_finite() && self.max_edge >= 0.0) {
+            return Err(crate::Error::Setting(format!("refine_max_edge = {} is not a length >= 0", self.max_edge)));
+        }
+        if !(self.tolerance.is_finite() && self.tolerance > 0.0) {
+            return Err(crate::Error::Setting(format!("refine_tolerance = {} is not positive", self.tolerance)));
+        }
+        Ok(())
+    }
+
+    /// The a-priori target length for `scene`, metres (`max_edge`, or
+    /// [`AUTO_EDGE_SHARE`] of its diagonal).
+    pub fn target_edge(&self, scene: &SceneDesc) -> f32 {
+        if self.max_edge > 0.0 {
+            self.max_edge
+        } else {
+            AUTO_EDGE_SHARE * scene_diagonal(scene)
+        }
+    }
+}
+
+/// The diagonal of the bounding box of every mesh's finite world
+/// positions, metres (0 for an empty scene).
+pub fn scene_diagonal(scene: &SceneDesc) -> f32 {
+    let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
+    for m in &scene.meshes {
+        let t = m.transform.matrix();
+        for p in m.positions.iter().map(|p| t.transform_point3(*p)).filter(|p| p.is_finite()) {
+            (lo, hi) = (lo.min(p), hi.max(p));
+        }
+    }
+    if lo.cmple(hi).all() {
+        (hi - lo).length()
+    } else {
+        0.0
+    }
+}
+
+/// Per mesh: whether it is coarse, an edge of it longer than `max_edge`
+/// world metres (dynamic meshes never are). Error-driven splits touch
+/// coarse meshes only, so a finely tessellated scene refines nothing.
+pub fn coarse_meshes(scene: &SceneDesc, max_edge: f32) -> Vec<bool> {
+    scene
+        .meshes
+        .iter()
+        .map(|m| {
+            let limit = max_edge / m.transform.scale.abs();
+            refinable(m)
+                && m.triangles.iter().filter(|t| !degenerate(t, &m.positions)).any(|t| {
+                    (0..3).any(|k| m.positions[t[k] as usize].distance(m.positions[t[(k + 1) % 3] as usize]) > limit)
+                })
+        })
+        .collect()
+}
+
+/// The a-priori step of `settings` on `scene` (nothing when off): every
+/// mesh's edges split to the target length, within the budget.
+pub fn apriori(scene: &SceneDesc, settings: &RefineSettings) -> (SceneDesc, Vec<RefineStats>) {
+    if settings.mode == RefineMode::Off {
+        let stats = scene.meshes.iter().map(|m| RefineStats::unchanged(m)).collect();
+        return (scene.clone(), stats);
+    }
+    let max_edge = settings.target_edge(scene);
+    let mut out = scene.clone();
+    let mut total: usize = scene.meshes.iter().map(|m| m.positions.len()).sum();
+    let mut stats = Vec::with_capacity(scene.meshes.len());
+    for (o, m) in out.meshes.iter_mut().zip(&scene.meshes) {
+        let room = (settings.max_vertices as usize).saturating_sub(total);
+        let (r, s) = refine_mesh(m, &RefineParams { max_edge, max_vertices: m.positions.len() + room });
+        total += r.positions.len() - m.positions.len();
+        *o = r;
+        stats.push(s);
+    }
+    (out, stats)
+}
+
+/// A world-space edge: its two ends' world positions as bits, sorted (how
+/// preparation welds, so edges indexed twice match).
+pub type WorldEdge = ([u32; 3], [u32; 3]);
+
+/// The world-space key of the edge from `a` to `b`.
+pub fn world_edge(a: Vec3, b: Vec3) -> WorldEdge {
+    let (a, b) = (a.to_array().map(f32::to_bits), b.to_array().map(f32::to_bits));
+    (a.min(b), a.max(b))
+}
+
+/// One conforming pass over every mesh: the edges whose world key is in
+/// `marks` split at their midpoints (the error-driven step).
+pub fn split_world_edges(scene: &SceneDesc, marks: &std::collections::HashSet<WorldEdge>) -> SceneDesc {
+    let mut out = scene.clone();
+    for m in out.meshes.iter_mut().filter(|m| refinable(m)) {
+        let t = m.transform.matrix();
+        let world: Vec<Vec3> = m.positions.iter().map(|p| t.transform_point3(*p)).collect();
+        let marked = mark_edges(m, |a, b| marks.contains(&world_edge(world[a as usize], world[b as usize])));
+        if !marked.is_empty() {
+            split_edges(m, &marked);
+        }
+    }
+    out
 }
 
 /// Every mesh of `scene` refined; the stats per mesh.
@@ -235,6 +435,41 @@ mod tests {
                 .sum()
         };
         assert!((area(&r) - area(&mesh)).abs().max_element() < 1e-4, "{} vs {}", area(&r), area(&mesh));
+    }
+
+    /// The error-driven pass (edges named by their world positions, any
+    /// subset of them) keeps a closed surface closed, its input positions
+    /// and its area, also where marks meet triangles in every pattern.
+    #[test]
+    fn error_driven_splits_stay_conforming() {
+        let mesh = coarse_box();
+        let (fine, _) = refine_mesh(&mesh, &RefineParams { max_edge: 0.8, max_vertices: 100_000 });
+        let mut scene = crate::scene::builtin::closed_room(2, 0.5);
+        scene.meshes = vec![fine.clone()];
+        let world = |i: u32| scene.meshes[0].transform.matrix().transform_point3(fine.positions[i as usize]);
+        // Every third edge, by a hash of its key: one, two and three marks per triangle all occur.
+        let marks: std::collections::HashSet<WorldEdge> = fine
+            .triangles
+            .iter()
+            .flat_map(|t| (0..3).map(move |k| edge_key(t[k], t[(k + 1) % 3])))
+            .filter(|&(a, b)| (a.wrapping_mul(2654435761) ^ b.wrapping_mul(40503)) % 3 == 0)
+            .map(|(a, b)| world_edge(world(a), world(b)))
+            .collect();
+        let out = split_world_edges(&scene, &marks);
+        let r = &out.meshes[0];
+        assert!(r.triangles.len() > fine.triangles.len() + marks.len(), "{} marks", marks.len());
+        assert!(edge_uses(r).values().all(|&u| u == 2), "a T-junction or a hole after the error-driven pass");
+        assert_eq!(&r.positions[..fine.positions.len()], &fine.positions[..], "input positions moved");
+        let area = |m: &MeshDesc| -> f32 {
+            m.triangles
+                .iter()
+                .map(|t| {
+                    let [a, b, c] = t.map(|i| m.positions[i as usize]);
+                    (b - a).cross(c - a).length() * 0.5
+                })
+                .sum()
+        };
+        assert!((area(r) - area(&fine)).abs() < 1e-4 * area(&fine));
     }
 
     #[test]

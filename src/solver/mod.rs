@@ -37,6 +37,7 @@ use std::sync::{Arc, Mutex};
 use std::time::Instant;
 use traced::{Part, Traced};
 
+pub mod adaptive;
 mod change;
 mod compute;
 mod deform;

@@ -167,7 +167,7 @@ pub fn run(args: ViewArgs) -> Result<()> {
     // Before the scene and the engine: no display fails fast.
     let event_loop = EventLoop::new().context("opening the window system (is DISPLAY or WAYLAND_DISPLAY set?)")?;
     event_loop.set_control_flow(ControlFlow::Poll);
-    let Setup { desc, prepared, settings } = setup(&args.scene, &args.overrides)?;
+    let Setup { desc, prepared, settings, .. } = setup(&args.scene, &args.overrides)?;
     let backend = settings.backend;
     for step in &script {
         let at = || format!("{}:{}", script_file.display(), step.line);
