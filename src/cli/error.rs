@@ -46,12 +46,15 @@ pub struct ErrorArgs {
     /// Paths per pixel of the reference image (`--image`).
     #[arg(long, default_value_t = 256)]
     pub image_spp: u32,
-    /// Split mesh edges longer than this many metres first (as `render --max-edge`).
+    /// Longest edge kept by refinement, metres (as `render --max-edge`).
     #[arg(long, value_name = "METRES")]
     pub max_edge: Option<f32>,
     /// Refinement of coarse meshes: auto (the default) or off.
     #[arg(long, value_name = "auto|off", value_parser = super::setup::parse_refine)]
     pub refine: Option<linkgi::scene::refine::RefineMode>,
+    /// Error-driven refinement's tolerance (as `render --refine-tolerance`).
+    #[arg(long, value_name = "SHARE")]
+    pub refine_tolerance: Option<f32>,
     /// Only the picture's score (`--image`): no sweep, no path-tracer ladder.
     #[arg(long)]
     pub image_only: bool,
@@ -76,6 +79,7 @@ pub fn run(args: ErrorArgs) -> Result<()> {
             off: args.off,
             max_edge: args.max_edge,
             refine: args.refine,
+            refine_tolerance: args.refine_tolerance,
             ..Default::default()
         },
     )?;
