@@ -22,6 +22,7 @@
 pub mod csv;
 pub mod metrics;
 pub mod path;
+#[cfg(feature = "cli")]
 pub mod plot;
 pub mod preview;
 pub mod sweep;

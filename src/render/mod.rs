@@ -42,7 +42,8 @@ use std::path::Path;
 pub const MAX_LIGHTS: usize = 8;
 
 /// Which terms of the radiance are shown.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[cfg_attr(feature = "cli", derive(clap::ValueEnum))]
 pub enum View {
     #[default]
     Combined,
