@@ -39,7 +39,17 @@ pub struct MeshRange {
     pub dynamic: bool,
     /// Deformers of the mesh (world space), applied to its vertices over time.
     pub deform: Vec<super::deformer::Deform>,
+    /// Per input position of the mesh (`MeshDesc::positions` order): the
+    /// solver vertex that carries its value, or [`NO_VERTEX`] where no kept
+    /// triangle uses it (unused, or used by dropped triangles only). A
+    /// position on a crease or material border has a solver vertex per
+    /// side; this is the side of the first kept triangle that uses it.
+    /// [`PreparedScene::on_input`] reads any per-vertex result this way.
+    pub input_vertex: Vec<u32>,
 }
+
+/// [`MeshRange::input_vertex`] of an input position no kept triangle uses.
+pub const NO_VERTEX: u32 = u32::MAX;
 
 pub use super::rings::rings_of;
 pub use crate::csr::{check_offsets, Csr};
@@ -116,6 +126,8 @@ struct MeshPrep {
     dropped: usize,
     /// Albedo textures of the kept triangles (maps numbered within the mesh).
     textures: Option<CornerTextures>,
+    /// Per input position: its solver vertex ([`MeshRange::input_vertex`], local).
+    input_vertex: Vec<u32>,
 }
 
 fn prepare_mesh(mesh: &super::MeshDesc) -> Result<MeshPrep> {
@@ -315,6 +327,15 @@ fn prepare_mesh(mesh: &super::MeshDesc) -> Result<MeshPrep> {
         uv: tris_given.iter().map(|t| t.map(|i| mt.uv[i as usize])).collect(),
         factor: tris_given.iter().map(|t| t.map(|i| mt.factor[i as usize])).collect(),
     });
+    let mut input_vertex = vec![NO_VERTEX; mesh.positions.len()];
+    for (given, solver) in tris_given.iter().zip(&triangles) {
+        for k in 0..3 {
+            let slot = &mut input_vertex[given[k] as usize];
+            if *slot == NO_VERTEX {
+                *slot = solver[k];
+            }
+        }
+    }
     let mut mp = MeshPrep {
         positions,
         normals,
@@ -325,6 +346,7 @@ fn prepare_mesh(mesh: &super::MeshDesc) -> Result<MeshPrep> {
         welded_count: welded_pos.len() as u32,
         dropped,
         textures,
+        input_vertex,
     };
     if let Some(order) = super::order::better_order(&mp.triangles, mp.positions.len()) {
         mp.renumber(&order);
@@ -349,6 +371,9 @@ impl MeshPrep {
         permute(&mut self.position_id, order);
         for t in &mut self.triangles {
             *t = t.map(|v| new_of_old[v as usize]);
+        }
+        for v in self.input_vertex.iter_mut().filter(|v| **v != NO_VERTEX) {
+            *v = new_of_old[*v as usize];
         }
     }
 }
@@ -408,6 +433,7 @@ pub fn prepare(scene: &SceneDesc) -> Result<PreparedScene> {
             triangles: tbase..out.triangles.len() as u32,
             dynamic: mesh.dynamic,
             deform: mesh.deform.clone(),
+            input_vertex: mp.input_vertex.iter().map(|&v| if v == NO_VERTEX { v } else { v + vbase }).collect(),
         });
         pos_base += mp.welded_count;
     }
@@ -436,6 +462,19 @@ pub fn prepare(scene: &SceneDesc) -> Result<PreparedScene> {
 }
 
 impl PreparedScene {
+    /// A per-vertex result (`values[v]` for solver vertex `v`, e.g.
+    /// `Solution::e_indirect`) read on input mesh `mesh`'s own positions,
+    /// in their order ([`MeshRange::input_vertex`]); `None` where no kept
+    /// triangle uses the position; empty if there is no mesh `mesh`.
+    pub fn on_input<T: Copy>(&self, mesh: usize, values: &[T]) -> Vec<Option<T>> {
+        self.meshes.get(mesh).map_or_else(Vec::new, |m| {
+            m.input_vertex
+                .iter()
+                .map(|&v| if v == NO_VERTEX { None } else { values.get(v as usize).copied() })
+                .collect()
+        })
+    }
+
     pub fn vertex_count(&self) -> usize {
         self.positions.len()
     }
