@@ -42,6 +42,7 @@ enum Command {
 fn main() -> Result<()> {
     // Before any thread or GPU instance: libwayland's headless noise (src/cli/runtime_dir.rs).
     cli::runtime_dir::ensure();
+    cli::logger::install();
     let cli = Cli::parse();
     match cli.command {
         None => cli::render::run(cli::render::RenderArgs {

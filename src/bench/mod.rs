@@ -544,7 +544,7 @@ pub fn run_scene(
             // A peer that fails costs its table row, not the measured runs.
             match peer::run(&exe, &scene, params.rays_per_vertex, params.runs.max(1), threads) {
                 Ok(f) => row.peer = Some(f),
-                Err(e) => eprintln!("warning: Embree peer on {}: {e}; its figures are left out", desc.name),
+                Err(e) => log::warn!("Embree peer on {}: {e}; its figures are left out", desc.name),
             }
         }
     }

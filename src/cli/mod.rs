@@ -3,6 +3,7 @@
 pub mod animate;
 pub mod bench;
 pub mod error;
+pub mod logger;
 pub mod render;
 pub mod runtime_dir;
 pub mod setup;

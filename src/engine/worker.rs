@@ -288,7 +288,7 @@ impl Worker {
     }
 
     fn fail(&mut self, message: String, changes: u64) {
-        eprintln!("warning: GI update failed, keeping the last result: {message}");
+        log::warn!("GI update failed, keeping the last result: {message}");
         *lock(&self.shared.last_error) = Some(message);
         let mut c = lock(&self.shared.counters);
         c.errors += 1;

@@ -86,7 +86,7 @@ pub fn open_all() -> Vec<Arc<GpuDevice>> {
         if let Ok((device, queue)) = pollster::block_on(adapter.request_device(&desc)) {
             // Errors outside our error scopes are reported, not turned into panics.
             let name = info.name.clone();
-            device.on_uncaptured_error(Arc::new(move |e| eprintln!("GPU error on {name}: {e}")));
+            device.on_uncaptured_error(Arc::new(move |e| log::error!("GPU error on {name}: {e}")));
             out.push(Arc::new(GpuDevice { device, queue, info, limits }));
         }
     }

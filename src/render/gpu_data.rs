@@ -87,8 +87,8 @@ impl GpuTextures {
             halved += 1;
         }
         if halved > 0 {
-            eprintln!(
-                "note: albedo textures exceed the GPU's {} MiB storage buffer: halved {halved} time(s) for display",
+            log::info!(
+                "albedo textures exceed the GPU's {} MiB storage buffer: halved {halved} time(s) for display",
                 limit >> 20
             );
         }

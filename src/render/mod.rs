@@ -310,19 +310,19 @@ impl Renderer {
     /// the CPU fallback with one line saying so when there is none or it fails.
     pub fn open(backend: crate::gpu::Backend) -> Renderer {
         if backend == crate::gpu::Backend::Cpu {
-            eprintln!("note: rendering on the CPU (--backend cpu): ray-traced fallback, hard shadows");
+            log::info!("rendering on the CPU (--backend cpu): ray-traced fallback, hard shadows");
             return Renderer::Cpu;
         }
         match crate::gpu::open_all().into_iter().next() {
             Some(dev) => match gpu::GpuRenderer::new(dev) {
                 Ok(r) => Renderer::Gpu(Box::new(r)),
                 Err(e) => {
-                    eprintln!("note: {e}; rendering on the CPU (ray-traced fallback)");
+                    log::info!("{e}; rendering on the CPU (ray-traced fallback)");
                     Renderer::Cpu
                 }
             },
             None => {
-                eprintln!("note: no graphics adapter: rendering on the CPU (ray-traced fallback, hard shadows)");
+                log::info!("no graphics adapter: rendering on the CPU (ray-traced fallback, hard shadows)");
                 Renderer::Cpu
             }
         }

@@ -144,7 +144,7 @@ pub(crate) fn gpu_else_cpu<T>(what: &str, on_gpu: Option<crate::Result<T>>, cpu:
     match on_gpu {
         Some(Ok(t)) => t,
         Some(Err(e)) => {
-            eprintln!("warning: {e}; {what} on the CPU");
+            log::warn!("{e}; {what} on the CPU");
             cpu()
         }
         None => cpu(),
