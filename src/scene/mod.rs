@@ -9,6 +9,7 @@
 //! `direction` of travel. Nothing here is prepared for solving yet: see
 //! [`prep`] for welding, crease splitting and one-rings.
 
+pub mod builder;
 pub mod builtin;
 pub mod deform;
 pub mod deformer;

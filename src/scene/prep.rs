@@ -130,7 +130,12 @@ struct MeshPrep {
     input_vertex: Vec<u32>,
 }
 
-fn prepare_mesh(mesh: &super::MeshDesc) -> Result<MeshPrep> {
+/// Checks a mesh as preparation needs it (finite positions before and
+/// after the transform, triangles and materials in range, emissions and
+/// albedos finite, attribute lengths); the error names the mesh and the
+/// problem. Returns the world positions. The one check of a loaded, built
+/// ([`super::builder`]) or edited mesh.
+pub fn check_mesh(mesh: &super::MeshDesc) -> Result<Vec<Vec3>> {
     let name = &mesh.name;
     let m = mesh.transform.matrix();
     let mut world = Vec::with_capacity(mesh.positions.len());
@@ -187,6 +192,12 @@ fn prepare_mesh(mesh: &super::MeshDesc) -> Result<MeshPrep> {
     if let Some(t) = &mesh.textures {
         t.validate(mesh.positions.len(), mesh.triangles.len()).map_err(|m| geom_err(name, m))?;
     }
+    Ok(world)
+}
+
+fn prepare_mesh(mesh: &super::MeshDesc) -> Result<MeshPrep> {
+    let world = check_mesh(mesh)?;
+    let name = &mesh.name;
     // Weld by exact position.
     let mut weld: HashMap<[u32; 3], u32> = HashMap::with_capacity(world.len());
     let mut welded_pos: Vec<Vec3> = Vec::new();
