@@ -46,6 +46,10 @@ pub struct MeshRange {
     /// side; this is the side of the first kept triangle that uses it.
     /// [`PreparedScene::on_input`] reads any per-vertex result this way.
     pub input_vertex: Vec<u32>,
+    /// Per solver vertex of the mesh (`vertices` in order): the input
+    /// position it was made from (one of them where welding joined
+    /// several). [`PreparedScene::positions_from_input`] uses it.
+    pub vertex_input: Vec<u32>,
 }
 
 /// [`MeshRange::input_vertex`] of an input position no kept triangle uses.
@@ -128,6 +132,8 @@ struct MeshPrep {
     textures: Option<CornerTextures>,
     /// Per input position: its solver vertex ([`MeshRange::input_vertex`], local).
     input_vertex: Vec<u32>,
+    /// Per solver vertex: an input position it came from ([`MeshRange::vertex_input`]).
+    vertex_input: Vec<u32>,
 }
 
 /// Checks a mesh as preparation needs it (finite positions before and
@@ -303,6 +309,7 @@ fn prepare_mesh(mesh: &super::MeshDesc) -> Result<MeshPrep> {
     let mut albedo = Vec::new();
     let mut emission = Vec::new();
     let mut position_id = Vec::new();
+    let mut vertex_input = Vec::new();
     let mut triangles = Vec::with_capacity(tris.len());
     for (ti, t) in tris.iter().enumerate() {
         let mut out = [0u32; 3];
@@ -314,6 +321,7 @@ fn prepare_mesh(mesh: &super::MeshDesc) -> Result<MeshPrep> {
                 albedo.push(corner_albedo(ti as u32, t[k]));
                 emission.push(corner_emission(ti as u32, t[k]));
                 position_id.push(t[k]);
+                vertex_input.push(tris_given[ti][k]);
                 (positions.len() - 1) as u32
             });
             // Angle-weighted normal.
@@ -358,6 +366,7 @@ fn prepare_mesh(mesh: &super::MeshDesc) -> Result<MeshPrep> {
         dropped,
         textures,
         input_vertex,
+        vertex_input,
     };
     if let Some(order) = super::order::better_order(&mp.triangles, mp.positions.len()) {
         mp.renumber(&order);
@@ -380,6 +389,7 @@ impl MeshPrep {
         permute(&mut self.albedo, order);
         permute(&mut self.emission, order);
         permute(&mut self.position_id, order);
+        permute(&mut self.vertex_input, order);
         for t in &mut self.triangles {
             *t = t.map(|v| new_of_old[v as usize]);
         }
@@ -445,6 +455,7 @@ pub fn prepare(scene: &SceneDesc) -> Result<PreparedScene> {
             dynamic: mesh.dynamic,
             deform: mesh.deform.clone(),
             input_vertex: mp.input_vertex.iter().map(|&v| if v == NO_VERTEX { v } else { v + vbase }).collect(),
+            vertex_input: mp.vertex_input.clone(),
         });
         pos_base += mp.welded_count;
     }
@@ -473,6 +484,23 @@ pub fn prepare(scene: &SceneDesc) -> Result<PreparedScene> {
 }
 
 impl PreparedScene {
+    /// Every solver vertex's world position with mesh `mesh`'s taken from
+    /// `world` (new world positions of its input positions, in the
+    /// caller's order): a deformation given in input order, ready for
+    /// `engine::Change::Deform`. `None` if there is no
+    /// mesh `mesh` or `world` has another length than its input.
+    pub fn positions_from_input(&self, mesh: usize, world: &[Vec3]) -> Option<Vec<Vec3>> {
+        let m = self.meshes.get(mesh)?;
+        if world.len() != m.input_vertex.len() {
+            return None;
+        }
+        let mut out = self.positions.clone();
+        for (v, &i) in (m.vertices.start as usize..m.vertices.end as usize).zip(&m.vertex_input) {
+            out[v] = world[i as usize];
+        }
+        Some(out)
+    }
+
     /// A per-vertex result (`values[v]` for solver vertex `v`, e.g.
     /// `Solution::e_indirect`) read on input mesh `mesh`'s own positions,
     /// in their order ([`MeshRange::input_vertex`]); `None` where no kept
