@@ -576,3 +576,26 @@ fn wgsl_radiosity_matches_the_cpu_formula() {
         assert!((g - want).abs().max_element() <= 4e-7 * want.abs().max_element(), "{i}: {g} vs {want}");
     }
 }
+
+/// An engine's own wgpu device (opened here, default limits) serves the
+/// GPU path as well as one linkgi opens: the same links.
+#[test]
+fn a_callers_own_device_serves_the_gpu_path() {
+    let Some(dev) = device() else { return };
+    let instance = wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle_from_env());
+    let adapters = pollster::block_on(instance.enumerate_adapters(wgpu::Backends::all()));
+    let adapter = adapters.into_iter().find(|a| a.get_info().name == dev.info.name).expect("the same adapter");
+    let (d, q) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor::default())).expect("device");
+    let own = GpuDevice::from_wgpu(d, q, adapter.get_info()).expect("8 storage buffers");
+    let desc = common::with_settings(scene::load("cornell").expect("built-in"), 16, Bounces::Fixed(2), 30.0);
+    let scene = prep::prepare(&desc).expect("prepares");
+    let params = SolveParams::from_settings(&scene.settings);
+    let ours = Solver::new_on(scene.clone(), params, &gpu_compute(&dev, 1), &|_, _| {}).expect("linkgi's device");
+    let theirs =
+        Solver::new_on(scene, params, &Compute::Gpu(GpuCompute::new(vec![own])), &|_, _| {}).expect("caller's device");
+    assert!(theirs.gpu().is_some(), "ran on the GPU path");
+    assert_eq!(ours.links().offsets, theirs.links().offsets);
+    assert_eq!(ours.links().targets(), theirs.links().targets());
+    assert_eq!(ours.links().weights, theirs.links().weights);
+    assert_eq!(ours.solve().e_indirect, theirs.solve().e_indirect);
+}

@@ -22,6 +22,22 @@ impl GpuDevice {
         format!("{} ({:?}, {:?})", self.info.name, self.info.backend, self.info.device_type)
     }
 
+    /// A device the caller already has (an engine's own), for
+    /// [`crate::solver::GpuCompute::new`]: linkgi submits its compute work
+    /// to `queue` beside the caller's and uses the limits the device was
+    /// opened with (at least 8 storage buffers a shader stage). The
+    /// caller's uncaptured-error handler is left as it is.
+    pub fn from_wgpu(device: wgpu::Device, queue: wgpu::Queue, info: wgpu::AdapterInfo) -> Result<Arc<GpuDevice>> {
+        let limits = device.limits();
+        if limits.max_storage_buffers_per_shader_stage < 8 {
+            return Err(Error::Gpu(format!(
+                "{}: the device allows {} storage buffers a shader stage; linkgi needs 8",
+                info.name, limits.max_storage_buffers_per_shader_stage
+            )));
+        }
+        Ok(Arc::new(GpuDevice { device, queue, info, limits }))
+    }
+
     /// True for software adapters (lavapipe, llvmpipe, WARP).
     pub fn is_software(&self) -> bool {
         self.info.device_type == wgpu::DeviceType::Cpu

@@ -45,6 +45,14 @@ pub struct GpuCompute {
     pub schedule: ScheduleParams,
 }
 
+impl GpuCompute {
+    /// The GPU path on `devices` (from [`gpu::open_all`] or a caller's own
+    /// device, [`GpuDevice::from_wgpu`]), one logical device each, default schedule.
+    pub fn new(devices: Vec<Arc<GpuDevice>>) -> GpuCompute {
+        GpuCompute { devices, logical_per_device: 1, delays: Vec::new(), schedule: ScheduleParams::default() }
+    }
+}
+
 impl Compute {
     /// Resolves a backend setting. `Auto` picks by [`auto_prefers_gpu`]
     /// and says which path runs and why in a one-line note; `Gpu` with no
