@@ -138,7 +138,7 @@ pub struct RunTimes {
     /// ([`Solver::preview_lights`]); NaN without lights.
     pub light_preview_ms: f64,
     /// The same move, full: that light's light links plus bounces and
-    /// smoothing ([`Solver::update_lights`]); NaN without lights.
+    /// smoothing (`Solver::update_lights`); NaN without lights.
     pub light_move_ms: f64,
     /// The sky turned by 30 degrees (a gather-only update: `E_sky` from the
     /// kept miss masks, bounces, smoothing), ms; NaN without a sky.

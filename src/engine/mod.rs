@@ -120,9 +120,9 @@ pub struct Counters {
     pub link_builds: u64,
     pub light_link_updates: u64,
     /// Emitter links traced again because a surface started emitting
-    /// ([`Solver::update_emitters`]); other emission edits are gather-only.
+    /// (`Solver::update_emitters`); other emission edits are gather-only.
     pub emitter_link_updates: u64,
-    /// Sky portal samples traced because the sky's portals changed ([`Solver::update_portals`]).
+    /// Sky portal samples traced because the sky's portals changed (`Solver::update_portals`).
     pub portal_updates: u64,
     pub gathers: u64,
     /// Results published (the version of the newest result).

@@ -5,7 +5,7 @@
 //! done for vertex links, exactly: the result equals a full re-shoot with
 //! the same seed (same hits, so the same merged groups bit for bit).
 //!
-//! State ([`RayHits`](super::RayHits)), kept only for scenes with dynamic meshes: the id of
+//! State ([`super::RayHits`]), kept only for scenes with dynamic meshes: the id of
 //! every ray's hit (triangle id, `| HIT_BACK` for a back face, or
 //! `HIT_MISS`), 4 bytes a ray, and every link's fixed-point sum
 //! ([`super::merge`]), 4 bytes a link. Barycentrics and distances are not

@@ -5,7 +5,7 @@
 //! depend on threads, batches or which tracer answered. Each use has its
 //! own [`Stream`] (a documented salt), so no two uses share numbers.
 //!
-//! The hash is SplitMix64's finalizer ([`splitmix64`]); [`unit`] turns a
+//! The hash is SplitMix64's finalizer ([`splitmix64`]); [`unit()`] turns a
 //! hash into a uniform number in `[0, 1)` from its top 24 bits (exact in
 //! f32); [`cosine_direction`] turns one into a cosine-distributed
 //! direction about a normal. Near hits' samples hash from the vertex, the

@@ -30,7 +30,7 @@
 //! vertex, the portal and the cell, so a changed, rotated or rescaled sky
 //! is integrated again without tracing, exactly as re-shooting would.
 //! Moving or adding a portal traces its samples again
-//! ([`crate::solver::Solver::update_portals`]). Portals stay where the
+//! (`Solver::update_portals`). Portals stay where the
 //! scene file puts them when meshes deform.
 //!
 //! The portals' part is left unsmoothed (the link rays' part keeps its

@@ -54,7 +54,7 @@ impl GpuCompute {
 }
 
 impl Compute {
-    /// Resolves a backend setting. `Auto` picks by [`auto_prefers_gpu`]
+    /// Resolves a backend setting. `Auto` picks by `auto_prefers_gpu`
     /// and says which path runs and why in a one-line note; `Gpu` with no
     /// adapter is an error.
     pub fn from_backend(backend: Backend, logical_per_device: usize) -> crate::Result<(Compute, Option<String>)> {

@@ -8,7 +8,7 @@
 //!    the kd-tree; the GPU path walks the kd-tree), then every vertex's
 //!    cosine-distributed link rays, whose hits merge into compact
 //!    vertex-to-vertex links ([`crate::links`]), then everything else the
-//!    solve reads, traced from one list ([`traced`]): light links,
+//!    solve reads, traced from one list (`traced.rs`): light links,
 //!    emitter links, the sky's rays, the four near-hit terms and the
 //!    noise check.
 //! 2. **Solve** ([`Solver::solve`], the stages in order in [`solve`]):
@@ -18,7 +18,7 @@
 //!    kernel with hidden vertices replaced, the later bounces' near field,
 //!    the noise-aware smoothing of the gathered part, and the parts not
 //!    gathered over the links added back ([`Solution`]).
-//! 3. **Change** ([`change`], [`deform`]): lights moved, emission or sky
+//! 3. **Change** (`change.rs`, `deform.rs`): lights moved, emission or sky
 //!    edited, settings changed, meshes deformed; each method retraces what
 //!    the change can have changed and drops the caches derived from it,
 //!    so every solve equals a fresh one.
@@ -55,7 +55,7 @@ pub use stats::{Solution, SolveStats};
 
 /// A scene with its acceleration structure, vertex links and every traced
 /// part built (module doc). Read with the accessors; changed with the
-/// methods of [`change`] and [`deform`].
+/// methods of `change.rs` and `deform.rs`.
 pub struct Solver {
     scene: PreparedScene,
     params: SolveParams,

@@ -57,7 +57,7 @@ pub struct SolveParams {
     pub sky: crate::sky::SkyRefineParams,
     /// Feature angle of smoothing, degrees; 0: off.
     pub smoothing_angle_deg: f32,
-    /// The smoothing filter (noise-aware by default, [`mod@crate::exchange::smooth`]).
+    /// The smoothing filter (noise-aware by default, [`crate::exchange::denoise::smooth`]).
     pub smoothing: SmoothParams,
 }
 

@@ -62,7 +62,7 @@
 //!
 //! Cost: one evaluation of Lambert's formula per vertex and emitter
 //! triangle above its horizon (edge and corner terms shared between
-//! triangles, [`super::emitter_geometry`]), and at most `samples + 1`
+//! triangles, `emitter_geometry`), and at most `samples + 1`
 //! shadow rays per vertex. Above
 //! [`EmitterLinkParams::max_pairs`] vertex-triangle pairs there are no
 //! emitter links and every emitter's light travels through the vertex
