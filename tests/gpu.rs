@@ -36,12 +36,7 @@ fn device() -> Option<Arc<GpuDevice>> {
 }
 
 fn gpu_compute(dev: &Arc<GpuDevice>, logical: usize) -> Compute {
-    Compute::Gpu(GpuCompute {
-        devices: vec![dev.clone()],
-        logical_per_device: logical,
-        delays: Vec::new(),
-        schedule: Default::default(),
-    })
+    Compute::Gpu(GpuCompute::new(vec![dev.clone()]).with_logical(logical))
 }
 
 /// Same triangle (and face flag) for at least 99.9% of rays; where they
@@ -466,12 +461,10 @@ fn scheduler_splits_by_speed_and_loses_nothing() {
     let params = SolveParams::from_settings(&scene.settings);
     let one = Solver::new_on(scene.clone(), params, &gpu_compute(&dev, 1), &|_, _| {}).expect("one device");
     let slow = Duration::from_micros(2000);
-    let three = Compute::Gpu(GpuCompute {
-        devices: vec![dev.clone()],
-        logical_per_device: 3,
-        delays: vec![Duration::ZERO, Duration::ZERO, slow],
-        schedule: gpu::ScheduleParams { target_batch_seconds: 0.02, first_batch_vertices: 32 },
-    });
+    let mut three =
+        GpuCompute::new(vec![dev.clone()]).with_logical(3).with_delays(vec![Duration::ZERO, Duration::ZERO, slow]);
+    three.schedule = gpu::ScheduleParams { target_batch_seconds: 0.02, first_batch_vertices: 32 };
+    let three = Compute::Gpu(three);
     let split = Solver::new_on(scene.clone(), params, &three, &|_, _| {}).expect("three devices");
     let shares = &split.gpu().as_ref().expect("gpu state").shares;
     for s in shares {

@@ -75,7 +75,9 @@ pub enum Change {
     },
     /// Replace the sky (None: no sky).
     SetSky(Option<Sky>),
-    /// Test hook: the worker panics while handling this change.
+    /// Test hook (feature `test-hooks`, the tests' only): the worker
+    /// panics while handling this change.
+    #[cfg(feature = "test-hooks")]
     #[doc(hidden)]
     Panic,
 }

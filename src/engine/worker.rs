@@ -159,6 +159,7 @@ impl Worker {
                     scene.sky = sky;
                     dirty.gather = true;
                 }
+                #[cfg(feature = "test-hooks")]
                 Change::Panic => dirty.panic = true,
             }
         }

@@ -161,7 +161,7 @@ impl Links {
     /// SSE2 must be available.
     #[cfg(target_arch = "x86_64")]
     #[inline(always)]
-    pub unsafe fn simd_group(&self, v: usize) -> Option<(usize, usize, packed::simd::Cursor)> {
+    pub(crate) unsafe fn simd_group(&self, v: usize) -> Option<(usize, usize, packed::simd::Cursor)> {
         let (j0, j1) = (self.offsets[v] as usize, self.offsets[v + 1] as usize);
         if j0 > j1 || j1 > self.weights.len() {
             return None;

@@ -40,8 +40,9 @@ pub struct GpuCompute {
     pub devices: Vec<Arc<GpuDevice>>,
     /// Logical devices per adapter (`--devices N`: the scheduler splits work between them).
     pub logical_per_device: usize,
-    /// Artificial extra time per vertex for each logical device, in order (scheduler tests).
-    pub delays: Vec<Duration>,
+    /// Artificial extra time per vertex for each logical device, in order
+    /// (the scheduler's tests: [`GpuCompute::with_delays`]).
+    delays: Vec<Duration>,
     pub schedule: ScheduleParams,
 }
 
@@ -50,6 +51,25 @@ impl GpuCompute {
     /// device, [`GpuDevice::from_wgpu`]), one logical device each, default schedule.
     pub fn new(devices: Vec<Arc<GpuDevice>>) -> GpuCompute {
         GpuCompute { devices, logical_per_device: 1, delays: Vec::new(), schedule: ScheduleParams::default() }
+    }
+
+    /// `logical` logical devices per adapter (`--devices N`).
+    pub fn with_logical(mut self, logical: usize) -> GpuCompute {
+        self.logical_per_device = logical.max(1);
+        self
+    }
+
+    /// Test hook (feature `test-hooks`): extra time per vertex for each
+    /// logical device, in order, so the scheduler meets devices of unequal speed.
+    #[cfg(feature = "test-hooks")]
+    #[doc(hidden)]
+    pub fn with_delays(mut self, delays: Vec<Duration>) -> GpuCompute {
+        self.delays = delays;
+        self
+    }
+
+    pub(crate) fn delays(&self) -> &[Duration] {
+        &self.delays
     }
 }
 
@@ -83,16 +103,7 @@ impl Compute {
                  it reaches the first solution sooner (docs/GPU.md); --backend cpu uses the CPU"
             ));
         }
-        let schedule = ScheduleParams::default();
-        Ok((
-            Compute::Gpu(GpuCompute {
-                devices,
-                logical_per_device: logical_per_device.max(1),
-                delays: Vec::new(),
-                schedule,
-            }),
-            note,
-        ))
+        Ok((Compute::Gpu(GpuCompute::new(devices).with_logical(logical_per_device)), note))
     }
 
     /// "cpu (threads, processor, BVH node tests)" or the adapters used.

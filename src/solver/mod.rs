@@ -155,7 +155,7 @@ impl Solver {
             for i in 0..g.logical_per_device {
                 let label =
                     if g.logical_per_device > 1 { format!("{} #{i}", dev.info.name) } else { dev.info.name.clone() };
-                let delay = g.delays.get(logical.len()).copied().unwrap_or_default();
+                let delay = g.delays().get(logical.len()).copied().unwrap_or_default();
                 logical.push(LogicalDevice {
                     label,
                     tracer: GpuTracer::new(dev.clone(), &kd)?,
