@@ -86,6 +86,13 @@ fn each_input_position_maps_to_its_solver_vertex() {
         }
     }
     assert!(solver.scene().on_input(1, &sol.e_direct).is_empty());
+    // Into the caller's buffer: the same values, unused positions untouched.
+    let mut buf = vec![Vec3::splat(-1.0); mesh.positions.len()];
+    assert_eq!(solver.scene().on_input_into(0, &sol.e_direct, &mut buf), n);
+    for (i, e) in on.iter().enumerate() {
+        assert_eq!(buf[i], e.unwrap_or(Vec3::splat(-1.0)));
+    }
+    assert_eq!(solver.scene().on_input_into(0, &sol.e_direct, &mut buf[1..]), 0);
 }
 
 /// A grid whose triangles come scrambled: preparation renumbers its

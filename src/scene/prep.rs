@@ -501,6 +501,22 @@ impl PreparedScene {
         Some(out)
     }
 
+    /// [`Self::on_input`] into the caller's buffer (one entry per input
+    /// position of mesh `mesh`, reused from update to update): positions
+    /// no kept triangle uses are left as they are. Returns how many entries
+    /// were written, 0 if there is no mesh `mesh` or `out` has another length.
+    pub fn on_input_into<T: Copy>(&self, mesh: usize, values: &[T], out: &mut [T]) -> usize {
+        let Some(m) = self.meshes.get(mesh).filter(|m| m.input_vertex.len() == out.len()) else { return 0 };
+        let mut written = 0;
+        for (o, &v) in out.iter_mut().zip(&m.input_vertex) {
+            if let Some(x) = values.get(v as usize) {
+                *o = *x;
+                written += 1;
+            }
+        }
+        written
+    }
+
     /// A per-vertex result (`values[v]` for solver vertex `v`, e.g.
     /// `Solution::e_indirect`) read on input mesh `mesh`'s own positions,
     /// in their order ([`MeshRange::input_vertex`]); `None` where no kept
