@@ -230,3 +230,55 @@ fn refinement_is_scale_free() {
         assert!(((e / e1) - Vec3::ONE).abs().max_element() < 0.03, "scale {scale}: {e} against {e1}");
     }
 }
+
+/// The command line: `solve` refines a coarse OBJ by default and says so;
+/// `--refine-max-vertices` caps it, `--refine off` keeps it as loaded.
+#[test]
+fn the_cli_refines_and_its_flags_hold() {
+    let dir = std::env::temp_dir().join(format!("linkgi-refine-cli-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    // A closed box of 12 triangles, faces inward, and a point light inside.
+    let obj = dir.join("box.obj");
+    let mut text = String::new();
+    for i in 0..8 {
+        text += &format!(
+            "v {} {} {}\n",
+            if i & 1 == 0 { -1 } else { 1 },
+            if i & 2 == 0 { 0 } else { 2 },
+            if i & 4 == 0 { -1 } else { 1 }
+        );
+    }
+    for f in ["1 3 4 2", "5 6 8 7", "1 2 6 5", "3 7 8 4", "1 5 7 3", "2 4 8 6"] {
+        let v: Vec<&str> = f.split(' ').collect();
+        text += &format!("f {} {} {}\nf {} {} {}\n", v[0], v[1], v[2], v[0], v[2], v[3]);
+    }
+    std::fs::write(&obj, text).unwrap();
+    let toml = dir.join("s.toml");
+    std::fs::write(
+        &toml,
+        "[settings]\nrays_per_vertex = 16\n[[mesh]]\nobj = \"box.obj\"\n[[light]]\nkind = \"point\"\nposition = [0.2, 1.5, 0.1]\nintensity = [1, 1, 1]\n",
+    )
+    .unwrap();
+    let solve = |extra: &[&str]| {
+        let out = std::process::Command::new(env!("CARGO_BIN_EXE_linkgi"))
+            .args(["solve", toml.to_str().unwrap(), "--backend", "cpu"])
+            .args(extra)
+            .output()
+            .unwrap();
+        let (stdout, stderr) =
+            (String::from_utf8_lossy(&out.stdout).to_string(), String::from_utf8_lossy(&out.stderr).to_string());
+        assert!(out.status.success(), "{stderr}");
+        let v: usize = stdout.lines().find_map(|l| l.strip_prefix("vertices")).unwrap().trim().parse().unwrap();
+        (v, stderr)
+    };
+    let (auto, note) = solve(&[]);
+    assert!(auto > 200 && note.contains("coarse meshes refined"), "{auto} vertices; {note}");
+    let (capped, _) = solve(&["--refine-max-vertices", "100"]);
+    assert!(
+        capped < auto && capped <= 100 * 3,
+        "{capped} vertices under a budget of 100 positions (crease copies at most 3 each)"
+    );
+    let (off, note) = solve(&["--refine", "off"]);
+    assert_eq!(off, 24, "8 corners, each split three ways at the creases");
+    assert!(!note.contains("refined"), "{note}");
+}

@@ -55,6 +55,9 @@ pub struct ErrorArgs {
     /// Error-driven refinement's tolerance (as `render --refine-tolerance`).
     #[arg(long, value_name = "SHARE")]
     pub refine_tolerance: Option<f32>,
+    /// Refinement's budget of mesh positions (as `render --refine-max-vertices`).
+    #[arg(long, value_name = "N")]
+    pub refine_max_vertices: Option<u32>,
     /// Only the picture's score (`--image`): no sweep, no path-tracer ladder.
     #[arg(long)]
     pub image_only: bool,
@@ -80,6 +83,7 @@ pub fn run(args: ErrorArgs) -> Result<()> {
             max_edge: args.max_edge,
             refine: args.refine,
             refine_tolerance: args.refine_tolerance,
+            refine_max_vertices: args.refine_max_vertices,
             ..Default::default()
         },
     )?;

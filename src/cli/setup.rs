@@ -53,6 +53,9 @@ pub struct Overrides {
     /// this share of their mean (default 0.25).
     #[arg(long, value_name = "SHARE")]
     pub refine_tolerance: Option<f32>,
+    /// Budget of mesh positions refinement may reach (default 250000).
+    #[arg(long, value_name = "N")]
+    pub refine_max_vertices: Option<u32>,
     /// Number of bounces (`solve --bounces`).
     #[arg(skip)]
     pub bounces: Option<Bounces>,
@@ -92,6 +95,9 @@ impl Overrides {
         }
         if let Some(t) = self.refine_tolerance {
             settings.refine.tolerance = t;
+        }
+        if let Some(n) = self.refine_max_vertices {
+            settings.refine.max_vertices = n;
         }
         settings
     }

@@ -217,7 +217,8 @@ fn split(t: [u32; 3], m: [Option<u32>; 3], positions: &[Vec3]) -> Vec<[u32; 3]> 
 
 /// How the solver refines coarse meshes: `[settings]` keys `refine`
 /// ("auto" | "off"), `refine_max_edge`, `refine_tolerance` and
-/// `refine_max_vertices`; `--refine`, `--max-edge`, `--refine-tolerance`.
+/// `refine_max_vertices`; `--refine`, `--max-edge`, `--refine-tolerance`,
+/// `--refine-max-vertices`.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct RefineSettings {
     /// `Auto` refines meshes with edges longer than the target (a priori,
