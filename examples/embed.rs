@@ -6,32 +6,24 @@
 
 use glam::Vec3;
 use linkgi::scene::builder::{MeshInput, SceneBuilder};
+use linkgi::scene::shapes::MeshBuilder;
 use linkgi::scene::{prep, Light};
 use linkgi::solver::{SolveParams, Solver};
 
-/// An n x n grid of quads from `origin` along `u` and `v` (front: u x v),
-/// appended to the buffers.
-fn grid(positions: &mut Vec<Vec3>, indices: &mut Vec<u32>, origin: Vec3, u: Vec3, v: Vec3, n: u32) {
-    let base = positions.len() as u32;
-    for j in 0..=n {
-        for i in 0..=n {
-            positions.push(origin + u * (i as f32 / n as f32) + v * (j as f32 / n as f32));
-        }
-    }
-    let at = |i: u32, j: u32| base + j * (n + 1) + i;
-    for j in 0..n {
-        for i in 0..n {
-            indices.extend([at(i, j), at(i + 1, j), at(i + 1, j + 1), at(i, j), at(i + 1, j + 1), at(i, j + 1)]);
-        }
-    }
+/// An n x n grid of quads from `origin` along `u` and `v` (front: u x v)
+/// as position and index buffers, as an engine would hold them.
+fn grid(origin: Vec3, u: Vec3, v: Vec3, n: u32) -> (Vec<Vec3>, Vec<u32>) {
+    let mut b = MeshBuilder::new();
+    let m = b.add_material("grid", Vec3::splat(0.5));
+    b.quad_grid(origin, u, v, n, n, m);
+    let mesh = b.finish("grid", 30.0);
+    (mesh.positions, mesh.triangles.iter().flatten().copied().collect())
 }
 
 fn main() -> linkgi::Result<()> {
     // A floor (white) and a red back wall, 3 m, in the caller's buffers.
-    let (mut floor_p, mut floor_i) = (Vec::new(), Vec::new());
-    grid(&mut floor_p, &mut floor_i, Vec3::new(-1.5, 0.0, 1.5), Vec3::X * 3.0, Vec3::Z * -3.0, 12);
-    let (mut wall_p, mut wall_i) = (Vec::new(), Vec::new());
-    grid(&mut wall_p, &mut wall_i, Vec3::new(-1.5, 0.0, -1.5), Vec3::X * 3.0, Vec3::Y * 3.0, 12);
+    let (floor_p, floor_i) = grid(Vec3::new(-1.5, 0.0, 1.5), Vec3::X * 3.0, Vec3::Z * -3.0, 12);
+    let (wall_p, wall_i) = grid(Vec3::new(-1.5, 0.0, -1.5), Vec3::X * 3.0, Vec3::Y * 3.0, 12);
     let lamp = |z: f32| Light::Point { position: Vec3::new(0.0, 1.2, z), intensity: Vec3::splat(5.0) };
     let scene = SceneBuilder::new("corner")
         .mesh(MeshInput::new("floor", &floor_p, &floor_i).albedo(Vec3::splat(0.7)))

@@ -6,32 +6,19 @@ mod common;
 
 use glam::Vec3;
 use linkgi::scene::builder::{MeshInput, SceneBuilder};
+use linkgi::scene::shapes::MeshBuilder;
 use linkgi::scene::{Bounces, Light, Settings};
 
-/// A small room: floor, two walls and a glowing ceiling panel; exact
-/// binary fractions so the OBJ text is the same numbers.
+/// A small room: a floor and a back wall (6 x 6 quads each, from
+/// `MeshBuilder::quad_grid`, taken as buffers) and a glowing ceiling panel;
+/// exact binary fractions so the OBJ text is the same numbers.
 fn room() -> (Vec<Vec3>, Vec<u32>, Vec<Vec3>, Vec<u32>) {
-    let n = 6;
-    let mut p = Vec::new();
-    let mut idx = Vec::new();
-    // Floor y = 0 (facing up) and wall z = -1.5 (facing +z), n x n quads each.
-    for (origin, u, v) in [
-        (Vec3::new(-1.5, 0.0, 1.5), Vec3::new(3.0, 0.0, 0.0), Vec3::new(0.0, 0.0, -3.0)),
-        (Vec3::new(-1.5, 0.0, -1.5), Vec3::new(3.0, 0.0, 0.0), Vec3::new(0.0, 3.0, 0.0)),
-    ] {
-        let base = p.len() as u32;
-        for j in 0..=n {
-            for i in 0..=n {
-                p.push(origin + u * (i as f32 / n as f32) + v * (j as f32 / n as f32));
-            }
-        }
-        let at = |i: u32, j: u32| base + j * (n + 1) + i;
-        for j in 0..n {
-            for i in 0..n {
-                idx.extend([at(i, j), at(i + 1, j), at(i + 1, j + 1), at(i, j), at(i + 1, j + 1), at(i, j + 1)]);
-            }
-        }
-    }
+    let mut b = MeshBuilder::new();
+    let m = b.add_material("wall", Vec3::splat(0.5));
+    b.quad_grid(Vec3::new(-1.5, 0.0, 1.5), Vec3::new(3.0, 0.0, 0.0), Vec3::new(0.0, 0.0, -3.0), 6, 6, m);
+    b.quad_grid(Vec3::new(-1.5, 0.0, -1.5), Vec3::new(3.0, 0.0, 0.0), Vec3::new(0.0, 3.0, 0.0), 6, 6, m);
+    let mesh = b.finish("room", 30.0);
+    let idx = mesh.triangles.iter().flatten().copied().collect();
     // A panel at y = 2.5 facing down.
     let lamp = vec![
         Vec3::new(-0.5, 2.5, -0.5),
@@ -39,7 +26,7 @@ fn room() -> (Vec<Vec3>, Vec<u32>, Vec<Vec3>, Vec<u32>) {
         Vec3::new(0.5, 2.5, 0.5),
         Vec3::new(-0.5, 2.5, 0.5),
     ];
-    (p, idx, lamp, vec![0, 1, 2, 0, 2, 3])
+    (mesh.positions, idx, lamp, vec![0, 1, 2, 0, 2, 3])
 }
 
 fn obj_text(p: &[Vec3], idx: &[u32], material: &str) -> String {

@@ -136,6 +136,13 @@ struct MeshPrep {
     vertex_input: Vec<u32>,
 }
 
+/// The rule by which preparation drops a triangle of cross product
+/// `cross` (`(b - a) x (c - a)`) and longest squared side `longest`: no area
+/// beside its size (a sliver or collinear corners). Refinement uses it too.
+pub(crate) fn zero_area(cross: Vec3, longest: f32) -> bool {
+    cross.length_squared() <= 1e-24 * longest * longest
+}
+
 /// Checks a mesh as preparation needs it (finite positions before and
 /// after the transform, triangles and materials in range, emissions and
 /// albedos finite, attribute lengths); the error names the mesh and the
@@ -239,7 +246,7 @@ fn prepare_mesh(mesh: &super::MeshDesc) -> Result<MeshPrep> {
                 ),
             ));
         }
-        if w[0] == w[1] || w[1] == w[2] || w[0] == w[2] || cross.length_squared() <= 1e-24 * longest * longest {
+        if w[0] == w[1] || w[1] == w[2] || w[0] == w[2] || zero_area(cross, longest) {
             dropped += 1;
             continue;
         }

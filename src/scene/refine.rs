@@ -79,7 +79,7 @@ fn degenerate(t: &[u32; 3], p: &[Vec3]) -> bool {
     let [a, b, c] = t.map(|i| p[i as usize]);
     let cross = (b - a).cross(c - a);
     let longest = (b - a).length_squared().max((c - b).length_squared()).max((a - c).length_squared());
-    t[0] == t[1] || t[1] == t[2] || t[0] == t[2] || cross.length_squared() <= 1e-24 * longest * longest
+    t[0] == t[1] || t[1] == t[2] || t[0] == t[2] || super::prep::zero_area(cross, longest)
 }
 
 fn edge_key(a: u32, b: u32) -> (u32, u32) {
@@ -401,6 +401,14 @@ mod tests {
         uses
     }
 
+    /// Each triangle's area vector (half its cross product), m^2.
+    fn area_vectors(m: &MeshDesc) -> impl Iterator<Item = Vec3> + '_ {
+        m.triangles.iter().map(|t| {
+            let [a, b, c] = t.map(|i| m.positions[i as usize]);
+            (b - a).cross(c - a) * 0.5
+        })
+    }
+
     fn coarse_box() -> MeshDesc {
         let mut b = MeshBuilder::new();
         let m = b.add_material("w", Vec3::splat(0.5));
@@ -425,16 +433,8 @@ mod tests {
             .map(|(a, b)| r.positions[a as usize].distance(r.positions[b as usize]))
             .fold(0f32, f32::max);
         assert!(longest <= 0.3, "an edge of {longest} m is left");
-        // Area and orientation kept: the signed area vectors sum as before per face direction.
-        let area = |m: &MeshDesc| -> Vec3 {
-            m.triangles
-                .iter()
-                .map(|t| {
-                    let [a, b, c] = t.map(|i| m.positions[i as usize]);
-                    (b - a).cross(c - a).abs() * 0.5
-                })
-                .sum()
-        };
+        // Area and orientation kept: the area vectors' absolute components sum as before.
+        let area = |m: &MeshDesc| -> Vec3 { area_vectors(m).map(Vec3::abs).sum() };
         assert!((area(&r) - area(&mesh)).abs().max_element() < 1e-4, "{} vs {}", area(&r), area(&mesh));
     }
 
@@ -461,15 +461,7 @@ mod tests {
         assert!(r.triangles.len() > fine.triangles.len() + marks.len(), "{} marks", marks.len());
         assert!(edge_uses(r).values().all(|&u| u == 2), "a T-junction or a hole after the error-driven pass");
         assert_eq!(&r.positions[..fine.positions.len()], &fine.positions[..], "input positions moved");
-        let area = |m: &MeshDesc| -> f32 {
-            m.triangles
-                .iter()
-                .map(|t| {
-                    let [a, b, c] = t.map(|i| m.positions[i as usize]);
-                    (b - a).cross(c - a).length() * 0.5
-                })
-                .sum()
-        };
+        let area = |m: &MeshDesc| -> f32 { area_vectors(m).map(Vec3::length).sum() };
         assert!((area(r) - area(&fine)).abs() < 1e-4 * area(&fine));
     }
 

@@ -175,8 +175,9 @@ fn mark(
                 let (a, b) = (t[k] as usize, t[(k + 1) % 3] as usize);
                 let (pa, pb) = (scene.positions[a], scene.positions[b]);
                 let score = (y[a] - y[b]).abs() / (0.5 * (y[a] + y[b])).max(floor);
-                if pa.distance(pb) > min_edge && score > tolerance && seen.insert(refine::world_edge(pa, pb)) {
-                    marks.push((score, refine::world_edge(pa, pb)));
+                let edge = refine::world_edge(pa, pb);
+                if pa.distance(pb) > min_edge && score > tolerance && seen.insert(edge) {
+                    marks.push((score, edge));
                 }
             }
         }
