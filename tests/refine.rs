@@ -157,6 +157,61 @@ fn refinement_finds_the_shadows_of_a_coarse_box() {
     }
 }
 
+/// The error-driven rounds carry the hits of kept vertices over to the
+/// split mesh (`links::reassign`): new vertices trace, the rest is
+/// re-assigned. The result is a fresh shoot of the refined scene: the same
+/// links (targets, f16 weights, near hits, sky visibility), bit for bit,
+/// and the same solution. The refined scene is the mesh a fresh
+/// preparation of the refined file gives (same positions and triangles;
+/// kept vertices' normals within rounding, their colours carried).
+#[test]
+fn carried_hits_equal_a_fresh_solve_of_the_refined_mesh() {
+    let (desc, _) = coarse_cornell(RefineSettings::default());
+    let r = solve(&desc);
+    assert!(r.rounds.len() >= 2, "the error-driven rounds split something");
+    for (i, round) in r.rounds.iter().enumerate() {
+        let total = round.vertices as u64 * 256;
+        eprintln!(
+            "round {i}: {} vertices, {} rays traced, {} carried, links {:.1} ms",
+            round.vertices, round.rays_traced, round.rays_carried, round.links_ms
+        );
+        assert_eq!(round.rays_traced + round.rays_carried, total, "round {i}");
+        if i > 0 {
+            assert!(round.rays_carried > total / 4, "round {i}: carried over");
+        }
+    }
+    let scene = r.solver.scene().clone();
+    let params = *r.solver.params();
+    let fresh = linkgi::solver::Solver::new(scene.clone(), params, &|_, _| {});
+    let (a, b) = (r.solver.links(), fresh.links());
+    let differing: Vec<usize> = (0..scene.vertex_count()).filter(|&v| a.group(v) != b.group(v)).collect();
+    for &v in differing.iter().take(5) {
+        eprintln!(
+            "vertex {v} at {} boundary {}: {:?}\n vs {:?}",
+            scene.positions[v],
+            scene.boundary[v],
+            a.group(v),
+            b.group(v)
+        );
+    }
+    assert!(differing.is_empty(), "{} link groups differ from a fresh shoot", differing.len());
+    assert_eq!(a.near, b.near, "near hits");
+    assert_eq!(a.sky, b.sky, "sky visibility");
+    let (sa, sb) = (&r.solution, fresh.solve());
+    assert_eq!(sa.e_indirect, sb.e_indirect, "the solutions");
+    // The same mesh as a fresh preparation of the refined scene.
+    let mut plain = linkgi::scene::prep::prepare(&r.desc).unwrap();
+    plain.sky = scene.sky.clone();
+    assert_eq!((&plain.positions, &plain.triangles), (&scene.positions, &scene.triangles));
+    let moved = plain.normals.iter().zip(&scene.normals).map(|(a, b)| (*a - *b).length()).fold(0f32, f32::max);
+    assert!(moved < linkgi::links::reassign::KEPT_NORMAL, "a normal moved by {moved}");
+    for v in 0..scene.vertex_count() {
+        for &u in scene.rings.row(v) {
+            assert_ne!(scene.colours[v], scene.colours[u as usize], "neighbours {v} and {u} share a colour");
+        }
+    }
+}
+
 /// A budget below what the rounds want: the round splits the edges whose
 /// ends differ most, up to the budget, and the rounds stop there.
 #[test]

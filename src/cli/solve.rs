@@ -198,6 +198,14 @@ pub fn run(args: SolveArgs) -> Result<()> {
             refined.rounds.len(),
             list.join(" -> ")
         );
+        let carried: u64 = refined.rounds.iter().map(|r| r.rays_carried).sum();
+        let traced: u64 = refined.rounds.iter().map(|r| r.rays_traced).sum();
+        if carried > 0 {
+            println!(
+                "refine rays      {traced} traced, {carried} carried over from the round before ({:.0}%)",
+                100.0 * carried as f64 / (carried + traced) as f64
+            );
+        }
     }
     println!("{} build ms     {:.1}", if s.bvh.is_some() { "bvh" } else { "kd " }, s.accel_build_ms);
     println!("links ms         {:.1} ({:.2} M rays/s)", s.links.shoot_ms, s.links.rays_per_second() / 1e6);

@@ -29,6 +29,7 @@ pub mod assemble;
 pub mod merge;
 pub mod near;
 pub mod packed;
+pub mod reassign;
 pub mod selective;
 pub mod shoot;
 pub mod splice;
@@ -40,6 +41,7 @@ pub use assemble::{assemble, CsrBuilder, GroupRun};
 pub use merge::RayHits;
 pub use merge::{merge_vertex, HitRecord, MergeScratch, HIT_BACK, HIT_MISS};
 pub use near::{NearHit, NearHits, NearParams};
+pub use reassign::{reassign_links, Lineage, ReassignStats};
 pub use selective::ReshootStats;
 pub use shoot::{shoot_links, shoot_links_recording, LinkParams, RaySetup, TraceScratch, Wedge};
 

@@ -163,7 +163,7 @@ impl RaySetup {
         for v in 0..scene.vertex_count() {
             wedges.extend(scene.vertex_triangles.row(v).iter().map(|&t| Wedge::of(scene, v, t)));
         }
-        let (rotations, sets) = vertex_rotations_and_sets(&scene.rings, params.seed);
+        let (rotations, sets) = vertex_rotations_and_sets(&scene.colours, params.seed);
         RaySetup {
             origins,
             rotations,
@@ -217,9 +217,25 @@ impl RaySetup {
                 scratch.dirs.push(dir);
             }
         }
+        let dirs = std::mem::take(&mut scratch.dirs);
+        self.trace_dirs(tracer, v, &dirs, scratch, out);
+        scratch.dirs = dirs;
+    }
+
+    /// Traces `dirs` from vertex `v`'s origin together
+    /// ([`CpuTracer::intersect_origin`]) into the records of `out` marked
+    /// [`TO_TRACE`], in order (one direction each).
+    pub(super) fn trace_dirs(
+        &self,
+        tracer: &dyn CpuTracer,
+        v: usize,
+        dirs: &[Vec3],
+        scratch: &mut TraceScratch,
+        out: &mut [HitRecord],
+    ) {
         scratch.hits.clear();
-        scratch.hits.resize(scratch.dirs.len(), None);
-        tracer.intersect_origin(self.origins[v], v as u32, &scratch.dirs, &mut scratch.hits);
+        scratch.hits.resize(dirs.len(), None);
+        tracer.intersect_origin(self.origins[v], v as u32, dirs, &mut scratch.hits);
         let mut traced = scratch.hits.iter();
         for rec in out.iter_mut().filter(|r| r.tri == TO_TRACE) {
             *rec = match traced.next().copied().flatten() {
@@ -231,7 +247,7 @@ impl RaySetup {
 }
 
 /// Marks a record still to be traced (never a triangle id: ids stay below `HIT_BACK`).
-const TO_TRACE: u32 = HIT_BACK - 1;
+pub(super) const TO_TRACE: u32 = HIT_BACK - 1;
 
 /// Buffers [`RaySetup::trace_vertex_with`] reuses from vertex to vertex.
 #[derive(Clone, Debug, Default)]
@@ -277,7 +293,8 @@ pub fn shoot_links(
 }
 
 /// [`shoot_links`], also returning every ray's hit id when `record` is set
-/// (the state of selective updates, [`super::selective`]).
+/// (the state of selective updates, [`super::selective`], and of
+/// refinement, [`super::reassign`]).
 pub fn shoot_links_recording(
     scene: &PreparedScene,
     tracer: &dyn CpuTracer,
@@ -285,8 +302,27 @@ pub fn shoot_links_recording(
     record: bool,
     progress: &(dyn Fn(usize, usize) + Sync),
 ) -> (Links, Option<RayHits>) {
-    let start = Instant::now();
     let setup = RaySetup::new(scene, params);
+    links_from_records(scene, &setup, params, record, progress, &|v, scratch, hits| {
+        setup.trace_vertex_with(tracer, v, scratch, hits)
+    })
+}
+
+/// The merged links of every vertex of `scene` from its rays' hit records,
+/// which `fill(v, scratch, out)` writes into `out` (one per ray of
+/// `setup`, in ray order): the one merge every link build goes through
+/// (tracing, or re-assigning hits after refinement), so records that are
+/// equal give links that are equal. `progress(done, total)` is called
+/// after each batch of `params.batch_vertices`.
+pub(super) fn links_from_records(
+    scene: &PreparedScene,
+    setup: &RaySetup,
+    params: &LinkParams,
+    record: bool,
+    progress: &(dyn Fn(usize, usize) + Sync),
+    fill: &(dyn Fn(usize, &mut TraceScratch, &mut Vec<HitRecord>) + Sync),
+) -> (Links, Option<RayHits>) {
+    let start = Instant::now();
     let n = scene.vertex_count();
     let rays = setup.directions.len();
     let weight_per_ray = std::f64::consts::PI / rays as f64;
@@ -307,7 +343,8 @@ pub fn shoot_links_recording(
                 let mut run = run.with_near(near.clone());
                 let mut chunk_ids = Vec::new();
                 for v in c0..(c0 + CHUNK).min(batch_end) {
-                    setup.trace_vertex_with(tracer, v, &mut scratch, &mut hits);
+                    fill(v, &mut scratch, &mut hits);
+                    debug_assert_eq!(hits.len(), rays);
                     if record {
                         chunk_ids.extend(hits.iter().map(|h| h.tri));
                     }

@@ -101,33 +101,38 @@ fn radical_inverse(i: u32) -> f32 {
     (i.reverse_bits() as f64 / 4294967296.0) as f32
 }
 
-/// Per-vertex rotation about the normal, radians: a greedy colouring of the
-/// one-ring graph (vertex order, smallest free colour), colour `c` turned
-/// into `pi/2 * radical_inverse(c)` plus a seeded offset. The concentric
-/// grid repeats under quarter turns, so colours 0, 1, 2, 3 sit at 0, 1/2,
-/// 1/4, 3/4 of the quarter turn: neighbours interleave.
-pub fn vertex_rotations(rings: &Csr, seed: u64) -> Vec<f32> {
-    vertex_rotations_and_sets(rings, seed).0
-}
-
-/// Every vertex's rotation ([`vertex_rotations`]) and direction set
-/// ([`DirectionSet`]: its colour modulo [`DIRECTION_SETS`], so neighbours
-/// use different sets and, with the rotations, interleave), from one
-/// colouring of the one-ring graph.
-pub fn vertex_rotations_and_sets(rings: &Csr, seed: u64) -> (Vec<f32>, Vec<u32>) {
-    let color = colours(rings);
+/// Every vertex's rotation about its normal (radians) and direction set
+/// ([`DirectionSet`]) from its colour (`PreparedScene::colours`: a
+/// colouring of the one-ring graph, [`colours`]): colour `c` turns into
+/// `pi/2 * radical_inverse(c)` plus a seeded offset, and uses set
+/// `c mod` [`DIRECTION_SETS`]. The concentric grid repeats under quarter
+/// turns, so colours 0, 1, 2, 3 sit at 0, 1/2, 1/4, 3/4 of the quarter
+/// turn: neighbours interleave, in rotation and in jitter.
+pub fn vertex_rotations_and_sets(colours: &[u32], seed: u64) -> (Vec<f32>, Vec<u32>) {
     let mut rng = rand_pcg::Pcg32::seed_from_u64(Stream::ROTATIONS.seed(seed));
     let offset: f32 = rng.random::<f32>() * FRAC_PI_2;
-    let rotations = color.iter().map(|&c| offset + FRAC_PI_2 * radical_inverse(c)).collect();
-    (rotations, color.into_iter().map(|c| c % DIRECTION_SETS).collect())
+    let rotations = colours.iter().map(|&c| offset + FRAC_PI_2 * radical_inverse(c)).collect();
+    (rotations, colours.iter().map(|&c| c % DIRECTION_SETS).collect())
 }
 
-/// Greedy colouring of the one-ring graph (vertex order, smallest free colour).
-fn colours(rings: &Csr) -> Vec<u32> {
+/// Greedy colouring of the one-ring graph (vertex order, smallest free
+/// colour): neighbours get different colours.
+pub fn colours(rings: &Csr) -> Vec<u32> {
+    colours_keeping(rings, &vec![None; rings.rows()])
+}
+
+/// [`colours`] with the colours of `kept` vertices given (`Some`): the
+/// others take, in vertex order, the smallest colour none of their
+/// coloured neighbours has. Refinement keeps the colours (so the ray
+/// frames) of the vertices it keeps this way.
+pub fn colours_keeping(rings: &Csr, kept: &[Option<u32>]) -> Vec<u32> {
     let n = rings.rows();
-    let mut color = vec![u32::MAX; n];
+    let mut color: Vec<u32> = kept.iter().map(|c| c.unwrap_or(u32::MAX)).collect();
     let mut used: Vec<u32> = Vec::new();
     for v in 0..n {
+        if color[v] != u32::MAX {
+            continue;
+        }
         used.clear();
         used.extend(rings.row(v).iter().map(|&u| color[u as usize]).filter(|&c| c != u32::MAX));
         used.sort_unstable();
@@ -247,10 +252,16 @@ mod tests {
         let pairs: Vec<(u32, u32)> =
             [(0, 1), (1, 2), (2, 3), (3, 0), (0, 2)].iter().flat_map(|&(a, b)| [(a, b), (b, a)]).collect();
         let rings = Csr::from_pairs(4, &pairs);
-        let rot = vertex_rotations(&rings, 1);
+        let rot = vertex_rotations_and_sets(&colours(&rings), 1).0;
         for &(a, b) in &pairs {
             assert_ne!(rot[a as usize], rot[b as usize]);
         }
-        assert_eq!(rot, vertex_rotations(&rings, 1));
+        assert_eq!(rot, vertex_rotations_and_sets(&colours(&rings), 1).0);
+        // Kept colours stay; the others avoid them.
+        let c = colours_keeping(&rings, &[None, Some(0), None, Some(2)]);
+        assert_eq!((c[1], c[3]), (0, 2));
+        for &(a, b) in &pairs {
+            assert_ne!(c[a as usize], c[b as usize], "{c:?}");
+        }
     }
 }

@@ -50,6 +50,10 @@ pub struct MeshRange {
     /// position it was made from (one of them where welding joined
     /// several). [`PreparedScene::positions_from_input`] uses it.
     pub vertex_input: Vec<u32>,
+    /// Per solver triangle of the mesh (`triangles` in order): the index of
+    /// the input triangle (`MeshDesc::triangles`) it is. Preparation keeps
+    /// the input's triangle order and drops only degenerate ones.
+    pub triangle_input: Vec<u32>,
 }
 
 /// [`MeshRange::input_vertex`] of an input position no kept triangle uses.
@@ -85,6 +89,13 @@ pub struct PreparedScene {
     pub rings: Csr,
     /// Triangles incident to each solver vertex.
     pub vertex_triangles: Csr,
+    /// Ray-frame colour per solver vertex: a colouring of the one-rings
+    /// (neighbours differ; [`crate::sampling::colours`]) that picks each
+    /// vertex's rotation and direction set
+    /// ([`crate::sampling::vertex_rotations_and_sets`]). Set with the
+    /// topology; refinement keeps the colours of the vertices it keeps
+    /// ([`crate::solver::adaptive`]).
+    pub colours: Vec<u32>,
     pub meshes: Vec<MeshRange>,
     /// Zero-area triangles dropped during preparation.
     pub dropped_triangles: usize,
@@ -134,6 +145,8 @@ struct MeshPrep {
     input_vertex: Vec<u32>,
     /// Per solver vertex: an input position it came from ([`MeshRange::vertex_input`]).
     vertex_input: Vec<u32>,
+    /// Per kept triangle: its input triangle ([`MeshRange::triangle_input`]).
+    triangle_input: Vec<u32>,
 }
 
 /// The rule by which preparation drops a triangle of cross product
@@ -374,6 +387,7 @@ fn prepare_mesh(mesh: &super::MeshDesc) -> Result<MeshPrep> {
         textures,
         input_vertex,
         vertex_input,
+        triangle_input: tris_index.iter().map(|&i| i as u32).collect(),
     };
     if let Some(order) = super::order::better_order(&mp.triangles, mp.positions.len()) {
         mp.renumber(&order);
@@ -423,6 +437,7 @@ pub fn prepare(scene: &SceneDesc) -> Result<PreparedScene> {
         boundary: vec![],
         rings: Csr::default(),
         vertex_triangles: Csr::default(),
+        colours: vec![],
         meshes: vec![],
         dropped_triangles: 0,
         textures: None,
@@ -463,6 +478,7 @@ pub fn prepare(scene: &SceneDesc) -> Result<PreparedScene> {
             deform: mesh.deform.clone(),
             input_vertex: mp.input_vertex.iter().map(|&v| if v == NO_VERTEX { v } else { v + vbase }).collect(),
             vertex_input: mp.vertex_input.clone(),
+            triangle_input: mp.triangle_input.clone(),
         });
         pos_base += mp.welded_count;
     }
@@ -556,6 +572,7 @@ impl PreparedScene {
         }
         self.rings = rings_of(&self.triangles, n);
         self.vertex_triangles = Csr::from_pairs(n, &vt);
+        self.colours = crate::sampling::colours(&self.rings);
         // Crease: more than one solver vertex at a welded position.
         let mut copies: HashMap<u32, u32> = HashMap::new();
         for &p in &self.position_id {

@@ -133,12 +133,14 @@ fn mark_edges(mesh: &MeshDesc, mark: impl Fn(u32, u32) -> bool) -> Vec<(u32, u32
 
 /// One conforming pass: splits the `marked` edges (keys from [`edge_key`])
 /// at their midpoints and cuts every triangle by its marked edges.
-fn split_edges(out: &mut MeshDesc, marked: &[(u32, u32)]) {
+/// Returns each new triangle's parent (its index before the pass).
+fn split_edges(out: &mut MeshDesc, marked: &[(u32, u32)]) -> Vec<u32> {
     let mut mid: HashMap<(u32, u32), u32> = HashMap::with_capacity(marked.len());
     for &(a, b) in marked {
         mid.insert((a, b), push_midpoint(out, a as usize, b as usize));
     }
     let mut triangles = Vec::with_capacity(out.triangles.len() * 2);
+    let mut parents = Vec::with_capacity(out.triangles.len() * 2);
     let mut materials = Vec::with_capacity(out.triangles.len() * 2);
     let mut maps = out.textures.as_ref().map(|_| Vec::with_capacity(out.triangles.len() * 2));
     for (i, t) in out.triangles.iter().enumerate() {
@@ -149,6 +151,7 @@ fn split_edges(out: &mut MeshDesc, marked: &[(u32, u32)]) {
         };
         for p in split(*t, m, &out.positions) {
             triangles.push(p);
+            parents.push(i as u32);
             materials.push(out.triangle_material[i]);
             if let (Some(maps), Some(tex)) = (maps.as_mut(), out.textures.as_ref()) {
                 maps.push(tex.triangle_map[i]);
@@ -160,6 +163,7 @@ fn split_edges(out: &mut MeshDesc, marked: &[(u32, u32)]) {
     if let (Some(maps), Some(tex)) = (maps, out.textures.as_mut()) {
         tex.triangle_map = maps;
     }
+    parents
 }
 
 /// Appends the midpoint of positions `a` and `b` with averaged attributes.
@@ -354,18 +358,27 @@ pub fn world_edge(a: Vec3, b: Vec3) -> WorldEdge {
 }
 
 /// One conforming pass over every mesh: the edges whose world key is in
-/// `marks` split at their midpoints (the error-driven step).
-pub fn split_world_edges(scene: &SceneDesc, marks: &std::collections::HashSet<WorldEdge>) -> SceneDesc {
+/// `marks` split at their midpoints (the error-driven step). Also returns,
+/// per mesh, each new triangle's parent: the index of the triangle of
+/// `scene`'s mesh it is a piece of (itself where nothing was split).
+pub fn split_world_edges(
+    scene: &SceneDesc,
+    marks: &std::collections::HashSet<WorldEdge>,
+) -> (SceneDesc, Vec<Vec<u32>>) {
     let mut out = scene.clone();
-    for m in out.meshes.iter_mut().filter(|m| refinable(m)) {
+    let mut parents = Vec::with_capacity(out.meshes.len());
+    for m in out.meshes.iter_mut() {
+        let same = (0..m.triangles.len() as u32).collect();
+        if !refinable(m) {
+            parents.push(same);
+            continue;
+        }
         let t = m.transform.matrix();
         let world: Vec<Vec3> = m.positions.iter().map(|p| t.transform_point3(*p)).collect();
         let marked = mark_edges(m, |a, b| marks.contains(&world_edge(world[a as usize], world[b as usize])));
-        if !marked.is_empty() {
-            split_edges(m, &marked);
-        }
+        parents.push(if marked.is_empty() { same } else { split_edges(m, &marked) });
     }
-    out
+    (out, parents)
 }
 
 /// Every mesh of `scene` refined; the stats per mesh.
@@ -456,8 +469,23 @@ mod tests {
             .filter(|&(a, b)| (a.wrapping_mul(2654435761) ^ b.wrapping_mul(40503)) % 3 == 0)
             .map(|(a, b)| world_edge(world(a), world(b)))
             .collect();
-        let out = split_world_edges(&scene, &marks);
+        let (out, parents) = split_world_edges(&scene, &marks);
         let r = &out.meshes[0];
+        // Every piece lies in its parent's plane and the pieces of a parent cover its area.
+        let mut covered = vec![0f32; fine.triangles.len()];
+        for (j, t) in r.triangles.iter().enumerate() {
+            let p = parents[0][j] as usize;
+            let [a, b, c] = t.map(|i| r.positions[i as usize]);
+            let [pa, pb, pc] = fine.triangles[p].map(|i| fine.positions[i as usize]);
+            let n = (pb - pa).cross(pc - pa).normalize();
+            assert!([a, b, c].iter().all(|x| (*x - pa).dot(n).abs() < 1e-5), "piece {j} off its parent {p}");
+            covered[p] += (b - a).cross(c - a).length() * 0.5;
+        }
+        for (p, t) in fine.triangles.iter().enumerate() {
+            let [a, b, c] = t.map(|i| fine.positions[i as usize]);
+            let area = (b - a).cross(c - a).length() * 0.5;
+            assert!((covered[p] - area).abs() < 1e-5 * area.max(1.0), "parent {p}: {} of {area}", covered[p]);
+        }
         assert!(r.triangles.len() > fine.triangles.len() + marks.len(), "{} marks", marks.len());
         assert!(edge_uses(r).values().all(|&u| u == 2), "a T-junction or a hole after the error-driven pass");
         assert_eq!(&r.positions[..fine.positions.len()], &fine.positions[..], "input positions moved");

@@ -74,7 +74,7 @@ impl SkyRays {
         }
         let p = link;
         let k = (p.rays_per_vertex as f64).sqrt().round() as u32;
-        let (rotations, sets) = crate::sampling::vertex_rotations_and_sets(&s.rings, p.seed);
+        let (rotations, sets) = crate::sampling::vertex_rotations_and_sets(&s.colours, p.seed);
         let directions = crate::sampling::DirectionSet::new(k, p.seed);
         // Portals the samples were traced for: their directions are left to them.
         let frames = super::visibility::RayFrames {

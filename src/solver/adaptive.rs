@@ -20,19 +20,31 @@
 //! Rounds stop when nothing is marked, at the budget, or after
 //! [`MAX_ROUNDS`]. A scene without coarse meshes is solved once, as before.
 //!
-//! Deviations from the design: each round solves the refined scene
-//! afresh (new vertices shoot their rays, and so do all others) instead of
-//! re-assigning the hits of split triangles to their pieces; the indicator
-//! is the corners' difference, so a feature wholly inside one triangle of
-//! length `L` is found only by the a-priori step. Dynamic meshes are left
-//! as they are (refit keeps their topology). A light that moves later keeps
-//! the mesh refined for where it was.
+//! Rounds after the first update only what the split changed
+//! ([`crate::links::reassign`]): on the CPU every round records its link
+//! rays' hits; the next one keeps the rays of every old vertex inside a
+//! smooth surface (same origin, normal and frame), re-assigns those that
+//! hit a split triangle to the piece holding the hit point with one
+//! triangle test, and traces only the new vertices' rays and those of
+//! crease, border and touching vertices. The links equal a fresh shoot of
+//! the refined scene bit for bit (`tests/refine.rs`). The other traced
+//! parts (light and emitter links, sky, near field, final gather) are
+//! traced anew each round, and a GPU solver's rounds shoot every ray (the
+//! GPU records no hits).
+//!
+//! Deviations from the design: the indicator is the corners'
+//! difference, so a feature wholly inside one triangle of length `L` is
+//! found only by the a-priori step. Dynamic meshes are left as they are
+//! (refit keeps their topology). A light that moves later keeps the mesh
+//! refined for where it was.
 
 use super::{Compute, SolveParams, Solver};
+use crate::links::{reassign_links, Lineage, ReassignStats};
 use crate::render::exposure::luminance;
 use crate::scene::refine::{self, RefineMode, WorldEdge};
 use crate::scene::{prep, SceneDesc};
 use crate::solver::Solution;
+use crate::trace::Accel;
 use std::collections::HashSet;
 use std::time::Instant;
 
@@ -47,8 +59,14 @@ pub struct Round {
     pub triangles: usize,
     /// Edges this round's solution marked for splitting (0 in the last).
     pub marked: usize,
+    /// Link rays traced in this round, and carried over from the round
+    /// before without tracing ([`crate::links::reassign`]; 0 in the first).
+    pub rays_traced: u64,
+    pub rays_carried: u64,
     /// Preparation, links and solve, milliseconds.
     pub ms: f64,
+    /// The links alone (traced, or carried and traced), milliseconds.
+    pub links_ms: f64,
     /// The solve alone ([`Solver::solve`]: bounces, corrections, smoothing), milliseconds.
     pub solve_ms: f64,
 }
@@ -100,22 +118,37 @@ pub fn solve(desc: &SceneDesc, compute: &Compute, progress: &(dyn Fn(usize, usiz
 /// the scene as loaded).
 pub fn solve_planned(
     mut current: SceneDesc,
-    mut prepared: prep::PreparedScene,
+    prepared: prep::PreparedScene,
     plan: &Plan,
     compute: &Compute,
     progress: &(dyn Fn(usize, usize) + Sync),
 ) -> crate::Result<Refined> {
     let settings = current.settings.refine;
+    let params = SolveParams::from_settings(&current.settings);
     let mut rounds = Vec::new();
+    // On the CPU the rounds record every ray's hit, so the next round carries them over.
+    let carry = plan.refining && matches!(compute, Compute::Cpu);
+    let mut t = Instant::now();
+    let mut solver = if carry {
+        Solver::recording(prepared, params, progress)
+    } else {
+        Solver::new_on(prepared, params, compute, progress)?
+    };
+    let mut carried = all_traced(&solver);
     loop {
-        let t = Instant::now();
-        let solver = Solver::new_on(prepared, SolveParams::from_settings(&current.settings), compute, progress)?;
         let ts = Instant::now();
         let solution = solver.solve();
         let solve_ms = ts.elapsed().as_secs_f64() * 1e3;
         let s = solver.scene();
-        let mut round =
-            Round { vertices: s.vertex_count(), triangles: s.triangles.len(), solve_ms, ..Default::default() };
+        let mut round = Round {
+            vertices: s.vertex_count(),
+            triangles: s.triangles.len(),
+            rays_traced: carried.rays_traced,
+            rays_carried: carried.rays_carried,
+            links_ms: carried.ms,
+            solve_ms,
+            ..Default::default()
+        };
         let marks = if plan.refining && rounds.len() < MAX_ROUNDS {
             mark(s, &solution, &plan.coarse, plan.target / 4.0, settings.tolerance)
         } else {
@@ -129,7 +162,7 @@ pub fn solve_planned(
         while take > 0 {
             let chosen: HashSet<WorldEdge> = marks[..take].iter().map(|(_, e)| *e).collect();
             let split = refine::split_world_edges(&current, &chosen);
-            let over = positions(&split).saturating_sub(budget);
+            let over = positions(&split.0).saturating_sub(budget);
             if over == 0 {
                 next = Some(split);
                 break;
@@ -139,13 +172,58 @@ pub fn solve_planned(
         round.marked = take;
         round.ms = t.elapsed().as_secs_f64() * 1e3;
         rounds.push(round);
-        let Some(next) = next else {
+        let Some((next, parents)) = next else {
+            if !solver.scene.meshes.iter().any(|m| m.dynamic) {
+                solver.ray_hits = None;
+            }
             return Ok(Refined { desc: current, solver, solution, rounds });
         };
-        let sky = s.sky.clone();
+        t = Instant::now();
+        let mut prepared = prep::prepare(&next)?;
+        prepared.sky = s.sky.clone();
         current = next;
-        prepared = prep::prepare(&current)?;
-        prepared.sky = sky;
+        (solver, carried) = if carry {
+            solver.refined(prepared, &parents, progress)
+        } else {
+            let solver = Solver::new_on(prepared, params, compute, progress)?;
+            let traced = all_traced(&solver);
+            (solver, traced)
+        };
+    }
+}
+
+/// The figures of a solver whose links traced every ray.
+fn all_traced(solver: &Solver) -> ReassignStats {
+    let rays = solver.scene.vertex_count() as u64 * solver.params.links.rays_per_vertex as u64;
+    ReassignStats { rays_traced: rays, ms: solver.links.stats.shoot_ms, ..Default::default() }
+}
+
+impl Solver {
+    /// [`Solver::new`] recording every link ray's hit id, which the next
+    /// round's [`Solver::refined`] carries over.
+    fn recording(scene: prep::PreparedScene, params: SolveParams, progress: &(dyn Fn(usize, usize) + Sync)) -> Solver {
+        let params = params.staged();
+        let accel = Accel::build(params.tracer, &scene.positions, &scene.triangles, &params.bvh, &params.kd);
+        Solver::on_cpu(scene, params, accel, true, progress)
+    }
+
+    /// The solver of `scene`, prepared from a refinement of this solver's
+    /// scene (`parents` from [`refine::split_world_edges`]): kept vertices
+    /// carry their rays' hits over, the others trace
+    /// ([`crate::links::reassign`]); then every traced part is traced.
+    /// Needs this solver's ray state (a recording CPU solver).
+    fn refined(
+        &self,
+        mut scene: prep::PreparedScene,
+        parents: &[Vec<u32>],
+        progress: &(dyn Fn(usize, usize) + Sync),
+    ) -> (Solver, ReassignStats) {
+        let hits = self.ray_hits.as_ref().expect("a recording solver");
+        let lineage = Lineage::new(&self.scene, &mut scene, parents);
+        let params = self.params.clone();
+        let accel = Accel::build(params.tracer, &scene.positions, &scene.triangles, &params.bvh, &params.kd);
+        let (links, hits, stats) = reassign_links(&self.scene, hits, &scene, &lineage, &accel, &params.links, progress);
+        (Solver::assemble(scene, params, accel, links, None, Compute::Cpu, Some(hits)), stats)
     }
 }
 

@@ -189,7 +189,8 @@ impl Solver {
             return (Solver::new(scene, params, progress), false);
         }
         let refitted = bvh.update(&scene.positions, &scene.triangles) == crate::bvh::refit::Update::Refit;
-        (Solver::on_cpu(scene, params, Accel::Bvh(bvh), progress), refitted)
+        let record = scene.meshes.iter().any(|m| m.dynamic);
+        (Solver::on_cpu(scene, params, Accel::Bvh(bvh), record, progress), refitted)
     }
 
     /// Calls `show` with the preview state of the module doc, then restores

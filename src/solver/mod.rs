@@ -94,18 +94,20 @@ impl Solver {
     pub fn new(scene: PreparedScene, params: SolveParams, progress: &(dyn Fn(usize, usize) + Sync)) -> Solver {
         let params = params.staged();
         let accel = Accel::build(params.tracer, &scene.positions, &scene.triangles, &params.bvh, &params.kd);
-        Solver::on_cpu(scene, params, accel, progress)
+        let record = scene.meshes.iter().any(|m| m.dynamic);
+        Solver::on_cpu(scene, params, accel, record, progress)
     }
 
     /// The CPU solver with `accel` built over `scene`: links (with per-ray
-    /// state for scenes with dynamic meshes) and every traced part.
+    /// state when `record` is set: scenes with dynamic meshes, refinement
+    /// rounds) and every traced part.
     fn on_cpu(
         scene: PreparedScene,
         params: SolveParams,
         accel: Accel,
+        record: bool,
         progress: &(dyn Fn(usize, usize) + Sync),
     ) -> Solver {
-        let record = scene.meshes.iter().any(|m| m.dynamic);
         let (links, ray_hits) = links::shoot_links_recording(&scene, &accel, &params.links, record, progress);
         Solver::assemble(scene, params, accel, links, None, Compute::Cpu, ray_hits)
     }
