@@ -437,3 +437,79 @@ fn f32_accumulation_over_thousands_of_links() {
     assert!(rel < 1e-5, "f32 accumulation off by {rel}");
     assert!(out[1..].iter().all(|e| *e == Vec3::ZERO));
 }
+
+/// The suite's coarse and degenerate cases with refinement on (`refine =
+/// "auto"`, through `solver::adaptive`, error-driven rounds carrying their
+/// rays): a closed room of one quad a wall at stiff albedo keeps the
+/// closed balance of its (refined) link operator and never passes
+/// `E_d / (1 - rho)`; slivers, dropped and non-manifold triangles stay
+/// within the open-scene bound; a lone triangle reads `I cos / r^2` at
+/// every refined vertex; a convex open box still cannot light itself.
+#[test]
+fn coarse_and_degenerate_cases_with_refinement_on() {
+    use linkgi::solver::{adaptive, Compute};
+    let refined = |desc: &SceneDesc, what: &str| {
+        let r = adaptive::solve(desc, &Compute::Cpu, &|_, _| {}).expect("solves");
+        r.solver.validate().expect("every structure and table valid");
+        for v in r.solution.e_direct.iter().chain(&r.solution.e_indirect).chain(&r.solution.e_indirect_raw) {
+            assert!(v.is_finite() && v.min_element() >= 0.0, "{what}: {v}");
+        }
+        let verts: Vec<usize> = r.rounds.iter().map(|r| r.vertices).collect();
+        eprintln!("{what}: vertices per round {verts:?}");
+        r
+    };
+    for rho in [0.99f32, 0.999] {
+        let mut desc = common::with_settings(builtin::closed_room(1, rho), 64, Bounces::Auto, 30.0);
+        desc.settings.terms.reconstruct = false;
+        assert!(adaptive::Plan::of(&desc).refining, "a room of one quad a wall is coarse");
+        let r = refined(&desc, "closed room");
+        assert!(r.solver.scene().vertex_count() > 100, "refined");
+        assert_closed_energy(&r.solver, &r.solution, rho, &format!("refined closed room rho {rho}"));
+    }
+    let sliver = custom(
+        vec![floor_with(
+            &[
+                Vec3::new(-0.5, 0.2, 0.0),
+                Vec3::new(0.5, 0.2, 0.0),
+                Vec3::new(0.0, 0.2, 1e-5),
+                Vec3::new(0.0, 0.3, 1e-5),
+            ],
+            &[[0, 1, 2], [0, 3, 1]],
+        )],
+        above(LIGHT),
+    );
+    let zero_area = custom(
+        vec![floor_with(
+            &[Vec3::new(-0.5, 0.2, 0.0), Vec3::new(0.5, 0.2, 0.0), Vec3::new(0.0, 0.2, 0.0)],
+            &[[0, 1, 2], [0, 0, 1]],
+        )],
+        above(LIGHT),
+    );
+    let mut fins = floor_with(&[], &[]);
+    let top = fins.positions.len() as u32;
+    fins.positions.extend([Vec3::new(0.0, 0.5, 0.0), Vec3::new(0.3, 0.5, -0.3)]);
+    fins.triangles.extend([[0, 2, top], [2, 0, top + 1]]);
+    fins.triangle_material.extend([0, 0]);
+    for (what, desc) in [("sliver", sliver), ("zero-area", zero_area), ("non-manifold", custom(vec![fins], above(LIGHT)))]
+    {
+        let r = refined(&desc, what);
+        assert!(r.solver.scene().vertex_count() > 20, "{what}: refined");
+        assert_open_energy(&r.solver, &r.solution, what);
+    }
+    let lone = custom(vec![grey("tri", vec![Vec3::ZERO, Vec3::Z, Vec3::X], vec![[0, 1, 2]])], above(LIGHT));
+    let r = refined(&lone, "single triangle");
+    assert!(r.solver.scene().vertex_count() > 3, "refined");
+    for v in 0..r.solver.scene().vertex_count() {
+        let d = LIGHT - r.solver.scene().positions[v];
+        let g = d.y / d.length().powi(3);
+        assert!((r.solution.e_direct[v].x / g - 1.0).abs() < 1e-5, "vertex {v}: E_d {}", r.solution.e_direct[v].x);
+        assert_eq!(r.solution.e_indirect[v], Vec3::ZERO);
+    }
+    let mut b = MeshBuilder::new();
+    let m = b.add_material("grey", Vec3::splat(0.8));
+    let s = Some(m);
+    b.cuboid_open(Vec3::new(-0.5, 0.0, -0.5), Vec3::new(0.5, 1.0, 0.5), [1; 3], [s, s, s, None, s, s], false);
+    let r = refined(&custom(vec![b.finish("open box", 30.0)], above(Vec3::new(1.5, 2.0, 1.0))), "open box");
+    let max_i = r.solution.e_indirect_raw.iter().map(|e| e.max_element()).fold(0.0, f32::max);
+    assert_eq!(max_i, 0.0, "a convex outward box cannot light itself, refined or not");
+}
