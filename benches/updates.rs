@@ -15,6 +15,14 @@
 //!   again) against a full one (BVH refit, every ray traced again), each
 //!   with its solve.
 //!
+//! - `refine_round/mcguire`: the links of one error-driven refinement
+//!   round of McGuire's Cornell box (`../shared/scenes/`; skipped where it
+//!   is absent), a priori refined to 1,744 triangles, then a third of its
+//!   edges split (by a hash of their ends: one, two and three marks a
+//!   triangle): carried (`links::reassign`: kept vertices' hits re-assigned
+//!   to the pieces, the other rays traced) against every ray traced. Both
+//!   give the same links (checked once before timing).
+//!
 //! `linkgi bench` reports the same updates once per run beside the
 //! paper's tables. Run: `cargo bench --bench updates` or with a filter,
 //! e.g. `cargo bench --bench updates -- sky_change`.
@@ -152,5 +160,55 @@ fn deform(c: &mut Criterion) {
     g.finish();
 }
 
-criterion_group!(benches, light_move, sky_change, deform);
+fn refine_round(c: &mut Criterion) {
+    use linkgi::links::{reassign_links, shoot_links_recording, Lineage};
+    use linkgi::scene::refine::{apriori, split_world_edges, world_edge};
+    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../shared/scenes/cornell-mcguire/CornellBox-Original.obj");
+    let Ok(desc) = linkgi::scene::load(path) else {
+        eprintln!("refine_round: {path} not found, skipped");
+        return;
+    };
+    let (desc0, _) = apriori(&desc, &desc.settings.refine);
+    let scene0 = prep::prepare(&desc0).unwrap();
+    let params = SolveParams::from_settings(&scene0.settings).links;
+    let bvh0 = linkgi::bvh::Bvh::build(&scene0.positions, &scene0.triangles, &Default::default());
+    let (_, hits0) = shoot_links_recording(&scene0, &bvh0, &params, true, &|_, _| {});
+    let hits0 = hits0.unwrap();
+    let mut marks = std::collections::HashSet::new();
+    for m in &desc0.meshes {
+        let world = |i: u32| m.transform.matrix().transform_point3(m.positions[i as usize]);
+        for t in &m.triangles {
+            for k in 0..3 {
+                let (a, b) = (t[k].min(t[(k + 1) % 3]), t[k].max(t[(k + 1) % 3]));
+                if (a.wrapping_mul(2654435761) ^ b.wrapping_mul(40503)) % 3 == 0 {
+                    marks.insert(world_edge(world(a), world(b)));
+                }
+            }
+        }
+    }
+    let (desc1, parents) = split_world_edges(&desc0, &marks);
+    let mut scene1 = prep::prepare(&desc1).unwrap();
+    let lineage = Lineage::new(&scene0, &mut scene1, &parents);
+    let bvh1 = linkgi::bvh::Bvh::build(&scene1.positions, &scene1.triangles, &Default::default());
+    let carried = reassign_links(&scene0, &hits0, &scene1, &lineage, &bvh1, &params, &|_, _| {});
+    let traced = shoot_links_recording(&scene1, &bvh1, &params, true, &|_, _| {});
+    assert!(carried.0.offsets == traced.0.offsets && carried.0.weights == traced.0.weights, "carried != traced");
+    eprintln!(
+        "refine_round: {} -> {} vertices, {} kept; {} rays carried, {} traced",
+        scene0.vertex_count(),
+        scene1.vertex_count(),
+        lineage.kept_count(),
+        carried.2.rays_carried,
+        carried.2.rays_traced
+    );
+    let mut g = c.benchmark_group("refine_round/mcguire");
+    g.sample_size(20).measurement_time(Duration::from_secs(10)).warm_up_time(Duration::from_secs(2));
+    g.bench_function("carried", |b| {
+        b.iter(|| reassign_links(&scene0, &hits0, &scene1, &lineage, &bvh1, &params, &|_, _| {}))
+    });
+    g.bench_function("traced", |b| b.iter(|| shoot_links_recording(&scene1, &bvh1, &params, true, &|_, _| {})));
+    g.finish();
+}
+
+criterion_group!(benches, light_move, sky_change, deform, refine_round);
 criterion_main!(benches);
