@@ -490,7 +490,8 @@ fn coarse_and_degenerate_cases_with_refinement_on() {
     fins.positions.extend([Vec3::new(0.0, 0.5, 0.0), Vec3::new(0.3, 0.5, -0.3)]);
     fins.triangles.extend([[0, 2, top], [2, 0, top + 1]]);
     fins.triangle_material.extend([0, 0]);
-    for (what, desc) in [("sliver", sliver), ("zero-area", zero_area), ("non-manifold", custom(vec![fins], above(LIGHT)))]
+    for (what, desc) in
+        [("sliver", sliver), ("zero-area", zero_area), ("non-manifold", custom(vec![fins], above(LIGHT)))]
     {
         let r = refined(&desc, what);
         assert!(r.solver.scene().vertex_count() > 20, "{what}: refined");

@@ -36,7 +36,9 @@
 //! difference, so a feature wholly inside one triangle of length `L` is
 //! found only by the a-priori step. Dynamic meshes are left as they are
 //! (refit keeps their topology). A light that moves later keeps the mesh
-//! refined for where it was.
+//! refined for where it was (measured in docs/DESIGN.md §9: on the coarse
+//! test box a point light moved corner to corner reads the same block
+//! error, 0.025, as on a mesh refined for its new place).
 
 use super::{Compute, SolveParams, Solver};
 use crate::links::{reassign_links, Lineage, ReassignStats};
