@@ -21,7 +21,7 @@ fn main() -> linkgi::Result<()> {
         SolveParams::from_settings(&scene.settings),
         Compute::Cpu,
         EngineParams::default(),
-    );
+    )?;
     let start = Instant::now();
     let (mut seen, mut last) = (Vec::new(), 0);
     for frame in 0..60u32 {

@@ -51,6 +51,10 @@ pub enum Error {
     /// The GPU path failed (no adapter, a device error, a lost device).
     #[error("GPU: {0}")]
     Gpu(String),
+    /// The engine's worker thread could not be started (the system's limit
+    /// on threads or memory).
+    #[error("could not start the GI worker thread: {0}")]
+    Thread(#[source] std::io::Error),
 }
 
 pub type Result<T> = std::result::Result<T, Error>;

@@ -16,7 +16,7 @@ fn start(name: &str, rays: u32, delay_ms: u64) -> (Engine, prep::PreparedScene) 
     let scene = prep::prepare(&desc).unwrap();
     let params = SolveParams::from_settings(&scene.settings);
     let opts = EngineParams { delay: Duration::from_millis(delay_ms), ..Default::default() };
-    (Engine::start(scene.clone(), params, Compute::Cpu, opts), scene)
+    (Engine::start(scene.clone(), params, Compute::Cpu, opts).expect("the worker starts"), scene)
 }
 
 fn first_point(scene: &prep::PreparedScene) -> (Vec3, Vec3) {
@@ -160,7 +160,7 @@ fn light_preview_is_followed_by_the_full_result() {
     params.light.oversample = true;
     let start = |preview: bool| {
         let opts = EngineParams { light_preview: preview, ..Default::default() };
-        Engine::start(scene.clone(), params, Compute::Cpu, opts)
+        Engine::start(scene.clone(), params, Compute::Cpu, opts).expect("the worker starts")
     };
     let (mut plain, mut quick) = (start(false), start(true));
     let (p, i) = first_point(&scene);
@@ -202,7 +202,7 @@ fn light_preview_without_oversampling_is_the_full_result() {
     let params = SolveParams::from_settings(&scene.settings);
     assert!(!params.light.oversample);
     let opts = EngineParams { light_preview: true, ..Default::default() };
-    let mut e = Engine::start(scene.clone(), params, Compute::Cpu, opts);
+    let mut e = Engine::start(scene.clone(), params, Compute::Cpu, opts).expect("the worker starts");
     assert!(e.wait_idle(WAIT));
     let (p, i) = first_point(&scene);
     e.send(Change::MoveLight { index: 0, light: Light::Point { position: p - Vec3::X * 0.1, intensity: i } });
@@ -225,7 +225,7 @@ fn a_failed_batch_after_a_preview_still_ends_in_a_full_result() {
     let (p, i) = first_point(&scene);
     for bad in [Change::RemoveLight(99), Change::Panic] {
         let opts = EngineParams { delay: Duration::from_millis(400), light_preview: true, ..Default::default() };
-        let mut e = Engine::start(scene.clone(), params, Compute::Cpu, opts);
+        let mut e = Engine::start(scene.clone(), params, Compute::Cpu, opts).expect("the worker starts");
         assert!(e.wait_idle(WAIT));
         let moved = |k: f32| Change::MoveLight {
             index: 0,
@@ -258,7 +258,7 @@ fn deformation_preview_then_selective_full_result() {
     let rest = prep::prepare(&desc).unwrap();
     let params = SolveParams::from_settings(&rest.settings);
     let opts = EngineParams { deform_preview: true, ..Default::default() };
-    let mut e = Engine::start(rest.clone(), params, Compute::Cpu, opts);
+    let mut e = Engine::start(rest.clone(), params, Compute::Cpu, opts).expect("the worker starts");
     assert!(e.wait_idle(WAIT));
     let c0 = e.counters();
     assert!(c0.deform.is_none());
@@ -297,7 +297,7 @@ fn a_sky_on_a_scene_without_one_traces_its_rays_once() {
     sky0.portals.clear();
     let scene = prep::prepare(&desc).unwrap();
     let params = SolveParams::from_settings(&scene.settings);
-    let mut e = Engine::start(scene.clone(), params, Compute::Cpu, EngineParams::default());
+    let mut e = Engine::start(scene.clone(), params, Compute::Cpu, EngineParams::default()).expect("the worker starts");
     assert!(e.wait_idle(WAIT));
     let c0 = e.counters();
     let fresh = |scene: &prep::PreparedScene| {

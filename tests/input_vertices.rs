@@ -172,7 +172,8 @@ fn a_deformation_in_input_order_equals_it_in_solver_order() {
 
     let run = |positions: Vec<Vec3>| {
         let params = SolveParams::from_settings(&scene.settings);
-        let mut e = Engine::start(scene.clone(), params, Compute::Cpu, EngineParams::default());
+        let mut e =
+            Engine::start(scene.clone(), params, Compute::Cpu, EngineParams::default()).expect("the worker starts");
         e.send(Change::Deform { positions });
         assert!(e.wait_idle(std::time::Duration::from_secs(120)));
         e.latest().unwrap()

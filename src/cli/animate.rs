@@ -78,7 +78,7 @@ pub fn run(args: AnimateArgs) -> Result<()> {
         compute.clone(),
         // Previews of deformations, except when every frame waits for its full GI.
         EngineParams { deform_preview: !args.sync, ..Default::default() },
-    );
+    )?;
     let t_first = Instant::now();
     engine.wait_idle(Duration::from_secs(3600));
     let first_ms = t_first.elapsed().as_secs_f64() * 1e3;

@@ -252,7 +252,13 @@ fn publish(shared: &Shared, s: &Solver, c: &mut Counters, t0: Instant, preview: 
 
 impl Engine {
     /// Starts the worker; it builds the solver and publishes version 1.
-    pub fn start(scene: PreparedScene, params: SolveParams, compute: Compute, options: EngineParams) -> Engine {
+    /// Fails only where the system cannot start a thread.
+    pub fn start(
+        scene: PreparedScene,
+        params: SolveParams,
+        compute: Compute,
+        options: EngineParams,
+    ) -> crate::Result<Engine> {
         let (tx, rx) = crossbeam_channel::unbounded();
         let shared = Arc::new(Shared {
             latest: Mutex::new(None),
@@ -265,8 +271,8 @@ impl Engine {
             .spawn(move || {
                 Worker { shared: sh, compute, options, params, solver: None, good: scene, pending: 0 }.run(rx)
             })
-            .expect("spawn GI worker");
-        Engine { tx, shared, sent: 0, handle: Some(handle) }
+            .map_err(crate::Error::Thread)?;
+        Ok(Engine { tx, shared, sent: 0, handle: Some(handle) })
     }
 
     /// Queues a change (never blocks).

@@ -156,8 +156,8 @@ pub fn shoot_links_gpu(
                 let mut busy = 0f64;
                 loop {
                     let want = {
-                        let sp = speeds.lock().expect("speeds lock");
-                        let remaining = n - *cursor.lock().expect("cursor lock");
+                        let sp = speeds.lock().unwrap_or_else(|p| p.into_inner());
+                        let remaining = n - *cursor.lock().unwrap_or_else(|p| p.into_inner());
                         let sum: f64 = sp.iter().sum();
                         let size = if sp[i] > 0.0 {
                             // Its speed times the target time, and never more than its
@@ -171,7 +171,7 @@ pub fn shoot_links_gpu(
                         size.max(sched.first_batch_vertices.clamp(1, 64)).min(max_vertices)
                     };
                     let (a, b) = {
-                        let mut c = cursor.lock().expect("cursor lock");
+                        let mut c = cursor.lock().unwrap_or_else(|p| p.into_inner());
                         let a = *c;
                         *c = (a + want).min(n);
                         (a, *c)
@@ -187,7 +187,7 @@ pub fn shoot_links_gpu(
                     let secs = t.elapsed().as_secs_f64();
                     busy += secs;
                     traced_rays += ((b - a) * rays) as u64;
-                    speeds.lock().expect("speeds lock")[i] = (b - a) as f64 / secs.max(1e-6);
+                    speeds.lock().unwrap_or_else(|p| p.into_inner())[i] = (b - a) as f64 / secs.max(1e-6);
                     share.batches += 1;
                     share.vertices += b - a;
                     share.ranges.push((a, b));

@@ -99,7 +99,9 @@ impl GpuTracer {
     }
 
     fn shoot_unchecked(&self, vertices: &[RayVertex]) -> Result<Vec<HitRecord>> {
-        let (dirs, rays_per_vertex) = self.directions.as_ref().expect("set_directions before shoot");
+        let Some((dirs, rays_per_vertex)) = self.directions.as_ref() else {
+            return Err(crate::Error::Gpu("no direction set: GpuTracer::set_directions before shoot".into()));
+        };
         let count = vertices.len() as u64 * *rays_per_vertex as u64;
         if count == 0 {
             return Ok(Vec::new());

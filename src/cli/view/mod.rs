@@ -199,7 +199,7 @@ pub fn run(args: ViewArgs) -> Result<()> {
         compute,
         // Moving a light or deforming shows a quick preview first (see EngineParams).
         EngineParams { light_preview: true, deform_preview: true, ..Default::default() },
-    );
+    )?;
     let n = prepared.positions.len();
     let intensity_range = prepared
         .lights
