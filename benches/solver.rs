@@ -8,7 +8,8 @@
 //! `src/links/packed.rs` quote it 5-10% slower), beside the machine's read
 //! bandwidth (a parallel sum over 512 MB), the yardstick of the gather's
 //! target (>= 50%); and the link rays traced on one thread through the
-//! BVH and the kd-tree (`single_thread/...`, rays/s: `docs/PERFORMANCE.md`
+//! BVH (single rays in flight, and same-origin packets of 16) and the
+//! kd-tree (`single_thread/...`, rays/s: `docs/PERFORMANCE.md`
 //! quotes them beside Embree's `rtcIntersect1`).
 //!
 //! Run: `cargo bench --bench solver` (all), or with a filter, e.g.
@@ -94,6 +95,19 @@ fn single_thread(c: &mut Criterion) {
                 })
             });
         }
+        // The same rays in same-origin packets of 16 (`bvh::packet`).
+        let mut out = Vec::new();
+        g.bench_function("trace_link_rays_bvh_packets", |b| {
+            b.iter(|| {
+                let mut sum = 0f64;
+                for (i, &v) in verts.iter().enumerate() {
+                    out.resize(dirs[i].len(), None);
+                    bvh.intersect_packets(setup.origins[v], v as u32, &dirs[i], &mut out);
+                    sum += out.iter().flatten().map(|h| h.t as f64).sum::<f64>();
+                }
+                sum
+            })
+        });
         g.finish();
     }
 }

@@ -1,5 +1,6 @@
 //! Wide BVH: structure checks, closest and any hits against brute force on
-//! random and degenerate meshes, the same hits from every SIMD build, and
+//! random and degenerate meshes, the same hits from every SIMD build and
+//! from same-origin packets (scattered and coherent directions), and
 //! refits that equal fresh builds.
 
 use glam::Vec3;
@@ -116,6 +117,19 @@ fn check(mesh: &Mesh, rays: &[Ray], params: &BvhBuildParams) -> usize {
             for (d, got) in dirs.iter().zip(&out) {
                 let one = Ray { origin: r.origin, dir: *d, tmin: 0.0, tmax: f32::INFINITY, skip: r.skip };
                 assert_eq!(key(*got), key(brute_force(&kd, &one)), "origin of ray {j}, dir {d} ({isa:?})");
+            }
+            // Walked in same-origin packets: scattered directions, and a
+            // vertex's direction set in its 4x4 blocks about the ray.
+            let frame = linkgi::sampling::vertex_frame(r.dir, 0.3);
+            let set = linkgi::sampling::DirectionSet::new(16, j as u64);
+            let coherent: Vec<Vec3> = set.set(0).iter().map(|d| linkgi::sampling::world_direction(frame, *d)).collect();
+            for dirs in [&dirs, &coherent] {
+                let mut packed = vec![None; dirs.len()];
+                bvh.intersect_packets_with(r.origin, r.skip, dirs, &mut packed, isa);
+                for (d, got) in dirs.iter().zip(&packed) {
+                    let one = Ray { origin: r.origin, dir: *d, tmin: 0.0, tmax: f32::INFINITY, skip: r.skip };
+                    assert_eq!(key(*got), key(brute_force(&kd, &one)), "packet from ray {j}, dir {d} ({isa:?})");
+                }
             }
         }
     }

@@ -34,6 +34,7 @@
 
 pub mod build;
 pub mod leaf;
+pub mod packet;
 pub mod refit;
 pub mod stream;
 pub mod traverse;

@@ -1,0 +1,274 @@
+//! Same-origin packets (issue 35): up to [`PACKET`] rays that leave one
+//! point walk the tree together. A vertex's link rays share their origin
+//! and come in 4x4 blocks of nearby directions ([`crate::sampling`]), so a
+//! block mostly enters the same nodes: each node's eight child boxes are
+//! loaded once for the packet and tested against all its rays at once (one
+//! 16-lane operation per child and axis in the AVX-512 build), and the
+//! stack holds a child with the mask of the rays that entered it.
+//!
+//! Hits equal the single-ray walk's ([`Bvh::intersect`]) bit for bit: a
+//! ray's box test is the single-ray test's arithmetic on its own lane
+//! (`t_near = max(t_min, (near - o) / d)`, `t_far = min(t_best * CULL, (far
+//! - o) / d) * ROBUST`, [`super::traverse`]), leaves are tested per ray
+//! with the single-ray leaf test, and the nearest hit with ties to the
+//! lower triangle id does not depend on the order leaves are met in. A
+//! ray can only be walked into more boxes than alone (the children are
+//! ordered for the packet's first ray, and a popped child is not culled
+//! per ray), never fewer, and a box it enters in vain holds nothing nearer
+//! than its best.
+
+#[cfg(target_arch = "x86_64")]
+use super::traverse::{Avx2, Avx512};
+use super::traverse::{NodeTest, Portable, CULL, ROBUST, STACK};
+use super::{is_leaf, Bvh, Isa, EMPTY};
+use crate::kdtree::triangle::{Hit, RayShear};
+use crate::kdtree::Ray;
+use glam::Vec3;
+
+/// Rays walked together: a 4x4 block of a vertex's direction set.
+pub const PACKET: usize = 16;
+
+/// The rays of one packet and their walk state, lane by lane.
+struct Packet {
+    n: usize,
+    o: [f32; 3],
+    /// Per axis: `1 / d` per lane (a zero component as `±1e-30`, as
+    /// the single-ray test does).
+    inv: [[f32; PACKET]; 3],
+    /// Per axis: the lanes whose direction component is negative (near plane = box max).
+    neg: [u16; 3],
+    /// Per lane: the cull distance base, the best hit's `t` or `tmax`.
+    tbest: [f32; PACKET],
+    tmin: f32,
+    rays: [Ray; PACKET],
+    shears: [RayShear; PACKET],
+    best: [Option<Hit>; PACKET],
+    /// Shift of the first ray's octant in `Node8::perm`.
+    perm_shift: u32,
+}
+
+impl Packet {
+    fn new(origin: Vec3, skip: u32, dirs: &[Vec3]) -> Packet {
+        let n = dirs.len().min(PACKET);
+        let ray0 = Ray { origin, dir: Vec3::Z, tmin: 0.0, tmax: f32::INFINITY, skip };
+        let mut p = Packet {
+            n,
+            o: origin.to_array(),
+            inv: [[1.0; PACKET]; 3],
+            neg: [0; 3],
+            tbest: [f32::INFINITY; PACKET],
+            tmin: 0.0,
+            rays: [ray0; PACKET],
+            shears: [RayShear::new(Vec3::Z); PACKET],
+            best: [None; PACKET],
+            perm_shift: 0,
+        };
+        for (l, d) in dirs[..n].iter().enumerate() {
+            p.rays[l].dir = *d;
+            p.shears[l] = RayShear::new(*d);
+            for (a, &da) in d.to_array().iter().enumerate() {
+                let da = if da.abs() < 1e-30 { 1e-30f32.copysign(da) } else { da };
+                p.inv[a][l] = 1.0 / da;
+                p.neg[a] |= ((p.inv[a][l] < 0.0) as u16) << l;
+            }
+        }
+        let octant = (0..3).fold(0, |o, a| o | ((p.neg[a] & 1) as u32) << a);
+        p.perm_shift = 3 * octant;
+        p
+    }
+
+    fn active(&self) -> u16 {
+        ((1u32 << self.n) - 1) as u16
+    }
+}
+
+/// The packet's box test: per child slot, the lanes of `mask` whose ray enters it.
+trait PacketTest {
+    /// Per child slot: the lanes of `mask` whose ray enters it, and the
+    /// least entry distance among them (`+inf` where none).
+    fn masks(node: &super::Node8, p: &Packet, mask: u16) -> ([u16; 8], [f32; 8]);
+    type Leaf: NodeTest;
+}
+
+struct PortablePacket;
+
+impl PacketTest for PortablePacket {
+    type Leaf = Portable;
+
+    #[inline(always)]
+    fn masks(node: &super::Node8, p: &Packet, mask: u16) -> ([u16; 8], [f32; 8]) {
+        let b = &node.bounds;
+        let mut out = [0u16; 8];
+        let mut near = [f32::INFINITY; 8];
+        for (i, m) in out.iter_mut().enumerate() {
+            let mut bits = mask;
+            while bits != 0 {
+                let l = bits.trailing_zeros() as usize;
+                bits &= bits - 1;
+                let mut tn = p.tmin;
+                let mut tf = p.tbest[l] * CULL;
+                for a in 0..3 {
+                    let (near, far) =
+                        if p.neg[a] >> l & 1 == 1 { (b[a + 3][i], b[a][i]) } else { (b[a][i], b[a + 3][i]) };
+                    tn = tn.max((near - p.o[a]) * p.inv[a][l]);
+                    tf = tf.min((far - p.o[a]) * p.inv[a][l]);
+                }
+                if tn <= tf * ROBUST {
+                    *m |= 1 << l;
+                    near[i] = near[i].min(tn);
+                }
+            }
+        }
+        (out, near)
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+struct Avx512Packet;
+
+#[cfg(target_arch = "x86_64")]
+impl PacketTest for Avx512Packet {
+    type Leaf = Avx512;
+
+    #[inline(always)]
+    fn masks(node: &super::Node8, p: &Packet, mask: u16) -> ([u16; 8], [f32; 8]) {
+        use std::arch::x86_64::*;
+        // SAFETY: only reached from functions built with AVX-512 F + VL
+        // enabled, which run only where the CPU has them; the loads read
+        // whole `[f32; 16]` arrays.
+        unsafe {
+            let b = &node.bounds;
+            let inv = [0, 1, 2].map(|a| _mm512_loadu_ps(p.inv[a].as_ptr()));
+            let o = [0, 1, 2].map(|a| _mm512_set1_ps(p.o[a]));
+            let tb = _mm512_mul_ps(_mm512_loadu_ps(p.tbest.as_ptr()), _mm512_set1_ps(CULL));
+            let tmin = _mm512_set1_ps(p.tmin);
+            let robust = _mm512_set1_ps(ROBUST);
+            let mut out = [0u16; 8];
+            let mut entry = [f32::INFINITY; 8];
+            for (i, m) in out.iter_mut().enumerate() {
+                let mut tn = tmin;
+                let mut tf = tb;
+                for a in 0..3 {
+                    let (lo, hi) = (_mm512_set1_ps(b[a][i]), _mm512_set1_ps(b[a + 3][i]));
+                    let near = _mm512_mask_blend_ps(p.neg[a], lo, hi);
+                    let far = _mm512_mask_blend_ps(p.neg[a], hi, lo);
+                    tn = _mm512_max_ps(tn, _mm512_mul_ps(_mm512_sub_ps(near, o[a]), inv[a]));
+                    tf = _mm512_min_ps(tf, _mm512_mul_ps(_mm512_sub_ps(far, o[a]), inv[a]));
+                }
+                *m = _mm512_mask_cmp_ps_mask::<_CMP_LE_OQ>(mask, tn, _mm512_mul_ps(tf, robust));
+                if *m != 0 {
+                    entry[i] = _mm512_mask_reduce_min_ps(*m, tn);
+                }
+            }
+            (out, entry)
+        }
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+struct Avx2Packet;
+
+#[cfg(target_arch = "x86_64")]
+impl PacketTest for Avx2Packet {
+    type Leaf = Avx2;
+
+    #[inline(always)]
+    fn masks(node: &super::Node8, p: &Packet, mask: u16) -> ([u16; 8], [f32; 8]) {
+        PortablePacket::masks(node, p, mask)
+    }
+}
+
+impl Bvh {
+    /// Walks packet `p` to the end.
+    #[inline(always)]
+    fn walk_packet<T: PacketTest>(&self, p: &mut Packet) {
+        let mut stack: [(u32, u16, f32); STACK] = [(0, 0, 0.0); STACK];
+        let mut sp = 0;
+        let mut cur = (0u32, p.active());
+        loop {
+            let (c, mask) = cur;
+            if is_leaf(c) {
+                let mut bits = mask;
+                while bits != 0 {
+                    let l = bits.trailing_zeros() as usize;
+                    bits &= bits - 1;
+                    self.test_leaf::<T::Leaf, false>(c, &p.rays[l], &p.shears[l], &mut p.best[l]);
+                    p.tbest[l] = p.best[l].map_or(p.rays[l].tmax, |h| h.t);
+                }
+            } else if sp + 8 > STACK {
+                // Cannot happen for trees this builder makes (see `STACK`):
+                // the lanes left finish on their own.
+                for l in 0..p.n {
+                    p.best[l] = self.intersect(&p.rays[l]);
+                }
+                return;
+            } else {
+                let node = &self.nodes[c as usize];
+                let (masks, entry) = T::masks(node, p, mask);
+                // Front to back for the first ray's octant: the nearest is pushed last.
+                for i in 0..8 {
+                    let slot = (node.perm[i] >> p.perm_shift & 7) as usize;
+                    if masks[slot] != 0 && node.child[slot] != EMPTY {
+                        stack[sp] = (node.child[slot], masks[slot], entry[slot]);
+                        sp += 1;
+                    }
+                }
+            }
+            if sp == 0 {
+                return;
+            }
+            sp -= 1;
+            let (c, mask, _) = stack[sp];
+            cur = (c, mask);
+        }
+    }
+
+    #[inline(always)]
+    fn packets<T: PacketTest>(&self, origin: Vec3, skip: u32, dirs: &[Vec3], out: &mut [Option<Hit>]) {
+        for (d, o) in dirs.chunks(PACKET).zip(out.chunks_mut(PACKET)) {
+            let mut p = Packet::new(origin, skip, d);
+            if !self.nodes.is_empty() {
+                self.walk_packet::<T>(&mut p);
+            }
+            o.copy_from_slice(&p.best[..d.len()]);
+        }
+    }
+
+    /// Nearest hits of rays leaving `origin` along `dirs` (unit), skipping
+    /// `skip`, into `out[i]` for `dirs[i]`, walked in packets of
+    /// [`PACKET`] consecutive rays with the node tests of `isa` (the
+    /// portable build where the CPU lacks it): the hits of
+    /// [`Bvh::intersect`], bit for bit.
+    pub fn intersect_packets_with(&self, origin: Vec3, skip: u32, dirs: &[Vec3], out: &mut [Option<Hit>], isa: Isa) {
+        match isa {
+            #[cfg(target_arch = "x86_64")]
+            Isa::Avx512 if isa.supported() => {
+                // SAFETY: the CPU has AVX-512 F + VL (checked just above).
+                unsafe { self.packets_avx512(origin, skip, dirs, out) }
+            }
+            #[cfg(target_arch = "x86_64")]
+            Isa::Avx2 if isa.supported() => {
+                // SAFETY: the CPU has AVX2 (checked just above).
+                unsafe { self.packets_avx2(origin, skip, dirs, out) }
+            }
+            _ => self.packets::<PortablePacket>(origin, skip, dirs, out),
+        }
+    }
+
+    /// [`Bvh::intersect_packets_with`] with this tree's node tests.
+    pub fn intersect_packets(&self, origin: Vec3, skip: u32, dirs: &[Vec3], out: &mut [Option<Hit>]) {
+        self.intersect_packets_with(origin, skip, dirs, out, self.isa)
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,bmi1,bmi2,popcnt,lzcnt")]
+    fn packets_avx2(&self, origin: Vec3, skip: u32, dirs: &[Vec3], out: &mut [Option<Hit>]) {
+        self.packets::<Avx2Packet>(origin, skip, dirs, out)
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,bmi1,bmi2,popcnt,lzcnt,avx512f,avx512vl")]
+    fn packets_avx512(&self, origin: Vec3, skip: u32, dirs: &[Vec3], out: &mut [Option<Hit>]) {
+        self.packets::<Avx512Packet>(origin, skip, dirs, out)
+    }
+}
