@@ -14,7 +14,9 @@
 /// Rows of items of type `T`.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Csr<T = u32> {
+    /// Row offsets: row `r` is `items[offsets[r]..offsets[r + 1]]` (row count plus one entries).
     pub offsets: Vec<u32>,
+    /// The items of every row, row after row.
     pub items: Vec<T>,
 }
 

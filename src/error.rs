@@ -9,24 +9,46 @@ pub enum Error {
     /// A file could not be read or written.
     #[error("{path}: {source}")]
     Io {
+        /// The file.
         path: PathBuf,
+        /// The underlying I/O error.
         #[source]
         source: std::io::Error,
     },
     /// The scene TOML is malformed or has a bad value.
     #[error("{path}: {message}")]
-    SceneFile { path: PathBuf, message: String },
+    SceneFile {
+        /// The scene file.
+        path: PathBuf,
+        /// What is wrong, naming the table or key.
+        message: String,
+    },
     /// An OBJ or MTL file could not be parsed.
     #[error("{path}: {message}")]
-    Obj { path: PathBuf, message: String },
+    Obj {
+        /// The OBJ or MTL file.
+        path: PathBuf,
+        /// What is wrong.
+        message: String,
+    },
     /// A glTF file (or a buffer or image it names) could not be read, is not
     /// valid glTF 2.0, or holds data linkgi cannot use; `message` says where
     /// in the file (mesh, primitive, accessor, node) and what is wrong.
     #[error("{path}: {message}")]
-    Gltf { path: PathBuf, message: String },
+    Gltf {
+        /// The glTF file (or the buffer or image it names).
+        path: PathBuf,
+        /// Where in the file and what is wrong.
+        message: String,
+    },
     /// An image (a sky's environment map) could not be decoded or holds bad values.
     #[error("{path}: {message}")]
-    Image { path: PathBuf, message: String },
+    Image {
+        /// The image file.
+        path: PathBuf,
+        /// What is wrong.
+        message: String,
+    },
     /// A mesh has invalid geometry (non-finite coordinates, bad indices, ...).
     #[error("{source_name}{}: {message}", line.map(|l| format!(":{l}")).unwrap_or_default())]
     Geometry {
@@ -34,6 +56,7 @@ pub enum Error {
         source_name: String,
         /// 1-based line in the OBJ file, where known.
         line: Option<usize>,
+        /// What is wrong.
         message: String,
     },
     /// A scene name was neither a file nor a built-in scene.
@@ -57,4 +80,5 @@ pub enum Error {
     Thread(#[source] std::io::Error),
 }
 
+/// A `Result` whose error is [`Error`].
 pub type Result<T> = std::result::Result<T, Error>;

@@ -57,6 +57,8 @@
 //! # Ok::<(), linkgi::Error>(())
 //! ```
 
+#![warn(missing_docs)]
+
 pub mod accuracy;
 pub mod bench;
 pub mod bvh;

@@ -24,8 +24,11 @@ pub struct PathRow {
     pub samples: u32,
     /// Wall time of the run (BVH build and tracing), ms.
     pub ms: f64,
+    /// Errors of the indirect irradiance against the reference.
     pub e_indirect: ErrorStats,
+    /// Errors of the direct irradiance against the reference.
     pub e_direct: ErrorStats,
+    /// Errors of the total irradiance against the reference.
     pub e_total: ErrorStats,
 }
 

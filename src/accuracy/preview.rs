@@ -20,7 +20,9 @@ use std::time::Instant;
 /// The preview's figures.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct PreviewRow {
+    /// Rays per vertex.
     pub rays: u32,
+    /// Feature angle of smoothing, degrees; 0: smoothing off.
     pub smoothing_deg: f32,
     /// Light links of the preview, ms.
     pub preview_light_links_ms: f64,
@@ -28,10 +30,15 @@ pub struct PreviewRow {
     pub preview_ms: f64,
     /// Full light-link update + gather + smoothing, ms.
     pub full_ms: f64,
+    /// Shadow rays of the preview's light links.
     pub preview_shadow_rays: u64,
+    /// Shadow rays of the full light-link update.
     pub full_shadow_rays: u64,
+    /// Errors of the preview's indirect irradiance against the full result's.
     pub e_indirect: ErrorStats,
+    /// Errors of the preview's direct irradiance against the full result's.
     pub e_direct: ErrorStats,
+    /// Errors of the preview's total irradiance against the full result's.
     pub e_total: ErrorStats,
 }
 

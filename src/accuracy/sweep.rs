@@ -36,13 +36,17 @@ impl Default for SweepParams {
 /// One setting's run times (ms) and errors.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct SweepRow {
+    /// Rays per vertex.
     pub rays: u32,
     /// "1".."6" or "auto".
     pub bounces: String,
+    /// Bounces the gather ran.
     pub bounces_used: u32,
     /// Feature angle, degrees; 0: smoothing off.
     pub smoothing_deg: f32,
+    /// Building the acceleration structure (kd-tree or BVH), ms.
     pub kd_ms: f64,
+    /// Shooting and merging the links, ms.
     pub links_ms: f64,
     /// The rest of the solver's build, ms: light and emitter links, the
     /// sky's rays, the near hits' light and final gather, the noise check
@@ -50,11 +54,15 @@ pub struct SweepRow {
     pub light_links_ms: f64,
     /// Bounces and the hidden-vertex correction, ms.
     pub gather_ms: f64,
+    /// Smoothing, ms.
     pub smooth_ms: f64,
     /// The build's wall time (kd + links + the rest) + gather + smoothing.
     pub total_ms: f64,
+    /// Errors of the indirect irradiance against the reference.
     pub e_indirect: ErrorStats,
+    /// Errors of the direct irradiance against the reference.
     pub e_direct: ErrorStats,
+    /// Errors of the total irradiance (direct, sky and indirect) against the reference.
     pub e_total: ErrorStats,
 }
 

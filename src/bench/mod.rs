@@ -33,8 +33,11 @@ use std::time::Instant;
 /// Which ray-shooting backend to benchmark.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
 pub enum Backend {
+    /// The CPU path only.
     Cpu,
+    /// The GPU path only (an error where no GPU adapter exists).
     Gpu,
+    /// The CPU path, then the GPU path.
     Both,
 }
 
@@ -92,8 +95,11 @@ impl Default for BenchParams {
 /// Median, min and max of a set of measurements.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
 pub struct Stat {
+    /// The median (the mean of the middle two for an even count).
     pub median: f64,
+    /// The smallest value.
     pub min: f64,
+    /// The largest value.
     pub max: f64,
 }
 
@@ -115,10 +121,15 @@ impl Stat {
 /// Times of one run, ms (rates in rays/s).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
 pub struct RunTimes {
+    /// Building the acceleration structure (kd-tree or BVH, as the tracer uses), ms.
     pub kd_ms: f64,
+    /// Shooting the link rays and merging them into links, ms.
     pub links_ms: f64,
+    /// Link rays traced per second during link shooting.
     pub rays_per_s: f64,
+    /// The light links of all lights, ms.
     pub light_links_ms: f64,
+    /// The light links' shadow rays over their time, rays/s.
     pub shadow_rays_per_s: f64,
     /// The near hits' light columns, all lights ([`crate::exchange::near::light`]), ms.
     pub near_ms: f64,
@@ -129,6 +140,7 @@ pub struct RunTimes {
     pub emitter_shadow_rays_per_s: f64,
     /// The same rays over the tracer's time alone, rays/s.
     pub emitter_trace_rays_per_s: f64,
+    /// The gather bounces of the first solution, ms.
     pub bounces_ms: f64,
     /// From the prepared scene to smoothed `E_i`: kd + links + light links
     /// (near hits' and emitters' included) + bounces + smoothing.
@@ -159,27 +171,43 @@ pub struct RunTimes {
 /// One scene's figures (sizes from the last run; times over all measured runs).
 #[derive(Clone, Debug, Default, PartialEq, Serialize)]
 pub struct BenchRow {
+    /// The scene's name.
     pub scene: String,
     /// "CPU" or "GPU".
     pub backend: String,
     /// The adapter(s) or CPU threads used.
     pub device: String,
+    /// Solver vertices of the prepared scene.
     pub vertices: usize,
+    /// Triangles of the prepared scene.
     pub triangles: usize,
+    /// Nodes of the tracer's tree (kd-tree or BVH).
     pub kd_nodes: usize,
+    /// Links before merging (three per front hit).
     pub links_raw: u64,
+    /// Links after merging.
     pub links_merged: u64,
+    /// Raw link storage, MB (u32 target and f32 weight per raw link).
     pub mb_raw: f64,
+    /// Merged link storage as the gathers read it, MB.
     pub mb_merged: f64,
+    /// Rays shot per vertex.
     pub rays_per_vertex: u32,
+    /// Measured runs the statistics cover.
     pub runs: u32,
+    /// Building the acceleration structure, ms.
     pub kd_ms: Stat,
+    /// Shooting and merging the links, ms.
     pub links_ms: Stat,
+    /// Link rays per second, thousands.
     pub k_rays_per_s: Stat,
+    /// The light links of all lights, ms.
     pub light_links_ms: Stat,
+    /// The light links' shadow rays per second, thousands.
     pub k_shadow_rays_per_s: Stat,
     /// Near hits ([`crate::links::near`]) and the time of their light columns, ms.
     pub near_hits: u64,
+    /// The near hits' light columns, all lights, ms.
     pub near_ms: Stat,
     /// Emitter links, ms (NaN without emitters).
     pub emitter_links_ms: Stat,
@@ -187,10 +215,15 @@ pub struct BenchRow {
     /// tracer's time alone, k rays/s (NaN without emitters): beside
     /// `k_shadow_rays_per_s`, the light links' rate in the same runs.
     pub k_emitter_shadow_rays_per_s: Stat,
+    /// The emitter links' shadow rays per second over the tracer's time alone, thousands (NaN without emitters).
     pub k_emitter_trace_rays_per_s: Stat,
+    /// The gather bounces of the first solution, ms (`bounces` of them).
     pub bounces_ms: Stat,
+    /// From the prepared scene to the first smoothed solution, ms.
     pub first_solution_ms: Stat,
+    /// Light 0 moved a little: the preview with bounces and smoothing, ms (NaN without lights).
     pub light_preview_ms: Stat,
+    /// The same light move, full update with bounces and smoothing, ms (NaN without lights).
     pub light_move_ms: Stat,
     /// Scenes with a sky: turning it by 30 degrees (gather only), ms.
     pub sky_turn_ms: Stat,
@@ -281,12 +314,19 @@ impl BenchRow {
 /// Sizes of the built structures.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Sizes {
+    /// Solver vertices.
     pub vertices: usize,
+    /// Triangles.
     pub triangles: usize,
+    /// Nodes of the tracer's tree (kd-tree or BVH).
     pub kd_nodes: usize,
+    /// Links before merging (three per front hit).
     pub links_raw: u64,
+    /// Links after merging.
     pub links_merged: u64,
+    /// Raw link storage, bytes (u32 target and f32 weight per raw link).
     pub bytes_raw: u64,
+    /// Merged link storage as the gathers read it, bytes.
     pub bytes_merged: u64,
     /// Bytes one gather bounce moves at least.
     pub gather_bytes: u64,

@@ -10,20 +10,31 @@ use serde::Serialize;
 pub struct PaperRow {
     /// The paper's scene name.
     pub name: &'static str,
+    /// GPUs the paper's row used (one or two).
     pub gpus: u32,
+    /// Vertices.
     pub vertices: f64,
+    /// Kd-tree nodes.
     pub kd_nodes: Option<f64>,
     /// Links in millions.
     pub links_m: f64,
+    /// Raw link storage, MB.
     pub mb_raw: f64,
+    /// Merged link storage, MB.
     pub mb_merged: f64,
+    /// Kd-tree build, ms.
     pub kd_ms: f64,
+    /// Link shooting, ms.
     pub links_ms: f64,
+    /// Link rays per second, thousands.
     pub k_rays_per_s: f64,
+    /// Light links, ms.
     pub light_links_ms: f64,
+    /// Three bounces, ms.
     pub bounces_ms: f64,
     /// Time to the first frame, s.
     pub first_frame_s: f64,
+    /// Frames per second.
     pub fps: f64,
 }
 

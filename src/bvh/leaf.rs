@@ -25,12 +25,16 @@ pub const UNUSED: u32 = u32::MAX;
 #[repr(C, align(32))]
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Block8 {
+    /// Corners `v[corner][axis][lane]`, metres (NaN in unused lanes).
     pub v: [[[f32; LANES]; 3]; 3],
+    /// Solver vertex ids of the corners, `corners[corner][lane]` ([`UNUSED`] in unused lanes).
     pub corners: [[u32; LANES]; 3],
+    /// Triangle id per lane ([`UNUSED`] in unused lanes).
     pub tri: [u32; LANES],
 }
 
 impl Block8 {
+    /// A block with every lane unused.
     pub const EMPTY: Block8 =
         Block8 { v: [[[f32::NAN; LANES]; 3]; 3], corners: [[UNUSED; LANES]; 3], tri: [UNUSED; LANES] };
 
@@ -67,9 +71,13 @@ impl Block8 {
 /// (and does not touch the skipped vertex).
 #[derive(Clone, Copy, Debug)]
 pub struct Hits8 {
+    /// Bit `i` set where lane `i` hits.
     pub mask: u32,
+    /// Hit distance per lane, metres (valid where the lane hits).
     pub t: [f32; LANES],
+    /// Barycentric weight of corner 1 per lane.
     pub u: [f32; LANES],
+    /// Barycentric weight of corner 2 per lane.
     pub v: [f32; LANES],
     /// Bit `i` set where lane `i` meets the front face.
     pub front: u32,

@@ -82,12 +82,16 @@ pub fn is_leaf(child: u32) -> bool {
 #[repr(C, align(32))]
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Node8 {
+    /// Child boxes, metres: `bounds[axis][slot]` for the minima (axes 0-2) and maxima (axes 3-5).
     pub bounds: [[f32; 8]; 6],
+    /// Per slot: a node index, a leaf ([`LEAF_BIT`] set, see [`leaf_range`]) or [`EMPTY`].
     pub child: [u32; 8],
+    /// Visiting order per ray octant, three bits per octant (see the type's doc).
     pub perm: [u32; 8],
 }
 
 impl Node8 {
+    /// A node with eight empty slots (inverted boxes, no children).
     pub const EMPTY: Node8 = Node8 {
         bounds: [
             [f32::INFINITY; 8],
@@ -182,6 +186,7 @@ impl Default for BvhBuildParams {
 pub struct BvhStats {
     /// 8-wide nodes.
     pub nodes: usize,
+    /// Leaves.
     pub leaves: usize,
     /// Blocks of eight triangle slots.
     pub blocks: usize,
@@ -193,6 +198,7 @@ pub struct BvhStats {
     pub sah_cost: f32,
     /// SAH cost right after the last full build.
     pub fresh_sah_cost: f32,
+    /// Build time, ms.
     pub build_ms: f64,
     /// Time of the last refit, ms (0 if none).
     pub refit_ms: f64,
@@ -202,13 +208,19 @@ pub struct BvhStats {
 /// scene bounds.
 #[derive(Clone, Debug)]
 pub struct Bvh {
+    /// The 8-wide nodes; node 0 is the root.
     pub nodes: Vec<Node8>,
+    /// The leaf blocks of eight triangle slots.
     pub blocks: Vec<Block8>,
     /// Triangles the tree was built over.
     pub triangle_count: usize,
+    /// Minimum corner of the scene bounds, metres.
     pub min: Vec3,
+    /// Maximum corner of the scene bounds, metres.
     pub max: Vec3,
+    /// The parameters the tree was built with.
     pub params: BvhBuildParams,
+    /// Figures of the build (and of the last refit).
     pub stats: BvhStats,
     /// The node-test build the single-ray queries use ([`Isa::detect`] by default).
     pub isa: Isa,

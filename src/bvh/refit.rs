@@ -19,7 +19,9 @@ use std::time::Instant;
 /// What [`Bvh::update`] did.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Update {
+    /// The tree was refitted to the new positions.
     Refit,
+    /// The tree was built again (the refitted SAH cost was too high, or the triangle count changed).
     Rebuild,
 }
 

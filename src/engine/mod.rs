@@ -55,14 +55,19 @@ use worker::Worker;
 pub enum Change {
     /// Replace light `index`.
     MoveLight {
+        /// The light's index in the scene's lights.
         index: usize,
+        /// The new light.
         light: Light,
     },
+    /// Append a light.
     AddLight(Light),
+    /// Remove light `index` (later lights move down by one).
     RemoveLight(usize),
     /// New world positions of every solver vertex (same count and order as
     /// the prepared scene; normals are recomputed from the triangles).
     Deform {
+        /// World positions, metres, one per solver vertex.
         positions: Vec<Vec3>,
     },
     /// New solver settings (`backend` is ignored: the engine keeps its compute).
@@ -70,7 +75,9 @@ pub enum Change {
     /// Emitted exitance of every vertex of mesh `mesh` (index into the
     /// prepared scene's meshes), W/m^2.
     SetEmission {
+        /// Index of the mesh in the prepared scene's meshes.
         mesh: usize,
+        /// Emitted exitance per channel, W/m^2.
         emission: Vec3,
     },
     /// Replace the sky (None: no sky).
@@ -119,13 +126,16 @@ pub struct Counters {
     pub kd_builds: u64,
     /// BVH refits after a deformation (instead of a build).
     pub refits: u64,
+    /// Link generations (a new solver or a deformation update).
     pub link_builds: u64,
+    /// Light-link computations (full or preview).
     pub light_link_updates: u64,
     /// Emitter links traced again because a surface started emitting
     /// (`Solver::update_emitters`); other emission edits are gather-only.
     pub emitter_link_updates: u64,
     /// Sky portal samples traced because the sky's portals changed (`Solver::update_portals`).
     pub portal_updates: u64,
+    /// Gathers run (one per published result).
     pub gathers: u64,
     /// Results published (the version of the newest result).
     pub published: u64,
@@ -299,6 +309,7 @@ impl Engine {
         lock(&self.shared.latest).clone()
     }
 
+    /// A copy of the worker's counters: its totals so far and the stage times of its last update.
     pub fn counters(&self) -> Counters {
         *lock(&self.shared.counters)
     }

@@ -10,9 +10,13 @@ use crate::scene::Backend;
 /// One opened adapter: device, queue, what it is and the limits it was opened with.
 #[derive(Clone, Debug)]
 pub struct GpuDevice {
+    /// The logical device.
     pub device: wgpu::Device,
+    /// Its command queue.
     pub queue: wgpu::Queue,
+    /// What the adapter is (name, backend, device type).
     pub info: wgpu::AdapterInfo,
+    /// The limits the device was opened with.
     pub limits: wgpu::Limits,
 }
 

@@ -45,6 +45,7 @@ type UploadedCorrection = (Arc<crate::exchange::Reconstruction>, wgpu::Buffer, w
 
 /// Links and albedo resident on one device.
 pub struct GpuLinks {
+    /// The device the links live on.
     pub dev: Arc<GpuDevice>,
     gather: wgpu::ComputePipeline,
     update: wgpu::ComputePipeline,

@@ -17,14 +17,21 @@ use std::mem::{offset_of, size_of};
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct RayVertex {
+    /// Ray origin, metres.
     pub origin: [f32; 3],
+    /// The vertex whose triangles the rays skip (triangles with it as a corner are not tested).
     pub skip: u32,
+    /// Unit tangent of the frame (rotated about the normal).
     pub tangent: [f32; 3],
     /// Which direction set the vertex shoots ([`crate::sampling::vertex_rotations_and_sets`]).
     pub direction_set: u32,
+    /// Unit bitangent of the frame.
     pub bitangent: [f32; 3],
+    /// Padding to 16 bytes.
     pub _pad1: u32,
+    /// Unit normal of the frame (local z of the directions).
     pub normal: [f32; 3],
+    /// Padding to 16 bytes.
     pub _pad2: u32,
 }
 
@@ -32,13 +39,21 @@ pub struct RayVertex {
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct ShadowRay {
+    /// Segment origin, metres.
     pub origin: [f32; 3],
+    /// The vertex whose triangles the ray skips (triangles with it as a corner are not tested).
     pub skip: u32,
+    /// Unit direction.
     pub dir: [f32; 3],
+    /// Start of the segment along `dir`, metres.
     pub tmin: f32,
+    /// End of the segment along `dir`, metres.
     pub tmax: f32,
+    /// Padding.
     pub _pad0: u32,
+    /// Padding.
     pub _pad1: u32,
+    /// Padding.
     pub _pad2: u32,
 }
 
@@ -48,13 +63,19 @@ pub struct ShadowRay {
 pub struct TraceParams {
     /// Rays (or shadow rays) in the dispatch.
     pub count: u32,
+    /// Rays per shooting vertex (the stride from ray id to vertex).
     pub rays_per_vertex: u32,
     /// Workgroups along x of the 2D dispatch.
     pub groups_x: u32,
+    /// Leaves of the kd-tree (bounds the steps of a traversal).
     pub leaf_count: u32,
+    /// Minimum corner of the kd-tree's root box, metres.
     pub root_min: [f32; 3],
+    /// Padding to 16 bytes.
     pub _pad0: u32,
+    /// Maximum corner of the kd-tree's root box, metres.
     pub root_max: [f32; 3],
+    /// Padding to 16 bytes.
     pub _pad1: u32,
 }
 
@@ -68,6 +89,7 @@ pub struct GatherUniforms {
     pub groups_x: u32,
     /// First vertex of the dispatch (a link segment's first row; 0 for `update_bounce`).
     pub first_vertex: u32,
+    /// Padding to 16 bytes.
     pub _pad0: u32,
 }
 
@@ -77,7 +99,9 @@ pub struct GatherUniforms {
 pub struct FrameUniforms {
     /// Column-major world-to-clip matrix.
     pub view_proj: [f32; 16],
+    /// Camera position, metres.
     pub camera_pos: [f32; 3],
+    /// Lights in the light buffer.
     pub light_count: u32,
     /// 0 combined, 1 direct, 2 indirect.
     pub view_mode: u32,
@@ -95,6 +119,7 @@ pub struct FrameUniforms {
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct LightGpu {
+    /// Point: the light's position; directional: the centre of the scene's bounds (metres).
     pub position: [f32; 3],
     /// 0 point, 1 directional.
     pub kind: u32,
@@ -104,6 +129,7 @@ pub struct LightGpu {
     pub layer: u32,
     /// Directional: unit direction of travel.
     pub direction: [f32; 3],
+    /// Padding to 16 bytes.
     pub _pad0: u32,
 }
 
@@ -114,7 +140,9 @@ pub struct LightGpu {
 pub struct TextureInfo {
     /// Index of its first texel (row by row from the top).
     pub offset: u32,
+    /// Width, texels.
     pub width: u32,
+    /// Height, texels.
     pub height: u32,
     /// Bits 0-1: wrap along u, 2-3: wrap along v (`Wrap::code`); bit 4: nearest.
     pub mode: u32,
@@ -128,14 +156,19 @@ pub struct ToneMapUniforms {
     pub exposure: f32,
     /// 1: the shader applies the sRGB curve; 0: the target format encodes.
     pub encode_srgb: u32,
+    /// Padding to 16 bytes.
     pub _pad0: u32,
+    /// Padding to 16 bytes.
     pub _pad1: u32,
 }
 
 /// A struct shared with WGSL: name, size and `(field, offset)` pairs.
 pub struct SharedStruct {
+    /// The struct's name in Rust and WGSL.
     pub name: &'static str,
+    /// Size, bytes.
     pub size: usize,
+    /// Each field's name and byte offset, in declaration order.
     pub fields: Vec<(&'static str, usize)>,
 }
 
@@ -191,6 +224,9 @@ pub const SHOOT_WGSL: &str = include_str!("../../shaders/shoot.wgsl");
 /// Invocations per workgroup of the gather shaders (`WORKGROUP` in `gather.wgsl`).
 pub const GATHER_WORKGROUP: u32 = 256;
 
+/// The gather shaders' WGSL source.
 pub const GATHER_WGSL: &str = include_str!("../../shaders/gather.wgsl");
+/// The renderer's WGSL source.
 pub const RENDER_WGSL: &str = include_str!("../../shaders/render.wgsl");
+/// The display (tone mapping) pass's WGSL source.
 pub const TONEMAP_WGSL: &str = include_str!("../../shaders/tonemap.wgsl");

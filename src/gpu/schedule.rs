@@ -40,7 +40,9 @@ impl Default for ScheduleParams {
 
 /// One scheduling target: a tracer plus an optional artificial delay.
 pub struct LogicalDevice {
+    /// Name in figures (the adapter's name, with `#i` where one adapter has several logical devices).
     pub label: String,
+    /// The device's tracer.
     pub tracer: GpuTracer,
     /// Extra time per traced vertex (tests of the scheduler), zero normally.
     pub delay_per_vertex: Duration,
@@ -49,8 +51,11 @@ pub struct LogicalDevice {
 /// What one logical device did.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct DeviceShare {
+    /// The device's label ([`LogicalDevice::label`]).
     pub label: String,
+    /// Batches it traced.
     pub batches: usize,
+    /// Vertices it traced.
     pub vertices: usize,
     /// Vertex ranges it traced, in the order it took them.
     pub ranges: Vec<(usize, usize)>,

@@ -15,6 +15,7 @@ const WORKGROUP: u32 = 64;
 
 /// A kd-tree resident on one device, ready to trace batches.
 pub struct GpuTracer {
+    /// The device the tree lives on.
     pub dev: Arc<GpuDevice>,
     shoot: wgpu::ComputePipeline,
     visibility: wgpu::ComputePipeline,

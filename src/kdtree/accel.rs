@@ -25,9 +25,11 @@ pub const ROPE_LEAF: u32 = 0x8000_0000;
 #[repr(C, align(64))]
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct CpuLeaf {
+    /// Minimum corner of the leaf's box, metres.
     pub min: [f32; 3],
     /// First block in [`CpuAccel::blocks`].
     pub first: u32,
+    /// Maximum corner of the leaf's box, metres.
     pub max: [f32; 3],
     /// Triangle references (in `ceil(count / 4)` blocks).
     pub count: u32,
@@ -38,6 +40,7 @@ pub struct CpuLeaf {
 /// The CPU-only leaf layout of a tree.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct CpuAccel {
+    /// The leaves, in the order of [`KdTree::leaves`](super::KdTree::leaves).
     pub leaves: Vec<CpuLeaf>,
     /// Leaf triangles, four per block, leaf after leaf in leaf order.
     pub blocks: Vec<CpuBlock>,
@@ -48,7 +51,9 @@ pub struct CpuAccel {
 #[repr(C, align(16))]
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct CpuBlock {
+    /// The four triangles' corners.
     pub tri: Tri4,
+    /// Per lane: `[ia, ib, ic, triangle id]`.
     pub lanes: [[u32; 4]; 4],
 }
 

@@ -86,14 +86,17 @@ pub struct KdNode {
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct KdLeaf {
+    /// Minimum corner of the leaf's box, metres.
     pub min: [f32; 3],
     /// First entry in the tree's triangle index list.
     pub first: u32,
+    /// Maximum corner of the leaf's box, metres.
     pub max: [f32; 3],
     /// Number of triangle indices.
     pub count: u32,
     /// Node across faces -x, +x, -y, +y, -z, +z, or [`NO_ROPE`].
     pub ropes: [u32; 6],
+    /// Padding to 64 bytes.
     pub _pad: [u32; 2],
 }
 
@@ -104,11 +107,17 @@ pub struct KdLeaf {
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct KdTriangle {
+    /// Corner 0, metres.
     pub v0: [f32; 3],
+    /// Solver vertex id of corner 0.
     pub ia: u32,
+    /// Corner 1, metres.
     pub v1: [f32; 3],
+    /// Solver vertex id of corner 1.
     pub ib: u32,
+    /// Corner 2, metres.
     pub v2: [f32; 3],
+    /// Solver vertex id of corner 2.
     pub ic: u32,
 }
 
@@ -173,15 +182,20 @@ impl KdBuildParams {
 /// Figures describing a built tree.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct KdStats {
+    /// Nodes, inner and leaf.
     pub nodes: usize,
+    /// Leaves, empty ones included.
     pub leaves: usize,
+    /// Leaves with no triangle.
     pub empty_leaves: usize,
     /// Mean triangle references per non-empty leaf.
     pub mean_leaf_triangles: f32,
+    /// Depth of the deepest node.
     pub max_depth: u32,
     /// Expected cost of a random ray by the surface area heuristic, in units
     /// of `intersect_cost`-weighted operations.
     pub sah_cost: f32,
+    /// Build time, ms.
     pub build_ms: f64,
 }
 
@@ -189,18 +203,24 @@ pub struct KdStats {
 /// and the triangles themselves (in scene order).
 #[derive(Clone, Debug)]
 pub struct KdTree {
+    /// The flattened nodes; the root is node 0.
     pub nodes: Vec<KdNode>,
+    /// The leaves, indexed by a leaf node's `a`.
     pub leaves: Vec<KdLeaf>,
     /// Triangle ids referenced by leaves.
     pub leaf_triangles: Vec<u32>,
+    /// The triangles with their corners, in scene order.
     pub triangles: Vec<KdTriangle>,
     /// CPU-only copy of the leaves and their triangles for the rope walk
     /// (derived from the fields above; see [`accel`]).
     pub accel: CpuAccel,
     /// Scene bounds (the root's box).
     pub min: Vec3,
+    /// Maximum corner of the scene bounds.
     pub max: Vec3,
+    /// The parameters the tree was built with.
     pub params: KdBuildParams,
+    /// Figures of the build.
     pub stats: KdStats,
 }
 
@@ -208,35 +228,44 @@ pub struct KdTree {
 /// so do selective updates ([`crate::scene::motion`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Aabb {
+    /// Minimum corner, metres.
     pub min: Vec3,
+    /// Maximum corner, metres.
     pub max: Vec3,
 }
 
 impl Aabb {
+    /// The empty box (min at +infinity, max at -infinity), the identity of [`Aabb::union`] and [`Aabb::grow`].
     pub const EMPTY: Aabb = Aabb { min: Vec3::splat(f32::INFINITY), max: Vec3::splat(f32::NEG_INFINITY) };
 
+    /// The smallest box holding `points` ([`Aabb::EMPTY`] when there are none).
     pub fn of_points(points: &[Vec3]) -> Aabb {
         points.iter().fold(Aabb::EMPTY, |b, p| Aabb { min: b.min.min(*p), max: b.max.max(*p) })
     }
 
+    /// Surface area, m^2 (0 for an empty or inverted box).
     pub fn area(&self) -> f32 {
         let d = (self.max - self.min).max(Vec3::ZERO);
         2.0 * (d.x * d.y + d.y * d.z + d.z * d.x)
     }
 
+    /// The overlap of the two boxes (empty, with `min > max` on some axis, where they do not overlap).
     pub fn intersect(&self, o: &Aabb) -> Aabb {
         Aabb { min: self.min.max(o.min), max: self.max.min(o.max) }
     }
 
+    /// Grows the box to hold `p`.
     pub fn grow(&mut self, p: Vec3) {
         self.min = self.min.min(p);
         self.max = self.max.max(p);
     }
 
+    /// The smallest box holding both boxes.
     pub fn union(self, o: Aabb) -> Aabb {
         Aabb { min: self.min.min(o.min), max: self.max.max(o.max) }
     }
 
+    /// True if `min > max` on some axis (or a coordinate is NaN).
     pub fn is_empty(&self) -> bool {
         !(self.min.cmple(self.max).all())
     }

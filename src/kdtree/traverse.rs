@@ -24,16 +24,20 @@ pub const NO_SKIP: u32 = u32::MAX;
 /// A ray segment `origin + t * dir`, `t` in `[tmin, tmax]`.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Ray {
+    /// Origin, metres.
     pub origin: Vec3,
     /// Unit direction.
     pub dir: Vec3,
+    /// Start of the segment along `dir`, metres.
     pub tmin: f32,
+    /// End of the segment along `dir`, metres (infinite: unbounded).
     pub tmax: f32,
     /// Solver vertex whose incident triangles are ignored, or [`NO_SKIP`].
     pub skip: u32,
 }
 
 impl Ray {
+    /// An unbounded ray from `origin` along the unit `dir` (`tmin` 0, no vertex skipped).
     pub fn new(origin: Vec3, dir: Vec3) -> Ray {
         Ray { origin, dir, tmin: 0.0, tmax: f32::INFINITY, skip: NO_SKIP }
     }
@@ -65,6 +69,7 @@ pub struct StartLeaves {
 impl StartLeaves {
     const UNKNOWN: u32 = u32::MAX;
 
+    /// Start leaves of rays from `origin`, none located yet.
     pub fn new(origin: Vec3) -> StartLeaves {
         StartLeaves { origin, leaves: [Self::UNKNOWN; 8] }
     }

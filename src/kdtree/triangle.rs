@@ -22,10 +22,15 @@ use glam::{Vec3, Vec4};
 /// direction, and which face was met.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Hit {
+    /// The triangle's id.
     pub tri: u32,
+    /// Barycentric weight of corner 1.
     pub u: f32,
+    /// Barycentric weight of corner 2.
     pub v: f32,
+    /// Distance along the ray, metres.
     pub t: f32,
+    /// True if the ray met the front face (counter-clockwise side).
     pub front: bool,
 }
 
@@ -73,6 +78,7 @@ impl RayShear {
         self.sz
     }
 
+    /// The shear constants of a ray with direction `d`.
     #[inline]
     pub fn new(d: Vec3) -> RayShear {
         let kz = d.abs().max_position();
@@ -129,15 +135,20 @@ pub fn intersect(tri: &KdTriangle, o: Vec3, s: &RayShear, tmin: f32, tmax: f32) 
 #[repr(C, align(16))]
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Tri4 {
+    /// Corners `v[corner][axis][lane]`, metres.
     pub v: [[[f32; 4]; 3]; 3],
 }
 
 /// Lane results of [`intersect4`]: `mask` bit `i` set where lane `i` hits.
 #[derive(Clone, Copy, Debug)]
 pub struct Hits4 {
+    /// Bit `i` set where lane `i` hits.
     pub mask: u32,
+    /// Hit distance per lane, metres (valid where the lane hits).
     pub t: [f32; 4],
+    /// Barycentric weight of corner 1 per lane.
     pub u: [f32; 4],
+    /// Barycentric weight of corner 2 per lane.
     pub v: [f32; 4],
     /// Bit `i` set where lane `i` meets the front face.
     pub front: u32,

@@ -23,11 +23,13 @@ pub const RAW_LINK_BYTES: u64 = 8;
 /// The merged link groups of consecutive vertices `first..first + counts.len()`.
 #[derive(Clone, Debug, Default)]
 pub struct GroupRun {
+    /// The first vertex of the run.
     pub first: usize,
     /// Links of each vertex, in order.
     pub counts: Vec<u32>,
     /// The groups' targets, packed (an unfinished stream, [`super::packed`]).
     pub packed: PackedTargets,
+    /// The groups' link weights, in link order.
     pub weights: Vec<f16>,
     /// Fixed-point sums of the links ([`super::merge::fixed_scale`]), kept
     /// only when the run records them ([`GroupRun::recording`]).
@@ -37,7 +39,9 @@ pub struct GroupRun {
     pub sky: Vec<(usize, Vec<u64>)>,
     /// Near hits of each vertex ([`super::near`]), when the run records them ([`GroupRun::with_near`]).
     pub near_counts: Vec<u32>,
+    /// The near hits of the run's vertices, `near_counts` of them per vertex in order.
     pub near: Vec<NearHit>,
+    /// Counters of the run's rays and links.
     pub stats: LinkStats,
     record_sums: bool,
     /// Per triangle, the distance under which a hit on it is near.
@@ -48,6 +52,7 @@ pub struct GroupRun {
 }
 
 impl GroupRun {
+    /// An empty run starting at vertex `first` (no sums, no near hits recorded).
     pub fn new(first: usize) -> GroupRun {
         GroupRun { first, ..Default::default() }
     }
@@ -127,6 +132,7 @@ pub struct CsrBuilder {
 }
 
 impl CsrBuilder {
+    /// A builder for `n` vertices, with no run pushed yet.
     pub fn new(n: usize) -> CsrBuilder {
         let mut links = Links { offsets: Vec::with_capacity(n + 1), ..Default::default() };
         links.offsets.push(0);

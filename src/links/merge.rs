@@ -32,7 +32,9 @@ pub const HIT_BACK: u32 = 0x8000_0000;
 pub struct HitRecord {
     /// Triangle id, `| HIT_BACK` for a back face, or [`HIT_MISS`].
     pub tri: u32,
+    /// First barycentric coordinate: the weight of the triangle's second corner (the first gets `1 - u - v`).
     pub u: f32,
+    /// Second barycentric coordinate: the weight of the triangle's third corner.
     pub v: f32,
     /// Distance, metres.
     pub t: f32,
@@ -41,8 +43,11 @@ pub struct HitRecord {
 /// Counts of one vertex's rays.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct HitCounts {
+    /// Rays that met a front face.
     pub front: u32,
+    /// Rays blocked by a back face.
     pub back: u32,
+    /// Rays that left the scene.
     pub miss: u32,
 }
 
@@ -226,8 +231,11 @@ pub fn merge_vertex_sums(
 /// the order of the links' targets.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct RayHits {
+    /// Rays shot per vertex (the stride of `ids`).
     pub rays_per_vertex: usize,
+    /// The hit id of every ray, vertex after vertex.
     pub ids: Vec<u32>,
+    /// The fixed-point sum of every link, in link order.
     pub sums: Vec<u32>,
 }
 

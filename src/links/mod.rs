@@ -48,6 +48,7 @@ pub use shoot::{shoot_links, shoot_links_recording, LinkParams, RaySetup, TraceS
 /// Counters of one link generation.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct LinkStats {
+    /// Rays shot.
     pub rays: u64,
     /// Rays that met a front face.
     pub front_hits: u64,
@@ -57,12 +58,14 @@ pub struct LinkStats {
     pub misses: u64,
     /// Links before merging (three per front hit).
     pub raw_links: u64,
+    /// Links after merging (one per distinct target of each group).
     pub merged_links: u64,
     /// Raw storage: (u32 target, f32 weight) per raw link.
     pub raw_bytes: u64,
     /// Bytes the gathers read ([`Links::gather_bytes`]): packed targets,
     /// f16 weights and the row offsets.
     pub merged_bytes: u64,
+    /// Time spent shooting and merging, ms.
     pub shoot_ms: f64,
 }
 
@@ -72,6 +75,7 @@ impl LinkStats {
         self.rays as f64 / (self.shoot_ms.max(1e-9) * 1e-3)
     }
 
+    /// Adds `o`'s ray, hit and link counts to these counters (bytes and time are left as they are).
     pub fn add(&mut self, o: &LinkStats) {
         self.rays += o.rays;
         self.front_hits += o.front_hits;
@@ -87,7 +91,9 @@ impl LinkStats {
 /// increasing) coded in `packed` ([`packed`]; [`Links::group`] decodes).
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Links {
+    /// Row offsets: vertex `v`'s links are `offsets[v]..offsets[v + 1]` (vertex count plus one entries).
     pub offsets: Vec<u32>,
+    /// Link weights (unitless, `E = W L`), in half precision.
     pub weights: Vec<f16>,
     /// The targets as the gathers read them ([`packed`]).
     pub packed: packed::PackedTargets,
@@ -96,6 +102,7 @@ pub struct Links {
     pub sky: SkyVisibility,
     /// Rays that hit close to their triangle ([`near`]); empty when not recorded.
     pub near: near::NearHits,
+    /// Counters of the generation that made these links.
     pub stats: LinkStats,
 }
 
@@ -122,6 +129,7 @@ impl Links {
         self.packed.bytes() + 2 * self.weights.len() as u64 + 4 * self.offsets.len() as u64
     }
 
+    /// Number of vertices (link groups).
     pub fn vertex_count(&self) -> usize {
         self.offsets.len().saturating_sub(1)
     }

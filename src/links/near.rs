@@ -47,8 +47,11 @@ impl Default for NearParams {
 /// point (corner weights `1 - u - v`, `u`, `v`, as [`super::HitRecord`]).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct NearHit {
+    /// The triangle hit.
     pub tri: u32,
+    /// First barycentric coordinate (weight of the triangle's second corner).
     pub u: f32,
+    /// Second barycentric coordinate (weight of the triangle's third corner).
     pub v: f32,
 }
 
@@ -60,6 +63,7 @@ pub struct NearHits {
 }
 
 impl NearHits {
+    /// True if no near hit is recorded.
     pub fn is_empty(&self) -> bool {
         self.rows.items.is_empty()
     }

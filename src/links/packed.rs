@@ -112,8 +112,11 @@ const GAP_MASKS: [u32; 4] = [0, 0xff, 0xffff, 0xffff_ffff];
 /// byte (indices into [`PackedTargets::bytes`]) and the previous target.
 #[derive(Clone, Copy, Debug)]
 pub struct Cursor {
+    /// Index of the next control byte in [`PackedTargets::bytes`].
     pub ctl: usize,
+    /// Index of the next data byte in [`PackedTargets::bytes`].
     pub data: usize,
+    /// The previous target decoded (the gaps are added to it).
     pub prev: u32,
 }
 
@@ -180,7 +183,9 @@ pub const fn block_shuffles() -> [[u8; 16]; 256] {
     t
 }
 
+/// Data bytes after each control byte ([`block_lengths`]), for the SIMD decoder.
 pub static BLOCK_LENGTHS: [u8; 256] = block_lengths();
+/// `pshufb` masks of each control byte ([`block_shuffles`]), for the SIMD decoder.
 pub static BLOCK_SHUFFLES: [[u8; 16]; 256] = block_shuffles();
 
 /// SSSE3 block decoding: [`Cursor::block`] in a few instructions (shuffle

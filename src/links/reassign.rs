@@ -11,7 +11,7 @@
 //! ([`crate::kdtree::triangle::intersect`]) on the old triangle's pieces
 //! (the nearest, the first in piece order on an exact tie), which gives
 //! the tracer's `(u, v, t)` bit for bit; the records then go through the
-//! one merge every link build uses ([`super::shoot::links_from_records`]),
+//! one merge every link build uses (`links::shoot::links_from_records`),
 //! so the links, near hits and sky visibility are a full shoot's.
 //!
 //! A vertex is *kept* ([`Lineage::new`]) when it is an old vertex at the
@@ -79,6 +79,7 @@ pub struct ReassignStats {
     pub rays_carried: u64,
     /// Rays traced: all rays of the other vertices, and kept vertices' rays that could not be carried.
     pub rays_traced: u64,
+    /// Time of the re-assignment, ms.
     pub ms: f64,
 }
 

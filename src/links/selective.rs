@@ -69,6 +69,7 @@ pub struct ReshootStats {
     pub remade_vertices: u64,
     /// Link groups rebuilt.
     pub groups_patched: u64,
+    /// Time of the update, ms.
     pub ms: f64,
 }
 

@@ -55,10 +55,15 @@ impl Default for LinkParams {
 /// corner in it.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Wedge {
+    /// The triangle's unit normal.
     pub normal: Vec3,
+    /// The triangle's first edge leaving the vertex (counter-clockwise order).
     pub edge_a: Vec3,
+    /// The triangle's second edge leaving the vertex.
     pub edge_b: Vec3,
+    /// The triangle's id.
     pub tri: u32,
+    /// The vertex's corner in the triangle (0, 1 or 2).
     pub corner: u32,
 }
 
@@ -143,19 +148,24 @@ impl Wedge {
 /// frame, incident-triangle wedges, and the shared local direction set.
 #[derive(Clone, Debug)]
 pub struct RaySetup {
+    /// Ray origin of each vertex, metres ([`ray_origin`]).
     pub origins: Vec<Vec3>,
     /// Rotation about the normal, radians.
     pub rotations: Vec<f32>,
     /// Which of the direction sets each vertex shoots ([`crate::sampling::vertex_rotations_and_sets`]).
     pub sets: Vec<u32>,
+    /// Unit normal of each vertex.
     pub normals: Vec<Vec3>,
     /// Wedges of vertex `v`: `wedges[wedge_offsets[v]..wedge_offsets[v+1]]`.
     pub wedge_offsets: Vec<u32>,
+    /// The incident-triangle wedges of all vertices, vertex after vertex.
     pub wedges: Vec<Wedge>,
+    /// The shared local direction set (cosine-distributed, `k * k` rays).
     pub directions: DirectionSet,
 }
 
 impl RaySetup {
+    /// The setup of every vertex of `scene`: ray origins, wedges, rotations and the direction set of `params`.
     pub fn new(scene: &PreparedScene, params: &LinkParams) -> RaySetup {
         let k = (params.rays_per_vertex as f64).sqrt().round() as u32;
         let origins = (0..scene.vertex_count()).map(|v| ray_origin(scene, v, params.nudge)).collect();

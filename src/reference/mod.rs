@@ -120,6 +120,7 @@ pub struct Reference {
     pub e_sky: Vec<Vec3>,
     /// Standard error of `e_sky + e_indirect`, the noise of the total, W/m^2.
     pub e_total_stderr: Vec<Vec3>,
+    /// The parameters of the computation.
     pub params: ReferenceParams,
     /// Wall-clock time of the computation (0 when loaded from the cache), ms.
     pub ms: f64,

@@ -65,6 +65,7 @@ fn ulp_floor(p: Vec3) -> f32 {
 }
 
 impl<'a> Tracer<'a> {
+    /// The tracer of `scene` through `kd`, with per-triangle data precomputed for `params`.
     pub fn new(scene: &'a PreparedScene, kd: &'a dyn CpuTracer, params: &ReferenceParams) -> Tracer<'a> {
         let mut tri_normals = Vec::with_capacity(scene.triangles.len());
         let mut tri_offsets = Vec::with_capacity(scene.triangles.len());
@@ -324,9 +325,13 @@ impl Tracer<'_> {
 /// One vertex's reference estimates, W/m^2.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct VertexEstimate {
+    /// Direct irradiance from the lights.
     pub e_direct: Vec3,
+    /// Irradiance from the sky.
     pub e_sky: Vec3,
+    /// Indirect irradiance.
     pub e_indirect: Vec3,
+    /// Standard error of `e_indirect`.
     pub e_indirect_stderr: Vec3,
     /// Standard error of `e_sky + e_indirect`.
     pub e_total_stderr: Vec3,

@@ -56,6 +56,7 @@ pub const CLEARANCE: f32 = 0.01;
 /// What [`auto_camera`] chose and why.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Framing {
+    /// The chosen camera.
     pub camera: Camera,
     /// True: a viewpoint inside an enclosure; false: outside an object.
     pub inside: bool,

@@ -32,6 +32,7 @@ const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
 
 /// Pipelines on one device, reused for every frame.
 pub struct GpuRenderer {
+    /// The device the renderer draws on.
     pub dev: Arc<GpuDevice>,
     main: wgpu::RenderPipeline,
     shadow: wgpu::RenderPipeline,
@@ -109,6 +110,7 @@ fn vertex_layout(attributes: &[wgpu::VertexAttribute]) -> wgpu::VertexBufferLayo
 }
 
 impl GpuRenderer {
+    /// Builds the pipelines on `dev`; an error where the device rejects them.
     pub fn new(dev: Arc<GpuDevice>) -> Result<GpuRenderer> {
         let d = &dev.device;
         let scope = d.push_error_scope(wgpu::ErrorFilter::Validation);

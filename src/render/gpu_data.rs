@@ -29,9 +29,13 @@ use wgpu::util::DeviceExt;
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct RenderVertex {
+    /// World position, metres.
     pub position: [f32; 3],
+    /// Unit normal.
     pub normal: [f32; 3],
+    /// Diffuse albedo (or the factor a texture is multiplied with).
     pub albedo: [f32; 3],
+    /// Indirect irradiance, W/m^2.
     pub e_indirect: [f32; 3],
     /// Irradiance from the sky, W/m^2.
     pub e_sky: [f32; 3],
@@ -48,7 +52,9 @@ pub struct RenderVertex {
 pub struct GpuTextures {
     /// The maps' images and samplers, compared by identity to reuse the buffers.
     key: Vec<(Arc<Texture>, crate::scene::texture::Sampler)>,
+    /// The texels of every map, linear RGB.
     pub texels: wgpu::Buffer,
+    /// One [`TextureInfo`] per map.
     pub infos: wgpu::Buffer,
 }
 

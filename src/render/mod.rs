@@ -45,13 +45,17 @@ pub const MAX_LIGHTS: usize = 8;
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 #[cfg_attr(feature = "cli", derive(clap::ValueEnum))]
 pub enum View {
+    /// Direct, sky and indirect light, and emission.
     #[default]
     Combined,
+    /// Direct and sky light, and emission (no indirect light).
     Direct,
+    /// Indirect light only.
     Indirect,
 }
 
 impl View {
+    /// The view's code in the shader's `view_mode` (0 combined, 1 direct, 2 indirect).
     pub fn mode(self) -> u32 {
         match self {
             View::Combined => 0,
@@ -66,7 +70,9 @@ impl View {
 pub struct RenderParams {
     /// Image size in pixels. Default 640 x 480.
     pub width: u32,
+    /// Image height in pixels.
     pub height: u32,
+    /// Which terms of the radiance are shown. Default [`View::Combined`].
     pub view: View,
     /// Radiance scale before tone mapping. Default [`DEFAULT_EXPOSURE`].
     pub exposure: f32,
@@ -98,13 +104,18 @@ impl Default for RenderParams {
 /// indirect irradiance (W/m^2), albedo textures, lights and camera.
 #[derive(Clone, Copy, Debug)]
 pub struct Frame<'a> {
+    /// Vertex positions, metres.
     pub positions: &'a [Vec3],
+    /// Unit vertex normals.
     pub normals: &'a [Vec3],
+    /// Diffuse albedo per vertex.
     pub albedo: &'a [Vec3],
+    /// Triangles as vertex indices.
     pub triangles: &'a [[u32; 3]],
     /// Albedo textures per triangle corner (`None`: every triangle draws its
     /// vertices' albedo).
     pub textures: Option<&'a CornerTextures>,
+    /// Indirect irradiance per vertex, W/m^2.
     pub e_indirect: &'a [Vec3],
     /// Irradiance from the sky per vertex, W/m^2 (empty: none).
     pub e_sky: &'a [Vec3],
@@ -112,7 +123,9 @@ pub struct Frame<'a> {
     pub emission: &'a [Vec3],
     /// What pixels that see no surface show (black without a sky).
     pub sky: Option<&'a crate::sky::Sky>,
+    /// The lights (at most [`MAX_LIGHTS`]).
     pub lights: &'a [Light],
+    /// The camera the frame is seen from.
     pub camera: Camera,
 }
 
@@ -229,12 +242,16 @@ pub fn up_for(forward: Vec3) -> Vec3 {
 /// Linear radiance per pixel, rows top to bottom.
 #[derive(Clone, Debug, PartialEq)]
 pub struct HdrImage {
+    /// Width in pixels.
     pub width: u32,
+    /// Height in pixels.
     pub height: u32,
+    /// Linear radiance per pixel before exposure and tone mapping, `width * height` of them, rows top to bottom.
     pub pixels: Vec<Vec3>,
 }
 
 impl HdrImage {
+    /// The pixel at column `x`, row `y` (row 0 at the top).
     pub fn at(&self, x: u32, y: u32) -> Vec3 {
         self.pixels[(y * self.width + x) as usize]
     }
@@ -300,6 +317,7 @@ pub fn write_png(img: &HdrImage, exposure: f32, path: &Path) -> crate::Result<()
 
 /// Which renderer runs.
 pub enum Renderer {
+    /// The GPU renderer.
     Gpu(Box<gpu::GpuRenderer>),
     /// No adapter: [`cpu::render_cpu`].
     Cpu,
@@ -328,6 +346,7 @@ impl Renderer {
         }
     }
 
+    /// A one-line description: `"gpu: <adapter>"` or `"cpu fallback"`.
     pub fn describe(&self) -> String {
         match self {
             Renderer::Gpu(r) => format!("gpu: {}", r.dev.describe()),

@@ -58,6 +58,7 @@ pub const DIRECTION_SETS: u32 = 2;
 /// furnace (docs/DESIGN.md §2 has the figures).
 #[derive(Clone, Debug, PartialEq)]
 pub struct DirectionSet {
+    /// Directions per side of the stratified grid: each set holds `k * k`.
     pub k: u32,
     /// `DIRECTION_SETS` sets of `k * k` directions.
     pub dirs: Vec<Vec3>,
@@ -85,6 +86,7 @@ impl DirectionSet {
         (self.k * self.k) as usize
     }
 
+    /// True if the sets hold no direction (`k` is 0).
     pub fn is_empty(&self) -> bool {
         self.k == 0
     }

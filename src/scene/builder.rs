@@ -144,22 +144,27 @@ impl<'a> SceneBuilder<'a> {
             sky: None,
         }
     }
+    /// Sets the solver settings (default [`Settings::default`]).
     pub fn settings(mut self, settings: Settings) -> Self {
         self.settings = settings;
         self
     }
+    /// Sets the camera (none by default: renderers frame the scene automatically).
     pub fn camera(mut self, camera: Camera) -> Self {
         self.camera = Some(camera);
         self
     }
+    /// Adds a mesh.
     pub fn mesh(mut self, mesh: MeshInput<'a>) -> Self {
         self.meshes.push(mesh);
         self
     }
+    /// Adds a light.
     pub fn light(mut self, light: Light) -> Self {
         self.lights.push(light);
         self
     }
+    /// Sets the sky (none by default).
     pub fn sky(mut self, sky: Sky) -> Self {
         self.sky = Some(sky);
         self

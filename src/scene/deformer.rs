@@ -28,14 +28,18 @@ use glam::{Quat, Vec3};
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum DeformKind {
+    /// Rotate about the axis, by an angle growing with the height.
     Twist,
+    /// Lean toward `toward` above the centre, by an angle growing with the height.
     Bend,
+    /// Displace along `toward` by a sine wave of the height.
     Wave,
 }
 
 /// One deformer; units in the module docs.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Deform {
+    /// Which deformation.
     pub kind: DeformKind,
     /// Unit axis (height direction). Default +y.
     pub axis: Vec3,

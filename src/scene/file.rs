@@ -22,17 +22,23 @@ use glam::Vec3;
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 
+/// A whole scene TOML file as parsed (and as written back out).
 #[derive(Debug, Default, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct SceneFile {
+    /// The `[settings]` table; every key left out takes the default.
     #[serde(default)]
     pub settings: SettingsFile,
+    /// The `[camera]` table, if any.
     #[serde(default)]
     pub camera: Option<CameraFile>,
+    /// The `[[mesh]]` tables; at least one is required.
     #[serde(default, rename = "mesh")]
     pub meshes: Vec<MeshFile>,
+    /// The `[[light]]` tables.
     #[serde(default, rename = "light")]
     pub lights: Vec<LightFile>,
+    /// The `[sky]` table, if any.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub sky: Option<SkyFile>,
 }
@@ -47,33 +53,46 @@ pub struct SceneFile {
 #[derive(Debug, Default, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct SkyFile {
+    /// Uniform sky radiance, W/(m^2 sr) per channel.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub radiance: Option<[f32; 3]>,
+    /// Gradient sky: radiance straight up, W/(m^2 sr) per channel.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub zenith: Option<[f32; 3]>,
+    /// Gradient sky: radiance at the horizon, W/(m^2 sr) per channel.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub horizon: Option<[f32; 3]>,
+    /// Gradient sky: radiance below the horizon, W/(m^2 sr) per channel (default black).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub ground: Option<[f32; 3]>,
+    /// Image sky: an equirectangular EXR or Radiance HDR file, relative to the scene file.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub image: Option<PathBuf>,
+    /// Rotation of the sky about +y, degrees (default 0).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub rotate_deg: Option<f32>,
+    /// Scale applied to the sky's radiance (default 1).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub intensity: Option<f32>,
+    /// Sky portals: four corners each (metres), in order around a parallelogram.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub portals: Vec<[[f32; 3]; 4]>,
 }
 
+/// The `[settings]` table; each key left out takes the value of [`Settings::default`].
 #[derive(Debug, Default, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct SettingsFile {
+    /// Rays shot per vertex; a non-zero square number `k*k`.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub rays_per_vertex: Option<u32>,
+    /// Number of bounces, or `"auto"`.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub bounces: Option<BouncesFile>,
+    /// Feature angle of one-ring smoothing, degrees; 0 turns smoothing off.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub smoothing_angle_deg: Option<f32>,
+    /// Seed of the direction set and per-vertex rotations.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub seed: Option<u64>,
     /// "auto", "gpu" or "cpu".
@@ -88,10 +107,13 @@ pub struct SettingsFile {
     /// "auto" or "off" ([`super::refine::RefineSettings`]).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub refine: Option<String>,
+    /// Longest edge kept by a-priori refinement, metres; 0 takes a share of the scene's diagonal.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub refine_max_edge: Option<f32>,
+    /// Error-driven refinement tolerance: the share of the mean irradiance of an edge's ends above which it splits.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub refine_tolerance: Option<f32>,
+    /// Most positions the scene's meshes may reach through refinement.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub refine_max_vertices: Option<u32>,
 }
@@ -100,15 +122,21 @@ pub struct SettingsFile {
 #[derive(Debug, Clone, Serialize, Deserialize)]
 #[serde(untagged)]
 pub enum BouncesFile {
+    /// A fixed number of bounces.
     Count(u32),
+    /// A word; only `"auto"` is accepted.
     Word(String),
 }
 
+/// The `[camera]` table.
 #[derive(Debug, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct CameraFile {
+    /// Eye position, metres.
     pub position: [f32; 3],
+    /// The point looked at, metres.
     pub target: [f32; 3],
+    /// Vertical field of view, degrees, in (0, 180) (default 40).
     #[serde(default = "default_fov")]
     pub fov_deg: f32,
 }
@@ -117,6 +145,7 @@ fn default_fov() -> f32 {
     40.0
 }
 
+/// One `[[mesh]]` table.
 #[derive(Debug, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct MeshFile {
@@ -126,10 +155,13 @@ pub struct MeshFile {
     /// A `.gltf` or `.glb` file.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub gltf: Option<PathBuf>,
+    /// Vertices are split where adjacent face normals differ by more than this, degrees, in [0, 180] (default 30).
     #[serde(default = "default_crease")]
     pub crease_angle_deg: f32,
+    /// Placement of the mesh (the `[mesh.transform]` table).
     #[serde(default)]
     pub transform: TransformFile,
+    /// True if the mesh may deform (needed for `[[mesh.deform]]`).
     #[serde(default)]
     pub dynamic: bool,
     /// `[[mesh.deform]]` tables (dynamic meshes only); see `scene::deform` for units.
@@ -149,14 +181,19 @@ pub struct DeformFile {
     pub kind: String,
     /// Twist/bend: degrees per metre of height along the axis; wave: metres.
     pub amount: f32,
+    /// Unit axis (height direction); default +y.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub axis: Option<[f32; 3]>,
+    /// A point on the axis, metres; default the origin.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub center: Option<[f32; 3]>,
+    /// Direction that bend and wave move towards (made perpendicular to the axis).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub toward: Option<[f32; 3]>,
+    /// Period of the time factor, seconds (> 0); default 4.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub period_s: Option<f32>,
+    /// Wave length along the axis, metres (> 0); default 1.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub wavelength: Option<f32>,
 }
@@ -209,13 +246,17 @@ fn default_crease() -> f32 {
     30.0
 }
 
+/// A `[mesh.transform]` table: scale, then rotate (x, then y, then z), then translate.
 #[derive(Debug, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct TransformFile {
+    /// Translation, metres (default zero).
     #[serde(default)]
     pub translate: [f32; 3],
+    /// Rotations about x, y and z, degrees (default zero).
     #[serde(default)]
     pub rotate_deg: [f32; 3],
+    /// Uniform scale factor, positive (default 1).
     #[serde(default = "one")]
     pub scale: f32,
 }
@@ -230,11 +271,24 @@ impl Default for TransformFile {
     }
 }
 
+/// One `[[light]]` table, told apart by its `kind` key (`"point"` or `"directional"`).
 #[derive(Debug, Serialize, Deserialize)]
 #[serde(tag = "kind", rename_all = "lowercase", deny_unknown_fields)]
 pub enum LightFile {
-    Point { position: [f32; 3], intensity: [f32; 3] },
-    Directional { direction: [f32; 3], irradiance: [f32; 3] },
+    /// `kind = "point"`: an isotropic point light.
+    Point {
+        /// Position, metres.
+        position: [f32; 3],
+        /// Radiant intensity, W/sr per channel (non-negative).
+        intensity: [f32; 3],
+    },
+    /// `kind = "directional"`: a distant light.
+    Directional {
+        /// Direction the light travels in (normalized on loading; must not be zero).
+        direction: [f32; 3],
+        /// Irradiance on a surface facing the light, W/m^2 per channel (non-negative).
+        irradiance: [f32; 3],
+    },
 }
 
 fn scene_err(path: &Path, message: impl Into<String>) -> Error {

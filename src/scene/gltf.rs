@@ -65,6 +65,7 @@ pub const LUMENS_PER_WATT: f32 = 683.0;
 pub struct GltfScene {
     /// One mesh per node that holds a mesh, world transforms baked in.
     pub meshes: Vec<MeshDesc>,
+    /// The file's `KHR_lights_punctual` lights.
     pub lights: Vec<Light>,
     /// The first perspective camera, if any.
     pub camera: Option<Camera>,

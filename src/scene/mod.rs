@@ -38,6 +38,7 @@ pub const MAX_ALBEDO: f32 = 0.999;
 /// A named Lambertian material.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Material {
+    /// Material name (from the MTL or glTF file, or the built-in scene).
     pub name: String,
     /// Diffuse albedo per channel, in [0, MAX_ALBEDO].
     pub albedo: Vec3,
@@ -51,8 +52,11 @@ pub struct Material {
 /// Placement of a mesh: scale, then rotate (x, then y, then z, degrees), then translate.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Transform {
+    /// Translation, metres.
     pub translate: Vec3,
+    /// Rotations about x, y and z, degrees.
     pub rotate_deg: Vec3,
+    /// Uniform scale factor.
     pub scale: f32,
 }
 
@@ -86,6 +90,7 @@ pub struct MeshDesc {
     pub triangles: Vec<[u32; 3]>,
     /// Material index per triangle.
     pub triangle_material: Vec<u32>,
+    /// The materials that `triangle_material` indexes.
     pub materials: Vec<Material>,
     /// Albedo per position (same length as `positions`), used instead of the
     /// material's albedo when present (glTF base colour textures and vertex
@@ -101,6 +106,7 @@ pub struct MeshDesc {
     pub textures: Option<texture::MeshTextures>,
     /// Vertices are split where adjacent face normals differ by more than this.
     pub crease_angle_deg: f32,
+    /// Placement of the mesh in the world.
     pub transform: Transform,
     /// True if the mesh may deform.
     pub dynamic: bool,
@@ -114,10 +120,20 @@ pub struct MeshDesc {
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Light {
     /// Isotropic point light; `intensity` in W/sr per channel.
-    Point { position: Vec3, intensity: Vec3 },
+    Point {
+        /// Position, metres.
+        position: Vec3,
+        /// Radiant intensity, W/sr per channel.
+        intensity: Vec3,
+    },
     /// Distant light; `direction` is where the light travels (unit),
     /// `irradiance` in W/m^2 on a surface facing it.
-    Directional { direction: Vec3, irradiance: Vec3 },
+    Directional {
+        /// Unit direction the light travels in.
+        direction: Vec3,
+        /// Irradiance on a surface facing the light, W/m^2 per channel.
+        irradiance: Vec3,
+    },
 }
 
 /// Edits of a light (the viewer's keys, panel and script, `animate`).
@@ -255,6 +271,7 @@ impl Backend {
 pub struct Settings {
     /// Rays shot per vertex, `k*k` (a square number).
     pub rays_per_vertex: u32,
+    /// How many bounces the gather runs.
     pub bounces: Bounces,
     /// Feature angle `alpha_f` of one-ring smoothing, degrees; 0 turns smoothing off.
     pub smoothing_angle_deg: f32,
@@ -311,8 +328,11 @@ impl Settings {
 /// Pinhole camera (used by renderers; stored so exported scenes keep it).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Camera {
+    /// Eye position, metres.
     pub position: Vec3,
+    /// The point looked at, metres.
     pub target: Vec3,
+    /// Vertical field of view, degrees.
     pub fov_deg: f32,
 }
 
@@ -325,13 +345,17 @@ impl Default for Camera {
 /// A whole scene as described, before preparation.
 #[derive(Clone, Debug)]
 pub struct SceneDesc {
+    /// Scene name (the scene file's stem, or the name given to a built-in scene or a `SceneBuilder`).
     pub name: String,
+    /// Solver settings.
     pub settings: Settings,
     /// The file's camera; `None` where it has none (a bare OBJ, a glTF
     /// without cameras, a TOML without `[camera]`): renderers then frame the
     /// scene automatically ([`crate::render::framing`]).
     pub camera: Option<Camera>,
+    /// The triangle meshes.
     pub meshes: Vec<MeshDesc>,
+    /// The lights.
     pub lights: Vec<Light>,
     /// Sky light (`[sky]` in the scene file), if any ([`crate::sky`]).
     pub sky: Option<crate::sky::Sky>,

@@ -33,9 +33,13 @@ use std::sync::Arc;
 /// Which vertices and triangles of the prepared scene came from one mesh.
 #[derive(Clone, Debug)]
 pub struct MeshRange {
+    /// The mesh's name ([`MeshDesc::name`](super::MeshDesc::name)).
     pub name: String,
+    /// Its solver vertices.
     pub vertices: Range<u32>,
+    /// Its triangles.
     pub triangles: Range<u32>,
+    /// True if the mesh may deform.
     pub dynamic: bool,
     /// Deformers of the mesh (world space), applied to its vertices over time.
     pub deform: Vec<super::deformer::Deform>,
@@ -65,8 +69,11 @@ pub use crate::csr::{check_offsets, Csr};
 /// The scene ready for the solver: world-space solver vertices and triangles.
 #[derive(Clone, Debug)]
 pub struct PreparedScene {
+    /// Scene name.
     pub name: String,
+    /// Solver settings.
     pub settings: Settings,
+    /// The lights.
     pub lights: Vec<Light>,
     /// World positions of solver vertices, metres.
     pub positions: Vec<Vec3>,
@@ -96,6 +103,7 @@ pub struct PreparedScene {
     /// topology; refinement keeps the colours of the vertices it keeps
     /// ([`crate::solver::adaptive`]).
     pub colours: Vec<u32>,
+    /// Which solver vertices and triangles came from each input mesh, in input order.
     pub meshes: Vec<MeshRange>,
     /// Zero-area triangles dropped during preparation.
     pub dropped_triangles: usize,
@@ -553,6 +561,7 @@ impl PreparedScene {
         })
     }
 
+    /// Number of solver vertices.
     pub fn vertex_count(&self) -> usize {
         self.positions.len()
     }

@@ -43,10 +43,15 @@ pub struct RefineParams {
 /// What refinement did to one mesh.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct RefineStats {
+    /// Positions of the mesh before refinement.
     pub positions_before: usize,
+    /// Positions after refinement.
     pub positions_after: usize,
+    /// Triangles before refinement.
     pub triangles_before: usize,
+    /// Triangles after refinement.
     pub triangles_after: usize,
+    /// Split passes made.
     pub passes: u32,
 }
 
@@ -247,7 +252,9 @@ pub struct RefineSettings {
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
 #[serde(rename_all = "lowercase")]
 pub enum RefineMode {
+    /// Refine coarse meshes (a priori, then where the light needs it).
     Auto,
+    /// Keep every mesh as it is.
     Off,
 }
 

@@ -130,10 +130,12 @@ impl Texture {
         }
     }
 
+    /// Width, texels.
     pub fn width(&self) -> u32 {
         self.width
     }
 
+    /// Height, texels.
     pub fn height(&self) -> u32 {
         self.height
     }
@@ -153,9 +155,12 @@ impl Texture {
 /// How a texel index outside the image comes back into it (glTF's wrap modes).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum Wrap {
+    /// The index is clamped to the image's edge.
     ClampToEdge,
+    /// The image repeats (the default).
     #[default]
     Repeat,
+    /// The image repeats, mirrored every other time.
     MirroredRepeat,
 }
 
@@ -190,6 +195,7 @@ impl Wrap {
 /// How a texture is read: wrap mode per axis (u, v) and the filter.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct Sampler {
+    /// Wrap mode along u and along v.
     pub wrap: [Wrap; 2],
     /// Nearest texel; else bilinear (the default).
     pub nearest: bool,
@@ -198,7 +204,9 @@ pub struct Sampler {
 /// An image as a material uses it: shared texels and a sampler.
 #[derive(Clone, Debug)]
 pub struct TextureMap {
+    /// The image (texels shared between the maps that use it).
     pub image: Arc<Texture>,
+    /// How the image is read.
     pub sampler: Sampler,
 }
 
@@ -234,6 +242,7 @@ impl TextureMap {
 /// indexed by the mesh's positions and triangles.
 #[derive(Clone, Debug, PartialEq)]
 pub struct MeshTextures {
+    /// The texture maps the triangles use.
     pub maps: Vec<TextureMap>,
     /// Map per triangle (index into `maps`), or [`NO_MAP`].
     pub triangle_map: Vec<u32>,
@@ -271,6 +280,7 @@ impl MeshTextures {
 /// renderer reads coordinates per corner).
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct CornerTextures {
+    /// The texture maps the triangles use.
     pub maps: Vec<TextureMap>,
     /// Map per triangle (index into `maps`), or [`NO_MAP`].
     pub triangle_map: Vec<u32>,

@@ -26,7 +26,9 @@ use std::path::Path;
 /// An equirectangular radiance image, W/(m^2 sr).
 #[derive(Clone, Debug, PartialEq)]
 pub struct EnvMap {
+    /// Width, pixels.
     pub width: usize,
+    /// Height, pixels.
     pub height: usize,
     /// Row-major from the top (zenith) row.
     pub pixels: Vec<Vec3>,

@@ -46,12 +46,27 @@ use std::sync::Arc;
 #[derive(Clone, Debug)]
 pub enum SkyModel {
     /// The same radiance in every direction, W/(m^2 sr).
-    Uniform { radiance: Vec3 },
+    Uniform {
+        /// Radiance per channel, W/(m^2 sr).
+        radiance: Vec3,
+    },
     /// Above the horizon `horizon + (zenith - horizon) * cos(theta)`
     /// (theta from +y), below it `ground`; W/(m^2 sr).
-    Gradient { zenith: Vec3, horizon: Vec3, ground: Vec3 },
+    Gradient {
+        /// Radiance straight up, W/(m^2 sr) per channel.
+        zenith: Vec3,
+        /// Radiance at the horizon, W/(m^2 sr) per channel.
+        horizon: Vec3,
+        /// Radiance below the horizon, W/(m^2 sr) per channel.
+        ground: Vec3,
+    },
     /// An equirectangular image ([`EnvMap`]); `path` as given in the scene file.
-    Image { path: PathBuf, map: Arc<EnvMap> },
+    Image {
+        /// The image file, as the scene file names it.
+        path: PathBuf,
+        /// The loaded image.
+        map: Arc<EnvMap>,
+    },
 }
 
 impl PartialEq for SkyModel {
@@ -73,6 +88,7 @@ impl PartialEq for SkyModel {
 /// A sky: a model, turned about +y and scaled.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Sky {
+    /// The radiance model, before rotation and intensity.
     pub model: SkyModel,
     /// Rotation about +y, degrees: counter-clockwise seen from above (+x
     /// toward -z, the right-hand rule, as a mesh's `rotate_deg` turns it).

@@ -70,8 +70,11 @@ use std::time::Instant;
 /// A parallelogram `corner + s edge_u + t edge_v`, `s, t` in `[0, 1]`, metres.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Portal {
+    /// One corner, metres.
     pub corner: Vec3,
+    /// The edge from `corner` along `s`, metres.
     pub edge_u: Vec3,
+    /// The edge from `corner` along `t`, metres.
     pub edge_v: Vec3,
 }
 

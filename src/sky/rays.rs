@@ -18,7 +18,9 @@ use glam::Vec3;
 /// The refined cells and portal samples of a scene's sky (empty without one).
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct SkyRays {
+    /// The sky's refined cells.
     pub refine: SkyRefinement,
+    /// The portal samples.
     pub portals: PortalSamples,
 }
 

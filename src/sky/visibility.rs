@@ -44,6 +44,7 @@ pub fn miss_mask(missed: impl Iterator<Item = bool>, rays: usize) -> Option<Vec<
 
 /// The vertex frames and shared local directions the rays were shot with.
 pub struct RayFrames<'a> {
+    /// Unit normal of each vertex.
     pub normals: &'a [Vec3],
     /// Rotation of each vertex's frame about its normal, radians.
     pub rotations: &'a [f32],

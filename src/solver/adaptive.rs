@@ -58,12 +58,14 @@ pub const MAX_ROUNDS: usize = 4;
 pub struct Round {
     /// Solver vertices and triangles of the scene solved in this round.
     pub vertices: usize,
+    /// Triangles of the scene solved in this round.
     pub triangles: usize,
     /// Edges this round's solution marked for splitting (0 in the last).
     pub marked: usize,
     /// Link rays traced in this round, and carried over from the round
     /// before without tracing ([`crate::links::reassign`]; 0 in the first).
     pub rays_traced: u64,
+    /// Link rays carried over without tracing (0 in the first round).
     pub rays_carried: u64,
     /// Preparation, links and solve, milliseconds.
     pub ms: f64,
@@ -77,8 +79,11 @@ pub struct Round {
 pub struct Refined {
     /// The scene as finally solved (refined meshes).
     pub desc: SceneDesc,
+    /// The solver of the final scene.
     pub solver: Solver,
+    /// The final solution.
     pub solution: Solution,
+    /// Every solve of the loop, in order.
     pub rounds: Vec<Round>,
 }
 
@@ -95,6 +100,7 @@ pub struct Plan {
 }
 
 impl Plan {
+    /// The plan for `desc` as loaded, by its refinement settings.
     pub fn of(desc: &SceneDesc) -> Plan {
         let settings = &desc.settings.refine;
         let target = settings.target_edge(desc);

@@ -29,20 +29,24 @@ pub fn auto_prefers_gpu(cpu_threads: usize) -> bool {
 /// Where links, light links and bounces are computed.
 #[derive(Clone, Debug, Default)]
 pub enum Compute {
+    /// On the CPU.
     #[default]
     Cpu,
+    /// On the GPU devices of a [`GpuCompute`].
     Gpu(GpuCompute),
 }
 
 /// The GPU devices of a solve and how to split them.
 #[derive(Clone, Debug)]
 pub struct GpuCompute {
+    /// The opened adapters.
     pub devices: Vec<Arc<GpuDevice>>,
     /// Logical devices per adapter (`--devices N`: the scheduler splits work between them).
     pub logical_per_device: usize,
     /// Artificial extra time per vertex for each logical device, in order
     /// (the scheduler's tests: [`GpuCompute::with_delays`]).
     delays: Vec<Duration>,
+    /// How vertex batches are split between the logical devices.
     pub schedule: ScheduleParams,
 }
 

@@ -42,6 +42,7 @@ pub struct DeformStats {
     pub links: ReshootStats,
     /// (vertex, light) entries of the light links recomputed.
     pub light_links_recomputed: u64,
+    /// Time of the light links, ms.
     pub light_links_ms: f64,
     /// Emitter links traced anew (all of them), ms.
     pub emitter_links_ms: f64,
@@ -49,6 +50,7 @@ pub struct DeformStats {
     pub preview_ms: f64,
     /// Bytes of the per-ray state kept after the update.
     pub ray_state_bytes: u64,
+    /// Time of the whole update, ms.
     pub ms: f64,
 }
 

@@ -12,8 +12,11 @@ use glam::Vec3;
 /// Figures of one solve.
 #[derive(Clone, Debug, Default)]
 pub struct SolveStats {
+    /// Solver vertices.
     pub vertices: usize,
+    /// Triangles of the prepared scene.
     pub triangles: usize,
+    /// Zero-area triangles dropped while preparing the scene.
     pub dropped_triangles: usize,
     /// Build time of the structure the rays went through, ms.
     pub accel_build_ms: f64,
@@ -23,37 +26,53 @@ pub struct SolveStats {
     pub kd: Option<KdStats>,
     /// The BVH's figures, when rays went through one.
     pub bvh: Option<BvhStats>,
+    /// Counters of the link generation.
     pub links: LinkStats,
+    /// Shadow rays of the light links.
     pub shadow_rays: u64,
+    /// Time of the light links, ms.
     pub light_links_ms: f64,
     /// Shadow rays toward emissive surfaces and their time, ms.
     pub emitter_rays: u64,
+    /// Time of the emitter links, ms.
     pub emitter_links_ms: f64,
     /// Rays of the sky's refined cells and their time, ms.
     pub sky_rays: u64,
+    /// Time of the sky's refined cells, ms.
     pub sky_ms: f64,
     /// Shadow rays toward the sky's portals and their time, ms.
     pub portal_rays: u64,
+    /// Time of the portal rays, ms.
     pub portal_ms: f64,
     /// Shadow rays from near hits toward emitters and their time, ms.
     pub near_emitter_rays: u64,
+    /// Time of the near hits' emitter rays, ms.
     pub near_emitter_ms: f64,
     /// Shadow rays from near hits toward the sky and their time, ms.
     pub near_sky_rays: u64,
+    /// Time of the near hits' sky rays, ms.
     pub near_sky_ms: f64,
     /// Gather rays from near hits and their time, ms.
     pub near_gather_rays: u64,
+    /// Time of the near hits' gather rays, ms.
     pub near_gather_ms: f64,
     /// Rays of the noise check ([`crate::exchange::denoise::noise_check`]) and their time, ms.
     pub noise_check_rays: u64,
+    /// Time of the noise check, ms.
     pub noise_check_ms: f64,
     /// Near hits ([`crate::links::near`]) and the shadow rays and time of their light columns, ms.
     pub near_hits: u64,
+    /// Shadow rays of the near hits' light columns.
     pub near_rays: u64,
+    /// Time of the near hits' light columns, ms.
     pub near_ms: f64,
+    /// Bounces the gather ran.
     pub bounces: u32,
+    /// Estimated remaining tail of the bounce series relative to the total (the largest channel).
     pub tail_relative: f32,
+    /// Time of the gather bounces, ms.
     pub gather_ms: f64,
+    /// Time of the smoothing, ms.
     pub smooth_ms: f64,
     /// "cpu (N threads; processor; node tests)" or the adapters.
     pub backend: String,
@@ -110,6 +129,7 @@ pub struct Solution {
     /// hidden-vertex correction, plus `e_cv`, `e_emitter` and `e_near`, at least 0;
     /// `gather.e_indirect` is the bounces before the correction), W/m^2.
     pub e_indirect_raw: Vec<Vec3>,
+    /// The bounce gather's own result (unsmoothed bounces, bounce count, tail, time).
     pub gather: GatherResult,
     /// False when smoothing was skipped (feature angle 0): `e_indirect` is then `e_indirect_raw`.
     pub smoothed: bool,

@@ -114,7 +114,9 @@ impl<T: CpuTracer> Tracer for T {
 /// The CPU acceleration structure a solver traces with.
 #[derive(Clone, Debug)]
 pub enum Accel {
+    /// The 8-wide BVH.
     Bvh(Bvh),
+    /// The kd-tree with ropes.
     Kd(KdTree),
 }
 
@@ -134,6 +136,7 @@ impl Accel {
         }
     }
 
+    /// Which structure this is.
     pub fn kind(&self) -> TracerKind {
         match self {
             Accel::Bvh(_) => TracerKind::Bvh,

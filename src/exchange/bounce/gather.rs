@@ -47,6 +47,7 @@ impl Default for GatherParams {
 pub struct GatherResult {
     /// Indirect irradiance per vertex (unsmoothed), W/m^2.
     pub e_indirect: Vec<Vec3>,
+    /// Bounces run.
     pub bounces: u32,
     /// Sum over vertices of each bounce's irradiance, per channel.
     pub bounce_totals: Vec<Vec3>,
@@ -54,6 +55,7 @@ pub struct GatherResult {
     pub tail_relative: f32,
     /// True if the tail estimate was added to `e_indirect` (auto mode).
     pub tail_added: bool,
+    /// Time of the gather, ms.
     pub ms: f64,
 }
 

@@ -63,6 +63,7 @@ pub struct NearEmitters {
     /// per channel (W/m^2 of irradiance per W/m^2 of exitance), of either
     /// sign (empty: none anywhere).
     pub rows: Csr<(u32, Vec3)>,
+    /// Rays, time and memory of the last trace.
     pub cost: Cost,
 }
 

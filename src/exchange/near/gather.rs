@@ -88,8 +88,11 @@ impl Default for NearGatherParams {
 /// `(u, v)` in units of 1/65535, or [`GatherHit::NONE`].
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct GatherHit {
+    /// The triangle hit, or `u32::MAX` for [`GatherHit::NONE`].
     pub tri: u32,
+    /// First barycentric coordinate (weight of the triangle's second corner), in units of 1/65535.
     pub u: u16,
+    /// Second barycentric coordinate (weight of the triangle's third corner), in units of 1/65535.
     pub v: u16,
 }
 
@@ -110,7 +113,9 @@ pub struct NearGather {
     /// Rays a near hit: near hit `k` (in [`NearHits::hits`] order) owns
     /// `hits[k * per_hit..(k + 1) * per_hit]`; 0 when there is nothing.
     pub per_hit: u32,
+    /// Every gather ray's landing point, `per_hit` per near hit.
     pub hits: Vec<GatherHit>,
+    /// Rays, time and memory of the last trace.
     pub cost: Cost,
 }
 

@@ -66,6 +66,7 @@ pub enum Bounce {
 /// solve does not have is empty.
 #[derive(Clone, Copy, Debug)]
 pub struct Fields<'a> {
+    /// The prepared scene.
     pub scene: &'a PreparedScene,
     /// The near hits the terms were traced from.
     pub near: &'a NearHits,
@@ -73,23 +74,29 @@ pub struct Fields<'a> {
     pub rays_per_vertex: u32,
     /// The lights, and their bounce source at the vertices, W/m^2.
     pub lights: &'a [Light],
+    /// The lights' bounce source at each vertex, W/m^2.
     pub e_lights: &'a [Vec3],
     /// The sky and the vertices' sky light, W/m^2.
     pub sky: Option<&'a Sky>,
+    /// The sky light at each vertex, W/m^2.
     pub e_sky: &'a [Vec3],
     /// The vertices' emitted exitance, W/m^2, and each emitter group's vertex.
     pub emission: &'a [Vec3],
+    /// Per emitter group, a vertex whose emission is the group's exitance.
     pub group_vertex: &'a [u32],
     /// After the bounces: the total radiosity the links carry, W/(m^2 sr),
     /// and the gathered irradiance, W/m^2 (hidden vertices' stand-ins applied).
     pub b_later: &'a [Vec3],
+    /// The gathered irradiance after the bounces at each vertex, W/m^2.
     pub g_later: &'a [Vec3],
 }
 
 /// What a term's rays cost when it was last traced.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Cost {
+    /// Rays traced.
     pub rays: u64,
+    /// Time of the trace, ms.
     pub ms: f64,
     /// Bytes it keeps.
     pub bytes: u64,
@@ -98,8 +105,11 @@ pub struct Cost {
 /// The sizes a term is validated against.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Shape {
+    /// Solver vertices.
     pub vertices: usize,
+    /// Near hits.
     pub near_hits: usize,
+    /// Triangles.
     pub triangles: usize,
     /// Emitter groups.
     pub groups: usize,
@@ -125,9 +135,13 @@ pub trait NearTerm: Sync {
 /// The four terms of one set of near hits.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct NearField {
+    /// Correction of the point and directional lights' direct light.
     pub light: NearLight,
+    /// Correction of the emissive surfaces' direct light.
     pub emitters: NearEmitters,
+    /// Correction of the sky's light.
     pub sky: NearSky,
+    /// Correction of the later bounces' light.
     pub gather: NearGather,
 }
 
@@ -163,6 +177,7 @@ impl NearField {
 /// What a batch of rays asks a [`Tracer`]: any-hit visibility (`bool`,
 /// true where the segment is free) or the closest hit.
 pub trait Query: Sized + Send {
+    /// Traces `rays` through `tracer`, one answer per ray, in order.
     fn trace(tracer: &dyn Tracer, rays: &[Ray]) -> crate::Result<Vec<Self>>;
 }
 

@@ -104,6 +104,7 @@ pub struct NearSky {
     /// their weights: `rho(h)` times the estimator's factor over the link
     /// rays `n` (W/m^2 per W/(m^2 sr), per channel). Empty: none anywhere.
     pub rows: Csr<(Vec3, Vec3)>,
+    /// Rays, time and memory of the last trace.
     pub cost: Cost,
 }
 

@@ -116,10 +116,12 @@ pub struct EmitterLinks {
     pub vertex_group: Vec<u32>,
     /// Per vertex, `(group, F_vg)` entries (`F_vg` unitless, finite, >= 0).
     pub rows: Csr<(u32, f32)>,
+    /// Shadow rays traced toward the emitters.
     pub shadow_rays: u64,
     /// Time of the computation, ms, and the part of it the tracer took
     /// to answer the shadow rays (the rest: form factors and sampling).
     pub ms: f64,
+    /// The tracer's part of `ms`, ms.
     pub trace_ms: f64,
     /// Why there are no emitter links although some surface emits.
     pub fallback: Option<String>,

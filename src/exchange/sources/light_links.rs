@@ -109,6 +109,7 @@ pub struct Column {
     pub ring: Vec<f32>,
     /// `G * V` of the vertex's own origin (exact point value).
     pub point: Vec<f32>,
+    /// Shadow rays traced for the column.
     pub rays: u64,
 }
 
@@ -127,6 +128,7 @@ pub struct LightLinks {
     /// The parameters and vertex positions the columns were computed with;
     /// an update that finds either changed recomputes every column.
     pub params: Option<LightLinkParams>,
+    /// Vertex positions the columns were computed at, metres.
     pub positions: Vec<Vec3>,
     /// Per column: a preview, traced from the vertex alone (no one-ring
     /// oversampling; [`LightLinks::preview_with`]), which the next full

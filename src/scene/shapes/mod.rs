@@ -34,10 +34,13 @@ use std::collections::HashMap;
 /// Accumulates one triangle mesh.
 #[derive(Clone, Debug, Default)]
 pub struct MeshBuilder {
+    /// Positions, metres.
     pub positions: Vec<Vec3>,
+    /// Counter-clockwise triangles (front face where the normal points).
     pub triangles: Vec<[u32; 3]>,
     /// Material index per triangle.
     pub triangle_material: Vec<u32>,
+    /// The materials that `triangle_material` indexes.
     pub materials: Vec<Material>,
 }
 
@@ -60,6 +63,7 @@ fn key(p: Vec3) -> [u32; 3] {
 }
 
 impl MeshBuilder {
+    /// An empty mesh.
     pub fn new() -> Self {
         Self::default()
     }
