@@ -135,32 +135,43 @@ impl PacketTest for Avx512Packet {
         use std::arch::x86_64::*;
         // SAFETY: only reached from functions built with AVX-512 F + VL
         // enabled, which run only where the CPU has them; the loads read
-        // whole `[f32; 16]` arrays.
+        // whole `[f32; 16]` and `[f32; 8]` arrays.
         unsafe {
             let b = &node.bounds;
+            // The planes' offsets from the shared origin, once per node
+            // (`near - o` of a lane is one of them, bit for bit).
+            let mut rel = [[0f32; 8]; 6];
+            for (k, r) in rel.iter_mut().enumerate() {
+                let d = _mm256_sub_ps(_mm256_load_ps(b[k].as_ptr()), _mm256_set1_ps(p.o[k % 3]));
+                _mm256_storeu_ps(r.as_mut_ptr(), d);
+            }
             let inv = [0, 1, 2].map(|a| _mm512_loadu_ps(p.inv[a].as_ptr()));
-            let o = [0, 1, 2].map(|a| _mm512_set1_ps(p.o[a]));
             let tb = _mm512_mul_ps(_mm512_loadu_ps(p.tbest.as_ptr()), _mm512_set1_ps(CULL));
             let tmin = _mm512_set1_ps(p.tmin);
             let robust = _mm512_set1_ps(ROBUST);
+            // Per axis: 0 all lanes positive, 1 all negative, 2 mixed.
+            let sign = [0, 1, 2].map(|a| match p.neg[a] & mask {
+                0 => 0,
+                m if m == mask => 1,
+                _ => 2,
+            });
             let mut out = [0u16; 8];
-            let mut entry = [f32::INFINITY; 8];
             for (i, m) in out.iter_mut().enumerate() {
                 let mut tn = tmin;
                 let mut tf = tb;
                 for a in 0..3 {
-                    let (lo, hi) = (_mm512_set1_ps(b[a][i]), _mm512_set1_ps(b[a + 3][i]));
-                    let near = _mm512_mask_blend_ps(p.neg[a], lo, hi);
-                    let far = _mm512_mask_blend_ps(p.neg[a], hi, lo);
-                    tn = _mm512_max_ps(tn, _mm512_mul_ps(_mm512_sub_ps(near, o[a]), inv[a]));
-                    tf = _mm512_min_ps(tf, _mm512_mul_ps(_mm512_sub_ps(far, o[a]), inv[a]));
+                    let (lo, hi) = (_mm512_set1_ps(rel[a][i]), _mm512_set1_ps(rel[a + 3][i]));
+                    let (near, far) = match sign[a] {
+                        0 => (lo, hi),
+                        1 => (hi, lo),
+                        _ => (_mm512_mask_blend_ps(p.neg[a], lo, hi), _mm512_mask_blend_ps(p.neg[a], hi, lo)),
+                    };
+                    tn = _mm512_max_ps(tn, _mm512_mul_ps(near, inv[a]));
+                    tf = _mm512_min_ps(tf, _mm512_mul_ps(far, inv[a]));
                 }
                 *m = _mm512_mask_cmp_ps_mask::<_CMP_LE_OQ>(mask, tn, _mm512_mul_ps(tf, robust));
-                if *m != 0 {
-                    entry[i] = _mm512_mask_reduce_min_ps(*m, tn);
-                }
             }
-            (out, entry)
+            (out, [0.0; 8])
         }
     }
 }
