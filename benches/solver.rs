@@ -81,7 +81,20 @@ fn single_thread(c: &mut Criterion) {
         let mut g = c.benchmark_group(format!("single_thread/{name}"));
         g.sample_size(10).measurement_time(Duration::from_secs(20)).warm_up_time(Duration::from_secs(2));
         g.throughput(Throughput::Elements(rays as u64));
-        for (label, t) in [("bvh", &bvh as &dyn CpuTracer), ("kd", &kd as &dyn CpuTracer)] {
+        // Single rays in flight (`Bvh::intersect_origin_single`).
+        let mut out = Vec::new();
+        g.bench_function("trace_link_rays_bvh", |b| {
+            b.iter(|| {
+                let mut sum = 0f64;
+                for (i, &v) in verts.iter().enumerate() {
+                    out.resize(dirs[i].len(), None);
+                    bvh.intersect_origin_single(setup.origins[v], v as u32, &dirs[i], &mut out);
+                    sum += out.iter().flatten().map(|h| h.t as f64).sum::<f64>();
+                }
+                sum
+            })
+        });
+        for (label, t) in [("kd", &kd as &dyn CpuTracer)] {
             let mut out = Vec::new();
             g.bench_function(format!("trace_link_rays_{label}"), |b| {
                 b.iter(|| {
@@ -95,7 +108,8 @@ fn single_thread(c: &mut Criterion) {
                 })
             });
         }
-        // The same rays in same-origin packets of 16 (`bvh::packet`).
+        // The same rays in same-origin packets of 16 (`bvh::packet`, what
+        // `intersect_origin` walks with AVX-512).
         let mut out = Vec::new();
         g.bench_function("trace_link_rays_bvh_packets", |b| {
             b.iter(|| {

@@ -19,7 +19,7 @@
 
 #[cfg(target_arch = "x86_64")]
 use super::traverse::{Avx2, Avx512};
-use super::traverse::{NodeTest, Portable, CULL, ROBUST, STACK};
+use super::traverse::{NodeTest, Portable, Walker, CULL, ROBUST, STACK};
 use super::{is_leaf, Bvh, Isa, EMPTY};
 use crate::kdtree::triangle::{Hit, RayShear};
 use crate::kdtree::Ray;
@@ -27,6 +27,10 @@ use glam::Vec3;
 
 /// Rays walked together: a 4x4 block of a vertex's direction set.
 pub const PACKET: usize = 16;
+
+/// A child entered by at most this many of a packet's rays is walked by
+/// each of them alone (single-ray walks of the subtree).
+const SPLIT: u32 = 3;
 
 /// The rays of one packet and their walk state, lane by lane.
 struct Packet {
@@ -82,31 +86,47 @@ impl Packet {
     }
 }
 
-/// The packet's box test: per child slot, the lanes of `mask` whose ray enters it.
+/// The packet's box test: per child slot, the lanes of `mask` whose ray
+/// enters it, with the lanes' cull distances `tbest` kept in registers
+/// where the build has them (a lane's scalar store followed by a vector
+/// load of all lanes would stall on store forwarding at every node).
 trait PacketTest {
-    /// Per child slot: the lanes of `mask` whose ray enters it, and the
-    /// least entry distance among them (`+inf` where none).
-    fn masks(node: &super::Node8, p: &Packet, mask: u16) -> ([u16; 8], [f32; 8]);
     type Leaf: NodeTest;
+    /// The lanes' cull distance bases (best `t` or `tmax`).
+    type Lanes: Copy;
+    fn lanes(t: &[f32; PACKET]) -> Self::Lanes;
+    fn set(v: Self::Lanes, l: usize, t: f32) -> Self::Lanes;
+    fn masks(node: &super::Node8, p: &Packet, tbest: Self::Lanes, mask: u16) -> [u16; 8];
 }
 
 struct PortablePacket;
 
 impl PacketTest for PortablePacket {
     type Leaf = Portable;
+    type Lanes = [f32; PACKET];
 
     #[inline(always)]
-    fn masks(node: &super::Node8, p: &Packet, mask: u16) -> ([u16; 8], [f32; 8]) {
+    fn lanes(t: &[f32; PACKET]) -> Self::Lanes {
+        *t
+    }
+
+    #[inline(always)]
+    fn set(mut v: Self::Lanes, l: usize, t: f32) -> Self::Lanes {
+        v[l] = t;
+        v
+    }
+
+    #[inline(always)]
+    fn masks(node: &super::Node8, p: &Packet, tbest: Self::Lanes, mask: u16) -> [u16; 8] {
         let b = &node.bounds;
         let mut out = [0u16; 8];
-        let mut near = [f32::INFINITY; 8];
         for (i, m) in out.iter_mut().enumerate() {
             let mut bits = mask;
             while bits != 0 {
                 let l = bits.trailing_zeros() as usize;
                 bits &= bits - 1;
                 let mut tn = p.tmin;
-                let mut tf = p.tbest[l] * CULL;
+                let mut tf = tbest[l] * CULL;
                 for a in 0..3 {
                     let (near, far) =
                         if p.neg[a] >> l & 1 == 1 { (b[a + 3][i], b[a][i]) } else { (b[a][i], b[a + 3][i]) };
@@ -115,11 +135,10 @@ impl PacketTest for PortablePacket {
                 }
                 if tn <= tf * ROBUST {
                     *m |= 1 << l;
-                    near[i] = near[i].min(tn);
                 }
             }
         }
-        (out, near)
+        out
     }
 }
 
@@ -129,9 +148,23 @@ struct Avx512Packet;
 #[cfg(target_arch = "x86_64")]
 impl PacketTest for Avx512Packet {
     type Leaf = Avx512;
+    type Lanes = std::arch::x86_64::__m512;
 
     #[inline(always)]
-    fn masks(node: &super::Node8, p: &Packet, mask: u16) -> ([u16; 8], [f32; 8]) {
+    fn lanes(t: &[f32; PACKET]) -> Self::Lanes {
+        // SAFETY: AVX-512 F builds only (as `masks`); reads 16 floats.
+        unsafe { std::arch::x86_64::_mm512_loadu_ps(t.as_ptr()) }
+    }
+
+    #[inline(always)]
+    fn set(v: Self::Lanes, l: usize, t: f32) -> Self::Lanes {
+        use std::arch::x86_64::*;
+        // SAFETY: AVX-512 F builds only (as `masks`).
+        unsafe { _mm512_mask_broadcastss_ps(v, 1 << l, _mm_set_ss(t)) }
+    }
+
+    #[inline(always)]
+    fn masks(node: &super::Node8, p: &Packet, tbest: Self::Lanes, mask: u16) -> [u16; 8] {
         use std::arch::x86_64::*;
         // SAFETY: only reached from functions built with AVX-512 F + VL
         // enabled, which run only where the CPU has them; the loads read
@@ -146,7 +179,7 @@ impl PacketTest for Avx512Packet {
                 _mm256_storeu_ps(r.as_mut_ptr(), d);
             }
             let inv = [0, 1, 2].map(|a| _mm512_loadu_ps(p.inv[a].as_ptr()));
-            let tb = _mm512_mul_ps(_mm512_loadu_ps(p.tbest.as_ptr()), _mm512_set1_ps(CULL));
+            let tb = _mm512_mul_ps(tbest, _mm512_set1_ps(CULL));
             let tmin = _mm512_set1_ps(p.tmin);
             let robust = _mm512_set1_ps(ROBUST);
             // Per axis: 0 all lanes positive, 1 all negative, 2 mixed.
@@ -171,7 +204,7 @@ impl PacketTest for Avx512Packet {
                 }
                 *m = _mm512_mask_cmp_ps_mask::<_CMP_LE_OQ>(mask, tn, _mm512_mul_ps(tf, robust));
             }
-            (out, [0.0; 8])
+            out
         }
     }
 }
@@ -182,18 +215,34 @@ struct Avx2Packet;
 #[cfg(target_arch = "x86_64")]
 impl PacketTest for Avx2Packet {
     type Leaf = Avx2;
+    type Lanes = [f32; PACKET];
 
     #[inline(always)]
-    fn masks(node: &super::Node8, p: &Packet, mask: u16) -> ([u16; 8], [f32; 8]) {
-        PortablePacket::masks(node, p, mask)
+    fn lanes(t: &[f32; PACKET]) -> Self::Lanes {
+        *t
+    }
+
+    #[inline(always)]
+    fn set(v: Self::Lanes, l: usize, t: f32) -> Self::Lanes {
+        PortablePacket::set(v, l, t)
+    }
+
+    #[inline(always)]
+    fn masks(node: &super::Node8, p: &Packet, tbest: Self::Lanes, mask: u16) -> [u16; 8] {
+        PortablePacket::masks(node, p, tbest, mask)
     }
 }
 
 impl Bvh {
-    /// Walks packet `p` to the end.
+    /// Walks packet `p` to the end (`stack`: scratch, reused between packets).
     #[inline(always)]
-    fn walk_packet<T: PacketTest>(&self, p: &mut Packet) {
-        let mut stack: [(u32, u16, f32); STACK] = [(0, 0, 0.0); STACK];
+    fn walk_packet<T: PacketTest>(
+        &self,
+        p: &mut Packet,
+        stack: &mut [(u32, u16); STACK],
+        walker: &mut Walker,
+    ) {
+        let mut tbest = T::lanes(&p.tbest);
         let mut sp = 0;
         let mut cur = (0u32, p.active());
         loop {
@@ -204,7 +253,7 @@ impl Bvh {
                     let l = bits.trailing_zeros() as usize;
                     bits &= bits - 1;
                     self.test_leaf::<T::Leaf, false>(c, &p.rays[l], &p.shears[l], &mut p.best[l]);
-                    p.tbest[l] = p.best[l].map_or(p.rays[l].tmax, |h| h.t);
+                    tbest = T::set(tbest, l, p.best[l].map_or(p.rays[l].tmax, |h| h.t));
                 }
             } else if sp + 8 > STACK {
                 // Cannot happen for trees this builder makes (see `STACK`):
@@ -215,31 +264,48 @@ impl Bvh {
                 return;
             } else {
                 let node = &self.nodes[c as usize];
-                let (masks, entry) = T::masks(node, p, mask);
+                let masks = T::masks(node, p, tbest, mask);
                 // Front to back for the first ray's octant: the nearest is pushed last.
                 for i in 0..8 {
                     let slot = (node.perm[i] >> p.perm_shift & 7) as usize;
                     if masks[slot] != 0 && node.child[slot] != EMPTY {
-                        stack[sp] = (node.child[slot], masks[slot], entry[slot]);
+                        stack[sp] = (node.child[slot], masks[slot]);
                         sp += 1;
                     }
                 }
             }
-            if sp == 0 {
-                return;
+            // Pop; a child entered by few rays is left to their single walks.
+            loop {
+                if sp == 0 {
+                    return;
+                }
+                sp -= 1;
+                let (c, m) = stack[sp];
+                if m.count_ones() > SPLIT {
+                    cur = (c, m);
+                    break;
+                }
+                let mut bits = m;
+                while bits != 0 {
+                    let l = bits.trailing_zeros() as usize;
+                    bits &= bits - 1;
+                    walker.start_at(&p.rays[l], c, p.best[l]);
+                    while !self.advance::<T::Leaf, false>(walker) {}
+                    p.best[l] = self.finish::<false>(walker);
+                    tbest = T::set(tbest, l, p.best[l].map_or(p.rays[l].tmax, |h| h.t));
+                }
             }
-            sp -= 1;
-            let (c, mask, _) = stack[sp];
-            cur = (c, mask);
         }
     }
 
     #[inline(always)]
     fn packets<T: PacketTest>(&self, origin: Vec3, skip: u32, dirs: &[Vec3], out: &mut [Option<Hit>]) {
+        let mut stack = [(0u32, 0u16); STACK];
+        let mut walker = Walker::new();
         for (d, o) in dirs.chunks(PACKET).zip(out.chunks_mut(PACKET)) {
             let mut p = Packet::new(origin, skip, d);
             if !self.nodes.is_empty() {
-                self.walk_packet::<T>(&mut p);
+                self.walk_packet::<T>(&mut p, &mut stack, &mut walker);
             }
             o.copy_from_slice(&p.best[..d.len()]);
         }

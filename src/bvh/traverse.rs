@@ -204,6 +204,17 @@ impl Walker {
         }
     }
 
+    /// Continues `ray` from `node` (a node or leaf word) with the best hit
+    /// found so far elsewhere in the tree (a packet's lane handed over to
+    /// a single walk of the subtree, [`super::packet`]).
+    #[inline(always)]
+    pub(super) fn start_at(&mut self, ray: &Ray, node: u32, best: Option<Hit>) {
+        self.start(ray);
+        self.cur = node;
+        self.best = best;
+        self.tbest = best.map_or(ray.tmax, |b| b.t);
+    }
+
     /// Starts `ray` at the root (node 0, never a leaf word).
     #[inline(always)]
     pub(super) fn start(&mut self, ray: &Ray) {
