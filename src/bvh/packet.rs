@@ -8,14 +8,17 @@
 //!
 //! Hits equal the single-ray walk's ([`Bvh::intersect`]) bit for bit: a
 //! ray's box test is the single-ray test's arithmetic on its own lane
-//! (`t_near = max(t_min, (near - o) / d)`, `t_far = min(t_best * CULL, (far
-//! - o) / d) * ROBUST`, [`super::traverse`]), leaves are tested per ray
-//! with the single-ray leaf test, and the nearest hit with ties to the
-//! lower triangle id does not depend on the order leaves are met in. A
-//! ray can only be walked into more boxes than alone (the children are
-//! ordered for the packet's first ray, and a popped child is not culled
-//! per ray), never fewer, and a box it enters in vain holds nothing nearer
-//! than its best.
+//! (`t_near = max(t_min, (near - o) / d)`,
+//! `t_far = min(t_best * CULL, (far - o) / d) * ROBUST`,
+//! [`super::traverse`]), leaves are tested per ray with the single-ray
+//! leaf test, and the nearest hit with ties to the lower triangle id does
+//! not depend on the order leaves are met in. A ray can only be walked
+//! into more boxes than alone (the children are ordered for the packet's
+//! first ray, and a popped child is not culled per ray), never fewer, and
+//! a box it enters in vain holds nothing nearer than its best. A child
+//! entered by at most `SPLIT` of the packet's rays is walked by each of
+//! them alone from there (the single-ray walk of that subtree, starting
+//! with the ray's best so far).
 
 #[cfg(target_arch = "x86_64")]
 use super::traverse::{Avx2, Avx512};
@@ -236,12 +239,7 @@ impl PacketTest for Avx2Packet {
 impl Bvh {
     /// Walks packet `p` to the end (`stack`: scratch, reused between packets).
     #[inline(always)]
-    fn walk_packet<T: PacketTest>(
-        &self,
-        p: &mut Packet,
-        stack: &mut [(u32, u16); STACK],
-        walker: &mut Walker,
-    ) {
+    fn walk_packet<T: PacketTest>(&self, p: &mut Packet, stack: &mut [(u32, u16); STACK], walker: &mut Walker) {
         let mut tbest = T::lanes(&p.tbest);
         let mut sp = 0;
         let mut cur = (0u32, p.active());
