@@ -24,7 +24,9 @@
 use super::traverse::{Avx2, Avx512};
 use super::traverse::{NodeTest, Portable, Walker, CULL, ROBUST, STACK};
 use super::{is_leaf, Bvh, Isa, EMPTY};
-use crate::kdtree::triangle::{Hit, RayShear};
+use crate::kdtree::traverse::closer;
+use crate::kdtree::triangle::{intersect, Hit, RayShear};
+use crate::kdtree::KdTriangle;
 use crate::kdtree::Ray;
 use glam::Vec3;
 
@@ -52,6 +54,10 @@ struct Packet {
     best: [Option<Hit>; PACKET],
     /// Shift of the first ray's octant in `Node8::perm`.
     perm_shift: u32,
+    /// Per lane: the shear constants of [`RayShear`] (`sx`, `sy`, `sz`).
+    shear: [[f32; PACKET]; 3],
+    /// Per lane: the sheared axes `(kx, ky, kz)` coded `kx + 3 ky + 9 kz`.
+    axes: [u8; PACKET],
 }
 
 impl Packet {
@@ -69,10 +75,16 @@ impl Packet {
             shears: [RayShear::new(Vec3::Z); PACKET],
             best: [None; PACKET],
             perm_shift: 0,
+            shear: [[0.0; PACKET]; 3],
+            axes: [0; PACKET],
         };
         for (l, d) in dirs[..n].iter().enumerate() {
             p.rays[l].dir = *d;
-            p.shears[l] = RayShear::new(*d);
+            let sh = RayShear::new(*d);
+            p.shears[l] = sh;
+            let (kx, ky, kz) = sh.axes();
+            p.axes[l] = (kx + 3 * ky + 9 * kz) as u8;
+            (p.shear[0][l], p.shear[1][l], p.shear[2][l]) = (sh.sx(), sh.sy(), sh.sz());
             for (a, &da) in d.to_array().iter().enumerate() {
                 let da = if da.abs() < 1e-30 { 1e-30f32.copysign(da) } else { da };
                 p.inv[a][l] = 1.0 / da;
@@ -100,6 +112,12 @@ trait PacketTest {
     fn lanes(t: &[f32; PACKET]) -> Self::Lanes;
     fn set(v: Self::Lanes, l: usize, t: f32) -> Self::Lanes;
     fn masks(node: &super::Node8, p: &Packet, tbest: Self::Lanes, mask: u16) -> [u16; 8];
+    /// Tests leaf `c` for the rays of `mask` together where this build
+    /// can (all of them sheared alike); false where it did not.
+    #[inline(always)]
+    fn shared_leaf(_bvh: &Bvh, _c: u32, _p: &mut Packet, _mask: u16, _tbest: &mut Self::Lanes) -> bool {
+        false
+    }
 }
 
 struct PortablePacket;
@@ -167,6 +185,25 @@ impl PacketTest for Avx512Packet {
     }
 
     #[inline(always)]
+    fn shared_leaf(bvh: &Bvh, c: u32, p: &mut Packet, mask: u16, tbest: &mut Self::Lanes) -> bool {
+        if mask.count_ones() < SHARE {
+            return false;
+        }
+        let code = p.axes[mask.trailing_zeros() as usize];
+        let mut bits = mask;
+        while bits != 0 {
+            let l = bits.trailing_zeros() as usize;
+            bits &= bits - 1;
+            if p.axes[l] != code {
+                return false;
+            }
+        }
+        // SAFETY: AVX-512 F builds only (as `masks`).
+        unsafe { Self::leaf_rays(bvh, c, p, mask, tbest) };
+        true
+    }
+
+    #[inline(always)]
     fn masks(node: &super::Node8, p: &Packet, tbest: Self::Lanes, mask: u16) -> [u16; 8] {
         use std::arch::x86_64::*;
         // SAFETY: only reached from functions built with AVX-512 F + VL
@@ -212,6 +249,107 @@ impl PacketTest for Avx512Packet {
     }
 }
 
+/// Rays a leaf must be entered by for the shared test to pay (below,
+/// each ray's own 8-lane block test is cheaper than eight 16-lane ones).
+const SHARE: u32 = 6;
+
+#[cfg(target_arch = "x86_64")]
+impl Avx512Packet {
+    /// The watertight test of [`super::leaf::intersect8_avx`] transposed:
+    /// lanes are the packet's rays (all with the same sheared axes), one
+    /// triangle at a time, the same operations per lane in the same order
+    /// (so the same `t`, `u`, `v` bit for bit); lanes with an edge function
+    /// exactly zero take the scalar test, as there.
+    #[inline(always)]
+    unsafe fn leaf_rays(bvh: &Bvh, c: u32, p: &mut Packet, mask: u16, tbest: &mut std::arch::x86_64::__m512) {
+        use std::arch::x86_64::*;
+        let code = p.axes[mask.trailing_zeros() as usize] as usize;
+        let (kx, ky, kz) = (code % 3, code / 3 % 3, code / 9);
+        let (sx, sy, sz) = (
+            _mm512_loadu_ps(p.shear[0].as_ptr()),
+            _mm512_loadu_ps(p.shear[1].as_ptr()),
+            _mm512_loadu_ps(p.shear[2].as_ptr()),
+        );
+        let z = _mm512_setzero_ps();
+        let skip = p.rays[0].skip;
+        let (first, count) = super::leaf_range(c);
+        for blk in &bvh.blocks[first as usize..(first + count) as usize] {
+            for i in 0..super::leaf::LANES {
+                let id = blk.tri[i];
+                if id == super::leaf::UNUSED || (0..3).any(|k| blk.corners[k][i] == skip) {
+                    continue;
+                }
+                let q = |corner: usize, k: usize| _mm512_set1_ps(blk.v[corner][k][i] - p.o[k]);
+                let (akx, aky, akz) = (q(0, kx), q(0, ky), q(0, kz));
+                let (bkx, bky, bkz) = (q(1, kx), q(1, ky), q(1, kz));
+                let (ckx, cky, ckz) = (q(2, kx), q(2, ky), q(2, kz));
+                let (ax, ay) = (_mm512_sub_ps(akx, _mm512_mul_ps(sx, akz)), _mm512_sub_ps(aky, _mm512_mul_ps(sy, akz)));
+                let (bx, by) = (_mm512_sub_ps(bkx, _mm512_mul_ps(sx, bkz)), _mm512_sub_ps(bky, _mm512_mul_ps(sy, bkz)));
+                let (cx, cy) = (_mm512_sub_ps(ckx, _mm512_mul_ps(sx, ckz)), _mm512_sub_ps(cky, _mm512_mul_ps(sy, ckz)));
+                let u = _mm512_sub_ps(_mm512_mul_ps(cx, by), _mm512_mul_ps(cy, bx));
+                let v = _mm512_sub_ps(_mm512_mul_ps(ax, cy), _mm512_mul_ps(ay, cx));
+                let w = _mm512_sub_ps(_mm512_mul_ps(bx, ay), _mm512_mul_ps(by, ax));
+                let lt = |x: __m512| _mm512_mask_cmp_ps_mask::<_CMP_LT_OQ>(mask, x, z);
+                let gt = |x: __m512| _mm512_mask_cmp_ps_mask::<_CMP_GT_OQ>(mask, x, z);
+                let eq = |x: __m512| _mm512_mask_cmp_ps_mask::<_CMP_EQ_OQ>(mask, x, z);
+                let neg = lt(u) | lt(v) | lt(w);
+                let pos = gt(u) | gt(v) | gt(w);
+                let zero = eq(u) | eq(v) | eq(w);
+                let inside = (neg ^ pos) & !zero & mask;
+                let redo = zero & mask;
+                if inside == 0 && redo == 0 {
+                    continue;
+                }
+                let det = _mm512_add_ps(_mm512_add_ps(u, v), w);
+                let t_scaled = _mm512_mul_ps(
+                    sz,
+                    _mm512_add_ps(_mm512_add_ps(_mm512_mul_ps(u, akz), _mm512_mul_ps(v, bkz)), _mm512_mul_ps(w, ckz)),
+                );
+                let inv = _mm512_div_ps(_mm512_set1_ps(1.0), det);
+                let t = _mm512_mul_ps(t_scaled, inv);
+                let in_range = _mm512_cmp_ps_mask::<_CMP_GE_OQ>(t, _mm512_set1_ps(p.tmin))
+                    & _mm512_cmp_ps_mask::<_CMP_LE_OQ>(t, *tbest);
+                let det_zero = _mm512_cmp_ps_mask::<_CMP_EQ_OQ>(det, z);
+                let hit = inside & !det_zero & in_range;
+                if hit != 0 {
+                    let (mut ts, mut us, mut vs) = ([0f32; PACKET], [0f32; PACKET], [0f32; PACKET]);
+                    _mm512_storeu_ps(ts.as_mut_ptr(), t);
+                    _mm512_storeu_ps(us.as_mut_ptr(), _mm512_mul_ps(v, inv));
+                    _mm512_storeu_ps(vs.as_mut_ptr(), _mm512_mul_ps(w, inv));
+                    let front = _mm512_cmp_ps_mask::<_CMP_GT_OQ>(det, z);
+                    let mut bits = hit;
+                    while bits != 0 {
+                        let l = bits.trailing_zeros() as usize;
+                        bits &= bits - 1;
+                        if closer(ts[l], id, &p.best[l]) {
+                            p.best[l] = Some(Hit { tri: id, u: us[l], v: vs[l], t: ts[l], front: front >> l & 1 == 1 });
+                            *tbest = Self::set(*tbest, l, ts[l]);
+                        }
+                    }
+                }
+                let mut bits = redo;
+                while bits != 0 {
+                    let l = bits.trailing_zeros() as usize;
+                    bits &= bits - 1;
+                    let tri = KdTriangle {
+                        v0: blk.corner(0, i).into(),
+                        v1: blk.corner(1, i).into(),
+                        v2: blk.corner(2, i).into(),
+                        ..Default::default()
+                    };
+                    let tmax = p.best[l].map_or(p.rays[l].tmax, |h| h.t);
+                    if let Some((tt, uu, vv, front)) = intersect(&tri, p.rays[l].origin, &p.shears[l], p.tmin, tmax) {
+                        if closer(tt, id, &p.best[l]) {
+                            p.best[l] = Some(Hit { tri: id, u: uu, v: vv, t: tt, front });
+                            *tbest = Self::set(*tbest, l, tt);
+                        }
+                    }
+                }
+            }
+        }
+    }
+}
+
 #[cfg(target_arch = "x86_64")]
 struct Avx2Packet;
 
@@ -246,7 +384,7 @@ impl Bvh {
         loop {
             let (c, mask) = cur;
             if is_leaf(c) {
-                let mut bits = mask;
+                let mut bits = if T::shared_leaf(self, c, p, mask, &mut tbest) { 0 } else { mask };
                 while bits != 0 {
                     let l = bits.trailing_zeros() as usize;
                     bits &= bits - 1;
