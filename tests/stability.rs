@@ -294,10 +294,9 @@ fn solve_open(desc: &SceneDesc, what: &str) -> (Solver, Solution) {
 
 const LIGHT: Vec3 = Vec3::new(0.1, 1.0, 0.2);
 
-#[test]
-fn sliver_triangles() {
-    // A 1 m long, 1e-5 m wide sliver facing the floor, and one facing up.
-    let desc = custom(
+/// A 1 m long, 1e-5 m wide sliver facing the floor, and one facing up.
+fn sliver_scene() -> SceneDesc {
+    custom(
         vec![floor_with(
             &[
                 Vec3::new(-0.5, 0.2, 0.0),
@@ -308,7 +307,33 @@ fn sliver_triangles() {
             &[[0, 1, 2], [0, 3, 1]],
         )],
         above(LIGHT),
-    );
+    )
+}
+
+/// A floor with a zero-area triangle and one with a repeated corner.
+fn zero_area_scene() -> SceneDesc {
+    custom(
+        vec![floor_with(
+            &[Vec3::new(-0.5, 0.2, 0.0), Vec3::new(0.5, 0.2, 0.0), Vec3::new(0.0, 0.2, 0.0)],
+            &[[0, 1, 2], [0, 0, 1]],
+        )],
+        above(LIGHT),
+    )
+}
+
+/// The floor with two fins on its diagonal: four triangles share the edge.
+fn fins() -> MeshDesc {
+    let mut m = floor_with(&[], &[]);
+    let top = m.positions.len() as u32;
+    m.positions.extend([Vec3::new(0.0, 0.5, 0.0), Vec3::new(0.3, 0.5, -0.3)]);
+    m.triangles.extend([[0, 2, top], [2, 0, top + 1]]);
+    m.triangle_material.extend([0, 0]);
+    m
+}
+
+#[test]
+fn sliver_triangles() {
+    let desc = sliver_scene();
     let (solver, sol) = solve_open(&desc, "sliver");
     assert_eq!(solver.scene().dropped_triangles, 0, "slivers have area and are kept");
     // The floor sees the sliver's underside (lit by nothing but the floor): E_i > 0 somewhere.
@@ -317,13 +342,7 @@ fn sliver_triangles() {
 
 #[test]
 fn zero_area_triangles_are_dropped() {
-    let desc = custom(
-        vec![floor_with(
-            &[Vec3::new(-0.5, 0.2, 0.0), Vec3::new(0.5, 0.2, 0.0), Vec3::new(0.0, 0.2, 0.0)],
-            &[[0, 1, 2], [0, 0, 1]],
-        )],
-        above(LIGHT),
-    );
+    let desc = zero_area_scene();
     let (solver, sol) = solve_open(&desc, "zero-area");
     assert_eq!(solver.scene().triangles.len(), 2, "only the floor remains");
     assert!(solver.scene().dropped_triangles >= 1);
@@ -350,15 +369,7 @@ fn duplicated_vertices_weld_to_the_same_answer() {
 
 #[test]
 fn non_manifold_edge() {
-    // Two fins on the floor's diagonal: four triangles share the edge.
-    let mut m = floor_with(&[], &[]);
-    let top = m.positions.len() as u32;
-    m.positions.push(Vec3::new(0.0, 0.5, 0.0));
-    m.positions.push(Vec3::new(0.3, 0.5, -0.3));
-    m.triangles.push([0, 2, top]);
-    m.triangles.push([2, 0, top + 1]);
-    m.triangle_material.extend([0, 0]);
-    let (solver, sol) = solve_open(&custom(vec![m], above(LIGHT)), "non-manifold");
+    let (solver, sol) = solve_open(&custom(vec![fins()], above(LIGHT)), "non-manifold");
     assert_eq!(solver.scene().triangles.len(), 4);
     // The fins and the floor light each other.
     assert!(sol.e_indirect_raw.iter().filter(|e| e.x > 0.0).count() >= 3);
@@ -466,32 +477,9 @@ fn coarse_and_degenerate_cases_with_refinement_on() {
         assert!(r.solver.scene().vertex_count() > 100, "refined");
         assert_closed_energy(&r.solver, &r.solution, rho, &format!("refined closed room rho {rho}"));
     }
-    let sliver = custom(
-        vec![floor_with(
-            &[
-                Vec3::new(-0.5, 0.2, 0.0),
-                Vec3::new(0.5, 0.2, 0.0),
-                Vec3::new(0.0, 0.2, 1e-5),
-                Vec3::new(0.0, 0.3, 1e-5),
-            ],
-            &[[0, 1, 2], [0, 3, 1]],
-        )],
-        above(LIGHT),
-    );
-    let zero_area = custom(
-        vec![floor_with(
-            &[Vec3::new(-0.5, 0.2, 0.0), Vec3::new(0.5, 0.2, 0.0), Vec3::new(0.0, 0.2, 0.0)],
-            &[[0, 1, 2], [0, 0, 1]],
-        )],
-        above(LIGHT),
-    );
-    let mut fins = floor_with(&[], &[]);
-    let top = fins.positions.len() as u32;
-    fins.positions.extend([Vec3::new(0.0, 0.5, 0.0), Vec3::new(0.3, 0.5, -0.3)]);
-    fins.triangles.extend([[0, 2, top], [2, 0, top + 1]]);
-    fins.triangle_material.extend([0, 0]);
+    let (sliver, zero_area) = (sliver_scene(), zero_area_scene());
     for (what, desc) in
-        [("sliver", sliver), ("zero-area", zero_area), ("non-manifold", custom(vec![fins], above(LIGHT)))]
+        [("sliver", sliver), ("zero-area", zero_area), ("non-manifold", custom(vec![fins()], above(LIGHT)))]
     {
         let r = refined(&desc, what);
         assert!(r.solver.scene().vertex_count() > 20, "{what}: refined");

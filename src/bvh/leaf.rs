@@ -86,7 +86,7 @@ pub struct Hits8 {
 /// The scalar test on every lane (the portable build, and the f64
 /// fallback of the SIMD builds for single lanes).
 #[inline(always)]
-fn lane(b: &Block8, l: usize, o: Vec3, s: &RayShear, tmin: f32, tmax: f32) -> Option<(f32, f32, f32, bool)> {
+pub(super) fn lane(b: &Block8, l: usize, o: Vec3, s: &RayShear, tmin: f32, tmax: f32) -> Option<(f32, f32, f32, bool)> {
     let tri = KdTriangle {
         v0: b.corner(0, l).into(),
         v1: b.corner(1, l).into(),

@@ -25,8 +25,7 @@ use super::traverse::{Avx2, Avx512};
 use super::traverse::{NodeTest, Portable, Walker, CULL, ROBUST, STACK};
 use super::{is_leaf, Bvh, Isa, EMPTY};
 use crate::kdtree::traverse::closer;
-use crate::kdtree::triangle::{intersect, Hit, RayShear};
-use crate::kdtree::KdTriangle;
+use crate::kdtree::triangle::{Hit, RayShear};
 use crate::kdtree::Ray;
 use glam::Vec3;
 
@@ -46,8 +45,6 @@ struct Packet {
     inv: [[f32; PACKET]; 3],
     /// Per axis: the lanes whose direction component is negative (near plane = box max).
     neg: [u16; 3],
-    /// Per lane: the cull distance base, the best hit's `t` or `tmax`.
-    tbest: [f32; PACKET],
     tmin: f32,
     rays: [Ray; PACKET],
     shears: [RayShear; PACKET],
@@ -69,7 +66,6 @@ impl Packet {
             o: origin.to_array(),
             inv: [[1.0; PACKET]; 3],
             neg: [0; 3],
-            tbest: [f32::INFINITY; PACKET],
             tmin: 0.0,
             rays: [ray0; PACKET],
             shears: [RayShear::new(Vec3::Z); PACKET],
@@ -331,14 +327,10 @@ impl Avx512Packet {
                 while bits != 0 {
                     let l = bits.trailing_zeros() as usize;
                     bits &= bits - 1;
-                    let tri = KdTriangle {
-                        v0: blk.corner(0, i).into(),
-                        v1: blk.corner(1, i).into(),
-                        v2: blk.corner(2, i).into(),
-                        ..Default::default()
-                    };
                     let tmax = p.best[l].map_or(p.rays[l].tmax, |h| h.t);
-                    if let Some((tt, uu, vv, front)) = intersect(&tri, p.rays[l].origin, &p.shears[l], p.tmin, tmax) {
+                    if let Some((tt, uu, vv, front)) =
+                        super::leaf::lane(blk, i, p.rays[l].origin, &p.shears[l], p.tmin, tmax)
+                    {
                         if closer(tt, id, &p.best[l]) {
                             p.best[l] = Some(Hit { tri: id, u: uu, v: vv, t: tt, front });
                             *tbest = Self::set(*tbest, l, tt);
@@ -378,7 +370,7 @@ impl Bvh {
     /// Walks packet `p` to the end (`stack`: scratch, reused between packets).
     #[inline(always)]
     fn walk_packet<T: PacketTest>(&self, p: &mut Packet, stack: &mut [(u32, u16); STACK], walker: &mut Walker) {
-        let mut tbest = T::lanes(&p.tbest);
+        let mut tbest = T::lanes(&p.rays.map(|r| r.tmax));
         let mut sp = 0;
         let mut cur = (0u32, p.active());
         loop {

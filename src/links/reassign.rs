@@ -41,11 +41,10 @@
 //! on its scenes) against a fresh shoot.
 
 use super::merge::{RayHits, HIT_BACK, HIT_MISS};
+use super::selective::recorded;
 use super::shoot::{links_from_records, RaySetup, TraceScratch, TO_TRACE};
 use super::{HitRecord, LinkParams, Links};
 use crate::csr::Csr;
-use crate::kdtree::triangle::{intersect, RayShear};
-use crate::kdtree::KdTriangle;
 use crate::scene::prep::{PreparedScene, NO_VERTEX};
 use crate::trace::CpuTracer;
 use glam::Vec3;
@@ -311,17 +310,15 @@ fn carry(
 }
 
 /// The nearest hit of the ray `o + t d` on `pieces` (the first on a tie)
-/// with the given facing, as a record; `None` if no piece meets it.
+/// with the given facing, as a record (the selective update's re-test of
+/// a recorded hit, on each piece); `None` if no piece meets it.
 fn on_pieces(scene: &PreparedScene, pieces: &[u32], o: Vec3, d: Vec3, front: bool) -> Option<HitRecord> {
-    let shear = RayShear::new(d);
+    let flag = if front { 0 } else { HIT_BACK };
     let mut best: Option<HitRecord> = None;
     for &p in pieces {
-        let [a, b, c] = scene.triangles[p as usize];
-        let q = |i: u32| scene.positions[i as usize].to_array();
-        let tri = KdTriangle { v0: q(a), ia: a, v1: q(b), ib: b, v2: q(c), ic: c };
-        if let Some((t, u, v, f)) = intersect(&tri, o, &shear, 0.0, f32::INFINITY) {
-            if f == front && best.is_none_or(|r| t < r.t) {
-                best = Some(HitRecord { tri: if f { p } else { p | HIT_BACK }, u, v, t });
+        if let Some(r) = recorded(scene, &scene.positions, p | flag, o, d) {
+            if best.is_none_or(|b| r.t < b.t) {
+                best = Some(r);
             }
         }
     }

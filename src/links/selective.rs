@@ -116,7 +116,7 @@ fn triangle(scene: &PreparedScene, positions: &[Vec3], t: u32) -> KdTriangle {
 /// The hit record of hit `id` of the ray `o + t d` recomputed on the
 /// triangle at `positions`; `None` if the triangle test does not meet it
 /// (never for the positions and ray it was traced with).
-fn recorded(scene: &PreparedScene, positions: &[Vec3], id: u32, o: Vec3, d: Vec3) -> Option<HitRecord> {
+pub(super) fn recorded(scene: &PreparedScene, positions: &[Vec3], id: u32, o: Vec3, d: Vec3) -> Option<HitRecord> {
     if id == HIT_MISS {
         return Some(record_of(None));
     }
