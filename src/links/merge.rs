@@ -125,15 +125,64 @@ pub fn requantize(sums: impl Iterator<Item = u32>, weight_per_ray: f64, scale: f
     let mut carry = 0.0f64;
     for sum in sums {
         let exact = sum as f64 * unit + carry;
-        let mut q = f16::from_f64(exact);
+        let mut q = f16_from_f64(exact);
         // `exact` is finite (finite sums and weights), so q is never NaN.
-        if q.to_f32() <= 0.0 {
+        if f16_to_f64(q) <= 0.0 {
             q = f16::from_bits(1);
         }
-        carry = exact - q.to_f64();
+        carry = exact - f16_to_f64(q);
         weights.push(q);
     }
 }
+
+/// The f16 of `x` as the golden results were made: rounded to f32 and
+/// then to f16 (ties to even both times), which is what `half`'s
+/// `f16::from_f64` does on x86 CPUs with F16C; this gives it on every CPU,
+/// inlined (`half`'s conversions are calls with a run-time feature check:
+/// with the reverse one, 5.6% of the link stage's samples on tearoom).
+/// Infinite, NaN and overflowing inputs take `half`'s path.
+#[inline(always)]
+fn f16_from_f64(x: f64) -> f16 {
+    let x = x as f32;
+    let a = x.abs();
+    // From 65520 up rounds to infinity; NaN fails the comparison.
+    if !(a < 65520.0) {
+        return f16::from_f32(x);
+    }
+    let sign = (x.to_bits() >> 16) as u16 & 0x8000;
+    if a < MIN_NORMAL_F16 {
+        // Subnormal steps of 2^-24: `a * 2^24` is exact and below 2^10, and
+        // adding and taking away 2^23 rounds it to an integer, ties to even.
+        let r = (a * 16_777_216.0 + 8_388_608.0) - 8_388_608.0;
+        // 1024 (rounded up to the least normal) is that normal's bit pattern.
+        return f16::from_bits(sign | r as u16);
+    }
+    // Normal: keep 10 of the 23 mantissa bits, ties to even; a carry out
+    // of the mantissa moves into the exponent, as it should.
+    let bits = a.to_bits();
+    let rounded = bits + ((1u32 << 12) - 1) + (bits >> 13 & 1);
+    f16::from_bits(sign | ((rounded >> 13) - ((127 - 15) << 10)) as u16)
+}
+
+/// `q.to_f64()`, exact and inlined (infinities and NaN take `half`'s path).
+#[inline(always)]
+fn f16_to_f64(q: f16) -> f64 {
+    let h = q.to_bits();
+    let (exp, man) = (h >> 10 & 0x1f, (h & 0x3ff) as u64);
+    let magnitude = match exp {
+        0 => man as f64 / 16_777_216.0,
+        31 => return q.to_f64(),
+        _ => f64::from_bits((exp as u64 + 1023 - 15) << 52 | man << 42),
+    };
+    if h & 0x8000 != 0 {
+        -magnitude
+    } else {
+        magnitude
+    }
+}
+
+/// The least normal f16, 2^-14.
+const MIN_NORMAL_F16: f32 = 6.103_515_625e-5;
 
 /// Turns one vertex's hits (one per ray) into its merged link group,
 /// appended to `targets`/`weights`; with `sums`, also appends each link's
@@ -277,6 +326,45 @@ mod tests {
             for &x in &xs {
                 assert_eq!(to_fixed(x, scale), reference(x, scale), "x = {x:e}, scale {scale}");
             }
+        }
+    }
+
+    /// The inlined f16 conversions are `half`'s bit for bit (from f64
+    /// through f32, as `half` does with F16C): every f16
+    /// value, the midpoints between neighbours and the doubles beside them,
+    /// both signs, the overflow edge, infinities, NaN and random doubles.
+    #[test]
+    fn f16_conversions_equal_half() {
+        for h in 0..=u16::MAX {
+            let q = f16::from_bits(h);
+            let want = q.to_f64();
+            let got = f16_to_f64(q);
+            assert!(got.to_bits() == want.to_bits() || (got.is_nan() && want.is_nan()), "{h:#06x}");
+        }
+        let mut xs = vec![0.0, -0.0, 65504.0, 65519.999, 65520.0, 65536.0, 1e300, f64::INFINITY, f64::NAN, 5e-324];
+        for h in 0..0x7c00u16 {
+            let (a, b) = (f16::from_bits(h).to_f64(), f16::from_bits(h + 1).to_f64());
+            let mid = (a + b) / 2.0;
+            let m32 = (mid as f32).to_bits();
+            let (below, above) = (f32::from_bits(m32 - 1) as f64, f32::from_bits(m32 + 1) as f64);
+            for x in [a, b, mid, f64::from_bits(mid.to_bits() - 1), f64::from_bits(mid.to_bits() + 1), below, above] {
+                xs.extend([x, -x]);
+            }
+        }
+        let mut state = 0x9e37_79b9_7f4a_7c15u64;
+        for _ in 0..200_000 {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            // Exponents from 2^-40 to 2^24, either sign.
+            let x = f64::from_bits((state & 0x800f_ffff_ffff_ffff) | (983 + (state >> 52 & 63)) << 52);
+            xs.push(x);
+        }
+        for &x in &xs {
+            // `half` without F16C rounds once, from the f64; the goldens
+            // (and this function) round through f32.
+            let (want, got) = (f16::from_f32(x as f32), f16_from_f64(x));
+            assert!(got.to_bits() == want.to_bits() || (got.is_nan() && want.is_nan()), "x = {x:e}: {:#x} {:#x}", got.to_bits(), want.to_bits());
         }
     }
 
