@@ -55,6 +55,12 @@ struct Packet {
     shear: [[f32; PACKET]; 3],
     /// Per lane: the sheared axes `(kx, ky, kz)` coded `kx + 3 ky + 9 kz`.
     axes: [u8; PACKET],
+    /// Per axis: the least and greatest `1 / d` over the packet's rays.
+    inv_lo: [f32; 3],
+    inv_hi: [f32; 3],
+    /// Per axis: 0 where every ray's component is positive, 1 where every
+    /// one is negative, 2 where they differ.
+    cone_sign: [u8; 3],
 }
 
 impl Packet {
@@ -73,6 +79,9 @@ impl Packet {
             perm_shift: 0,
             shear: [[0.0; PACKET]; 3],
             axes: [0; PACKET],
+            inv_lo: [0.0; 3],
+            inv_hi: [0.0; 3],
+            cone_sign: [2; 3],
         };
         for (l, d) in dirs[..n].iter().enumerate() {
             p.rays[l].dir = *d;
@@ -86,6 +95,17 @@ impl Packet {
                 p.inv[a][l] = 1.0 / da;
                 p.neg[a] |= ((p.inv[a][l] < 0.0) as u16) << l;
             }
+        }
+        let all = ((1u32 << n) - 1) as u16;
+        for a in 0..3 {
+            let lanes = &p.inv[a][..n];
+            p.inv_lo[a] = lanes.iter().copied().fold(f32::INFINITY, f32::min);
+            p.inv_hi[a] = lanes.iter().copied().fold(f32::NEG_INFINITY, f32::max);
+            p.cone_sign[a] = match p.neg[a] & all {
+                0 => 0,
+                m if m == all => 1,
+                _ => 2,
+            };
         }
         let octant = (0..3).fold(0, |o, a| o | ((p.neg[a] & 1) as u32) << a);
         p.perm_shift = 3 * octant;
@@ -224,8 +244,35 @@ impl PacketTest for Avx512Packet {
                 m if m == mask => 1,
                 _ => 2,
             });
+            // The packet's cone first: per axis of one sign, the least
+            // entry and the greatest exit distance over the lanes of `mask`
+            // bound every lane's (the product is monotone in `1 / d`, and
+            // rounding is monotone), eight children a vector. A child whose
+            // bound entry lies beyond its bound exit is entered by no lane.
+            let mut lb = _mm256_set1_ps(p.tmin);
+            let mut ub = _mm256_set1_ps(_mm512_mask_reduce_max_ps(mask, tb));
+            for a in 0..3 {
+                if p.cone_sign[a] == 2 {
+                    continue;
+                }
+                let (lo, hi) = (_mm256_set1_ps(p.inv_lo[a]), _mm256_set1_ps(p.inv_hi[a]));
+                let (k_near, k_far) = if p.cone_sign[a] == 0 { (a, a + 3) } else { (a + 3, a) };
+                let near = _mm256_loadu_ps(rel[k_near].as_ptr());
+                let far = _mm256_loadu_ps(rel[k_far].as_ptr());
+                // Least `near / d` (at the least `1 / d` where near >= 0),
+                // greatest `far / d` (at the greatest where far >= 0).
+                let tn = _mm256_blendv_ps(_mm256_mul_ps(near, lo), _mm256_mul_ps(near, hi), near);
+                let tf = _mm256_blendv_ps(_mm256_mul_ps(far, hi), _mm256_mul_ps(far, lo), far);
+                lb = _mm256_max_ps(lb, tn);
+                ub = _mm256_min_ps(ub, tf);
+            }
+            let live = _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(lb, _mm256_mul_ps(ub, _mm256_set1_ps(ROBUST))));
             let mut out = [0u16; 8];
-            for (i, m) in out.iter_mut().enumerate() {
+            let mut bits = live as u32;
+            while bits != 0 {
+                let i = bits.trailing_zeros() as usize;
+                bits &= bits - 1;
+                let m = &mut out[i];
                 let mut tn = tmin;
                 let mut tf = tb;
                 for a in 0..3 {
