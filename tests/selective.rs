@@ -1,5 +1,6 @@
 //! Selective updates after deformations (`Solver::deform`): the links,
-//! light links, per-ray state and indirect irradiance equal a full solve of
+//! light links, per-ray state, near hits' light columns and gather rays
+//! and indirect irradiance equal a full solve of
 //! the same deformed scene with the same seed, for sequences of deformer
 //! times, a large motion through the room and a motion of a hair; scenes
 //! without dynamic meshes keep no per-ray state; a preview shows the
@@ -68,6 +69,8 @@ fn assert_equals_fresh(updated: &Solver, what: &str) {
     }
     assert_eq!(updated.links().near, fresh.links().near, "{what}: near hits");
     assert_eq!(updated.near().light.columns, fresh.near().light.columns, "{what}: near hits' light columns");
+    assert_eq!(updated.near().gather.per_hit, fresh.near().gather.per_hit, "{what}: gather rays a near hit");
+    assert_eq!(updated.near().gather.hits, fresh.near().gather.hits, "{what}: near hits' gather rays");
     let (ea, eb) = (&updated.emitter_links(), &fresh.emitter_links());
     ea.validate(updated.scene().vertex_count()).expect("emitter links valid");
     assert_eq!(ea.rows, eb.rows, "{what}: emitter links");

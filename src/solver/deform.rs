@@ -153,11 +153,26 @@ impl Solver {
                 &params.light,
             )
             .expect("a CPU tracer cannot fail");
+        // The near hits' gather rays: those the motion can have changed traced again.
+        self.traced
+            .near
+            .gather
+            .update_deformed(
+                &self.scene,
+                &near_before,
+                &self.links.near,
+                &near_redone,
+                &motion,
+                &self.accel,
+                &params.near_gather,
+                params.seed(),
+            )
+            .expect("a CPU tracer cannot fail");
         // Everything else is traced anew: any motion can move an emitter or
         // what shades it; the sky's refined cells follow the new links'
         // misses, the portals' rays the new positions, the near hits' sky
-        // and gather rays the new hits; the noise check is a few hundred vertices.
-        self.retrace(&[Part::Emitters, Part::Sky, Part::NearGather, Part::NoiseCheck]);
+        // rays the new hits; the noise check is a few hundred vertices.
+        self.retrace(&[Part::Emitters, Part::Sky, Part::NoiseCheck]);
         stats.emitter_links_ms = self.traced.emitter_links.ms;
         stats.ray_state_bytes = self.ray_state_bytes();
         stats.ms = start.elapsed().as_secs_f64() * 1e3;
