@@ -81,6 +81,9 @@ struct Patch {
     sums: Vec<u32>,
     /// The vertex's miss mask after the update (None: no ray missed).
     sky: Option<Vec<u64>>,
+    /// Its near hits, where the group was merged from all its rays'
+    /// records (None: [`near_hits`] finds them).
+    near: Option<Vec<NearHit>>,
     new: [u64; 3],
     old: [u64; 3],
 }
@@ -143,6 +146,8 @@ struct Context<'a> {
     tracer: &'a dyn CpuTracer,
     setup: RaySetup,
     probe: Option<Bvh>,
+    /// Distances under which a hit is near (None: no near hits recorded).
+    near_limits: Option<std::sync::Arc<[f32]>>,
     union_box: crate::scene::motion::Aabb,
     weight_per_ray: f64,
 }
@@ -181,7 +186,7 @@ impl Context<'_> {
             for (id, r) in row.iter_mut().zip(&scratch.records) {
                 *id = r.tri;
             }
-            let mut p = self.merge(scratch);
+            let mut p = self.merge(v, scratch);
             p.old = old;
             return (Some(p), row.len() as u64);
         }
@@ -274,6 +279,7 @@ impl Context<'_> {
             weights: Vec::new(),
             sums: Vec::with_capacity(targets.len() + 4),
             sky: None,
+            near: None,
             new: [0; 3],
             old: [0; 3],
         };
@@ -312,7 +318,7 @@ impl Context<'_> {
         for (id, r) in row.iter_mut().zip(&scratch.records) {
             *id = r.tri;
         }
-        let mut p = self.merge(scratch);
+        let mut p = self.merge(v, scratch);
         p.old = old;
         p
     }
@@ -340,8 +346,9 @@ impl Context<'_> {
         }
     }
 
-    /// The group merged from `scratch.records` (all rays, in order).
-    fn merge(&self, scratch: &mut Scratch) -> Patch {
+    /// The group of vertex `v` merged from `scratch.records` (all rays, in
+    /// order), and its near hits from them.
+    fn merge(&self, v: usize, scratch: &mut Scratch) -> Patch {
         let (mut targets, mut weights, mut sums) = (Vec::new(), Vec::new(), Vec::new());
         let c = merge_vertex_sums(
             &scratch.records,
@@ -352,7 +359,13 @@ impl Context<'_> {
             &mut weights,
             Some(&mut sums),
         );
-        Patch { targets, weights, sums, sky: None, new: [c.front as u64, c.back as u64, c.miss as u64], old: [0; 3] }
+        let near = self.near_limits.as_ref().map(|limits| {
+            let mut out = Vec::new();
+            push_near(v, &scratch.records, &self.scene.triangles, limits, &mut out);
+            out
+        });
+        let new = [c.front as u64, c.back as u64, c.miss as u64];
+        Patch { targets, weights, sums, sky: None, near, new, old: [0; 3] }
     }
 }
 
@@ -406,6 +419,9 @@ pub fn reshoot(
         tracer,
         setup,
         probe,
+        near_limits: (!links.near.rows.offsets.is_empty())
+            .then(|| near_limits(scene, rays as u32, &params.near))
+            .flatten(),
         union_box: motion.union_box(),
         weight_per_ray: std::f64::consts::PI / rays as f64,
     };
@@ -444,6 +460,7 @@ pub fn reshoot(
     let mut new_sums = Vec::with_capacity(links.link_count() + extra);
     let mut sky = links.sky.clone();
     let mut patched = vec![false; n];
+    let mut near_found: Vec<Option<Vec<NearHit>>> = vec![None; n];
     let mut v = 0;
     for (patches, remade_rays, static_rays) in results {
         stats.rays_reshot += remade_rays + static_rays;
@@ -460,6 +477,7 @@ pub fn reshoot(
                     s.misses = s.misses + p.new[2] - p.old[2];
                     stats.groups_patched += 1;
                     patched[v] = true;
+                    near_found[v] = p.near;
                     sky.set(v, n, rays, p.sky.as_deref());
                 }
                 None => {
@@ -480,7 +498,7 @@ pub fn reshoot(
     out.set_sizes();
     sky.compact();
     out.sky = sky;
-    let (near, near_redone) = near_hits(&ctx, params, links, ids, &patched);
+    let (near, near_redone) = near_hits(&ctx, links, ids, &patched, near_found);
     out.near = near;
     *sums = new_sums;
     stats.ms = start.elapsed().as_secs_f64() * 1e3;
@@ -490,26 +508,28 @@ pub fn reshoot(
 
 /// The near hits after an update ([`super::near`]): those of patched
 /// vertices and of vertices with a near hit on a moved triangle redone
-/// from their hit ids `ids`, the others kept; and which were redone.
+/// (`found` where the group's merge found them, else from their hit ids
+/// `ids`), the others kept; and which were redone.
 fn near_hits(
     ctx: &Context,
-    params: &LinkParams,
     links: &Links,
     ids: &[u32],
     patched: &[bool],
+    found: Vec<Option<Vec<NearHit>>>,
 ) -> (NearHits, Vec<bool>) {
     let scene = ctx.scene;
-    let n = scene.vertex_count();
     let rays = ctx.setup.directions.len();
-    let Some(limits) =
-        (!links.near.rows.offsets.is_empty()).then(|| near_limits(scene, rays as u32, &params.near)).flatten()
-    else {
+    let Some(limits) = &ctx.near_limits else {
         return (NearHits::default(), Vec::new());
     };
     let moved = &ctx.motion.moved_triangle;
-    let redone: Vec<Option<Vec<NearHit>>> = (0..n)
+    let redone: Vec<Option<Vec<NearHit>>> = found
         .into_par_iter()
-        .map_init(Vec::new, |records, v| {
+        .enumerate()
+        .map_init(Vec::new, |records, (v, found)| {
+            if found.is_some() {
+                return found;
+            }
             if !patched[v] && !links.near.of(v).iter().any(|h| moved[h.tri as usize]) {
                 return None;
             }
