@@ -282,6 +282,15 @@ impl PackedTargets {
         self.bytes.extend_from_slice(&other.bytes[other.starts[v] as usize..other.starts[v + 1] as usize]);
     }
 
+    /// Appends a copy of rows `rows` of `other` (finished, or with
+    /// `rows` short of its last row), in one copy.
+    pub fn push_rows_of(&mut self, other: &PackedTargets, rows: std::ops::Range<usize>) {
+        let (a, b) = (other.starts[rows.start] as usize, other.starts[rows.end] as usize);
+        let base = offset(self.bytes.len() + (b - a)) - (b - a) as u32;
+        self.starts.extend(other.starts[rows].iter().map(|s| s - a as u32 + base));
+        self.bytes.extend_from_slice(&other.bytes[a..b]);
+    }
+
     /// Appends the rows of `other`, an unfinished stream.
     pub fn append(&mut self, other: &PackedTargets) {
         let base = offset(self.bytes.len() + other.bytes.len()) - other.bytes.len() as u32;

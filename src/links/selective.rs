@@ -461,35 +461,44 @@ pub fn reshoot(
     let mut sky = links.sky.clone();
     let mut patched = vec![false; n];
     let mut near_found: Vec<Option<Vec<NearHit>>> = vec![None; n];
+    // Unchanged rows are copied a run at a time.
+    let copy_run = |out: &mut Links, new_sums: &mut Vec<u32>, run: std::ops::Range<usize>| {
+        if run.is_empty() {
+            return;
+        }
+        let (a, b) = (links.offsets[run.start] as usize, links.offsets[run.end] as usize);
+        let base = out.weights.len() as u32;
+        out.packed.push_rows_of(&links.packed, run.clone());
+        out.weights.extend_from_slice(&links.weights[a..b]);
+        new_sums.extend_from_slice(&sums[a..b]);
+        out.offsets.extend(links.offsets[run.start + 1..run.end + 1].iter().map(|&o| o - a as u32 + base));
+    };
     let mut v = 0;
+    let mut run = 0;
     for (patches, remade_rays, static_rays) in results {
         stats.rays_reshot += remade_rays + static_rays;
         stats.static_rays_reshot += static_rays;
         for p in patches {
-            match p {
-                Some(p) => {
-                    out.packed.push_group(&p.targets);
-                    out.weights.extend_from_slice(&p.weights);
-                    new_sums.extend_from_slice(&p.sums);
-                    let s = &mut link_stats;
-                    s.front_hits = s.front_hits + p.new[0] - p.old[0];
-                    s.back_hits = s.back_hits + p.new[1] - p.old[1];
-                    s.misses = s.misses + p.new[2] - p.old[2];
-                    stats.groups_patched += 1;
-                    patched[v] = true;
-                    near_found[v] = p.near;
-                    sky.set(v, n, rays, p.sky.as_deref());
-                }
-                None => {
-                    out.packed.push_row_of(&links.packed, v);
-                    out.weights.extend_from_slice(links.weights_of(v));
-                    new_sums.extend_from_slice(&sums[links.offsets[v] as usize..links.offsets[v + 1] as usize]);
-                }
+            if let Some(p) = p {
+                copy_run(&mut out, &mut new_sums, run..v);
+                run = v + 1;
+                out.packed.push_group(&p.targets);
+                out.weights.extend_from_slice(&p.weights);
+                new_sums.extend_from_slice(&p.sums);
+                let s = &mut link_stats;
+                s.front_hits = s.front_hits + p.new[0] - p.old[0];
+                s.back_hits = s.back_hits + p.new[1] - p.old[1];
+                s.misses = s.misses + p.new[2] - p.old[2];
+                stats.groups_patched += 1;
+                patched[v] = true;
+                near_found[v] = p.near;
+                sky.set(v, n, rays, p.sky.as_deref());
+                out.offsets.push(out.weights.len() as u32);
             }
-            out.offsets.push(out.weights.len() as u32);
             v += 1;
         }
     }
+    copy_run(&mut out, &mut new_sums, run..v);
     stats.static_rays = (n - motion.remade_count) as u64 * rays as u64;
     link_stats.raw_links = 3 * link_stats.front_hits;
     link_stats.raw_bytes = link_stats.raw_links * super::assemble::RAW_LINK_BYTES;
