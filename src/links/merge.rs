@@ -150,18 +150,18 @@ fn f16_from_f64(x: f64) -> f16 {
         return f16::from_f32(x);
     }
     let sign = (x.to_bits() >> 16) as u16 & 0x8000;
-    if a < MIN_NORMAL_F16 {
-        // Subnormal steps of 2^-24: `a * 2^24` is exact and below 2^10, and
-        // adding and taking away 2^23 rounds it to an integer, ties to even.
-        let r = (a * 16_777_216.0 + 8_388_608.0) - 8_388_608.0;
-        // 1024 (rounded up to the least normal) is that normal's bit pattern.
-        return f16::from_bits(sign | r as u16);
-    }
+    // Both roundings, then a select (no branch: links' weights fall on
+    // either side of the least normal unpredictably).
+    // Subnormal steps of 2^-24: `a * 2^24` is exact (below 2^10 where it
+    // is taken), and adding and taking away 2^23 rounds it to an integer,
+    // ties to even; 1024 (rounded up to the least normal) is that normal's
+    // bit pattern.
+    let subnormal = ((a * 16_777_216.0 + 8_388_608.0) - 8_388_608.0) as i32 as u32;
     // Normal: keep 10 of the 23 mantissa bits, ties to even; a carry out
     // of the mantissa moves into the exponent, as it should.
     let bits = a.to_bits();
-    let rounded = bits + ((1u32 << 12) - 1) + (bits >> 13 & 1);
-    f16::from_bits(sign | ((rounded >> 13) - ((127 - 15) << 10)) as u16)
+    let normal = ((bits + ((1u32 << 12) - 1) + (bits >> 13 & 1)) >> 13).wrapping_sub((127 - 15) << 10);
+    f16::from_bits(sign | (if a < MIN_NORMAL_F16 { subnormal } else { normal }) as u16)
 }
 
 /// `q.to_f64()`, exact and inlined (infinities and NaN take `half`'s path).
@@ -169,16 +169,14 @@ fn f16_from_f64(x: f64) -> f16 {
 fn f16_to_f64(q: f16) -> f64 {
     let h = q.to_bits();
     let (exp, man) = (h >> 10 & 0x1f, (h & 0x3ff) as u64);
-    let magnitude = match exp {
-        0 => man as f64 / 16_777_216.0,
-        31 => return q.to_f64(),
-        _ => f64::from_bits((exp as u64 + 1023 - 15) << 52 | man << 42),
-    };
-    if h & 0x8000 != 0 {
-        -magnitude
-    } else {
-        magnitude
+    if exp == 31 {
+        return q.to_f64();
     }
+    // Both readings, then a select (as in `f16_from_f64`).
+    let subnormal = man as f64 / 16_777_216.0;
+    let normal = f64::from_bits((exp as u64 + 1023 - 15) << 52 | man << 42);
+    let magnitude = if exp == 0 { subnormal } else { normal };
+    f64::from_bits(magnitude.to_bits() | ((h & 0x8000) as u64) << 48)
 }
 
 /// The least normal f16, 2^-14.
