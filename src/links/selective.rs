@@ -25,8 +25,11 @@
 //!   the old hit would be on it. The segment is tested against the box of
 //!   the moved triangles first, then against a small BVH over them;
 //!   vertices that see the boxes only below their tangent plane are
-//!   skipped whole. Rays that dive under an incident triangle (self hits)
-//!   depend on nothing that moved.
+//!   skipped whole, and of the others only the directions in the cone
+//!   that can meet the boxes' union are looked at (one dot product a ray
+//!   in the vertex frame; the cone bounds the box's sphere, with a margin
+//!   of 1e-4 in cosine). Rays that dive under an incident triangle (self
+//!   hits) depend on nothing that moved.
 //!
 //! A vertex whose re-traced rays all hit what they hit before (same
 //! triangle, same barycentrics) keeps its group. The others are patched:
@@ -47,6 +50,7 @@ use crate::bvh::{Bvh, BvhBuildParams};
 use crate::kdtree::traverse::Ray;
 use crate::kdtree::triangle::{intersect, RayShear};
 use crate::kdtree::{Hit, KdTriangle};
+use crate::sampling::{vertex_frame, world_direction};
 use crate::scene::motion::Motion;
 use crate::scene::prep::PreparedScene;
 use crate::sky::visibility::miss_mask;
@@ -133,6 +137,11 @@ fn kept_record(scene: &PreparedScene, id: u32, o: Vec3, d: Vec3) -> Option<HitRe
     recorded(scene, &scene.positions, id, o, d)
 }
 
+/// Slack of the direction cone test ([`Context::cone`]) in cosine: far
+/// above the rounding of a direction's frame transform and normalization
+/// (about 1e-6).
+const CONE_MARGIN: f32 = 1e-4;
+
 /// Everything the per-vertex work shares.
 struct Context<'a> {
     scene: &'a PreparedScene,
@@ -178,6 +187,26 @@ impl Context<'_> {
             && probe.occluded(&Ray { origin: o, dir: d, tmin: 0.0, tmax: t_old, skip: v as u32 })
     }
 
+    /// The cone of directions from `o` that can meet the motion's union
+    /// box, in the vertex frame `frame` (tangent, bitangent, normal): its
+    /// axis and the least cosine to it, lowered by [`CONE_MARGIN`]; `None`
+    /// where `o` is too near the box for a cone. A ray outside it cannot
+    /// need a new trace: its old hit was on no moved triangle (those lay
+    /// in the box) and its segment meets no box of the motion.
+    fn cone(&self, o: Vec3, frame: (Vec3, Vec3, Vec3)) -> Option<(Vec3, f32)> {
+        let b = &self.union_box;
+        let (center, radius) = ((b.min + b.max) * 0.5, (b.max - b.min).length() * 0.5);
+        let to = center - o;
+        let dist = to.length();
+        if !(dist > 1.01 * radius) {
+            return None;
+        }
+        let u = to / dist;
+        let cos = (1.0 - (radius / dist).powi(2)).sqrt() - CONE_MARGIN;
+        let (t, bt, n) = frame;
+        Some((Vec3::new(t.dot(u), bt.dot(u), n.dot(u)), cos))
+    }
+
     /// Updates vertex `v` whose hit ids are `row`.
     fn vertex(&self, v: usize, row: &mut [u32], scratch: &mut Scratch) -> (Option<Patch>, u64) {
         if self.motion.remade[v] {
@@ -198,7 +227,13 @@ impl Context<'_> {
         scratch.retrace.clear();
         scratch.dirs.clear();
         scratch.kept.clear();
-        for (k, d) in self.setup.world_directions(v).enumerate() {
+        let frame = vertex_frame(self.setup.normals[v], self.setup.rotations[v]);
+        let cone = self.cone(o, frame);
+        for (k, local) in self.setup.directions.set(self.setup.sets[v]).iter().enumerate() {
+            if cone.is_some_and(|(axis, cos)| local.dot(axis) < cos) {
+                continue;
+            }
+            let d = world_direction(frame, *local);
             if wedges.iter().any(|w| w.dives_under(d)) {
                 continue;
             }
