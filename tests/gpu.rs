@@ -592,3 +592,24 @@ fn a_callers_own_device_serves_the_gpu_path() {
     assert_eq!(ours.links().weights, theirs.links().weights);
     assert_eq!(ours.solve().e_indirect, theirs.solve().e_indirect);
 }
+
+/// `SolveStats::cpu_traced_rays` counts what the CPU traced: on the CPU
+/// path every ray (links and each traced part), on the GPU path only the
+/// parts the GPU tracer does not serve yet (the final gather at near hits
+/// and the noise check), none of the link or shadow rays it shot.
+#[test]
+fn cpu_traced_rays_count_what_the_cpu_traced() {
+    let desc = common::with_settings(scene::load("cornell").expect("built-in"), 64, Bounces::Fixed(2), 30.0);
+    let scene = prep::prepare(&desc).expect("prepares");
+    let params = SolveParams::from_settings(&scene.settings);
+    let cpu = Solver::new(scene.clone(), params, &|_, _| {});
+    let s = cpu.stats(&cpu.solve(), 0.0);
+    assert!(s.links.rays > 0 && s.near_gather_rays > 0 && s.noise_check_rays > 0 && s.shadow_rays > 0);
+    assert_eq!(s.cpu_traced_rays, s.traced_rays(), "CPU path: every ray");
+
+    let Some(dev) = device() else { return };
+    let gpu = Solver::new_on(scene, params, &gpu_compute(&dev, 1), &|_, _| {}).expect("GPU solver");
+    let g = gpu.stats(&gpu.solve(), 0.0);
+    assert!(g.shadow_rays > 0, "the GPU traced the light links");
+    assert_eq!(g.cpu_traced_rays, g.near_gather_rays + g.noise_check_rays, "GPU path: the CPU-only parts");
+}

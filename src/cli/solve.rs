@@ -89,6 +89,12 @@ pub fn run(args: SolveArgs) -> Result<()> {
     println!("vertices         {}", s.vertices);
     println!("triangles        {}", s.triangles);
     println!("tracer           {}", s.tracer);
+    println!(
+        "cpu-traced rays  {} of {} ({:.1}%)",
+        s.cpu_traced_rays,
+        s.traced_rays(),
+        100.0 * s.cpu_traced_rays as f64 / s.traced_rays().max(1) as f64
+    );
     if let Some(k) = &s.kd {
         println!(
             "kd nodes         {} ({} leaves, {:.2} tris/leaf, depth {}, SAH cost {:.1})",

@@ -180,7 +180,7 @@ fn f16_to_f64(q: f16) -> f64 {
 }
 
 /// The least normal f16, 2^-14.
-const MIN_NORMAL_F16: f32 = 6.103_515_625e-5;
+const MIN_NORMAL_F16: f32 = 1.0 / 16_384.0;
 
 /// Turns one vertex's hits (one per ray) into its merged link group,
 /// appended to `targets`/`weights`; with `sums`, also appends each link's

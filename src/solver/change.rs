@@ -61,8 +61,10 @@ impl Solver {
         // light's is stale, so the preview goes without the lights' near
         // field ([`crate::exchange::NearLight::covers`]) and the full
         // update traces it.
+        traced.on_cpu[Part::LightLinks.index()] |= t.take_cpu_used();
         if !preview {
             t.any("tracing near-hit light", |tr| traced.near.light.update(scene, near, tr, &params.light));
+            traced.on_cpu[Part::NearLight.index()] |= t.take_cpu_used();
         }
     }
 

@@ -133,16 +133,18 @@ impl Compute {
 }
 
 /// The tracers of one solver: the GPU's (when there is one) and the CPU structure.
-#[derive(Clone, Copy)]
+#[derive(Clone)]
 pub(crate) struct Tracers<'a> {
     pub gpu: Option<&'a GpuTracer>,
-    pub cpu: &'a Accel,
+    cpu: &'a Accel,
+    /// Set whenever the CPU structure is handed out ([`Tracers::take_cpu_used`]).
+    cpu_used: std::cell::Cell<bool>,
 }
 
 impl<'a> Tracers<'a> {
     /// The tracers of a solver with GPU state `gpu` and CPU structure `cpu`.
     pub fn of(gpu: &'a Option<GpuState>, cpu: &'a Accel) -> Tracers<'a> {
-        Tracers { gpu: gpu.as_ref().map(|g| &g.tracer), cpu }
+        Tracers { gpu: gpu.as_ref().map(|g| &g.tracer), cpu, cpu_used: std::cell::Cell::new(false) }
     }
 
     /// `f` run with the GPU tracer when there is one; where it fails (or
@@ -156,7 +158,18 @@ impl<'a> Tracers<'a> {
     /// `f` run with the CPU structure: stages the GPU tracer does not
     /// serve (arbitrary closest-hit batches).
     pub fn cpu_only<T>(&self, mut f: impl FnMut(&dyn Tracer) -> crate::Result<T>) -> T {
-        f(self.cpu).expect("a CPU tracer cannot fail")
+        f(self.cpu()).expect("a CPU tracer cannot fail")
+    }
+
+    /// The CPU structure, for stages that walk it ray by ray.
+    pub fn cpu(&self) -> &'a Accel {
+        self.cpu_used.set(true);
+        self.cpu
+    }
+
+    /// Whether the CPU structure was handed out since the last call.
+    pub fn take_cpu_used(&self) -> bool {
+        self.cpu_used.replace(false)
     }
 }
 

@@ -345,6 +345,7 @@ impl Solver {
             shadow_rays_per_second: t.light_links.shadow_rays as f64 / (t.light_links.ms.max(1e-9) * 1e-3),
             devices: self.gpu.as_ref().map(|g| g.shares.clone()).unwrap_or_default(),
             ray_state_bytes: self.ray_state_bytes(),
+            cpu_traced_rays: if self.gpu.is_none() { self.links.stats.rays } else { 0 } + t.cpu_rays(),
         }
     }
 }

@@ -86,6 +86,29 @@ pub struct SolveStats {
     pub devices: Vec<DeviceShare>,
     /// Bytes of the per-ray state kept for selective updates (0 without dynamic meshes).
     pub ray_state_bytes: u64,
+    /// Rays traced on the CPU: the link rays where the links were shot on
+    /// the CPU, and all rays of every traced part the CPU structure served
+    /// (`Traced::cpu_rays`). On the GPU path it counts what the GPU
+    /// tracer does not serve yet (0 once it serves every stage).
+    pub cpu_traced_rays: u64,
+}
+
+impl SolveStats {
+    /// Every ray the solution was traced with: the link rays and each
+    /// traced part's rays (light links, emitters, sky, portals, the near
+    /// fields, the final gather, the noise check).
+    pub fn traced_rays(&self) -> u64 {
+        self.links.rays
+            + self.shadow_rays
+            + self.emitter_rays
+            + self.near_emitter_rays
+            + self.sky_rays
+            + self.portal_rays
+            + self.near_sky_rays
+            + self.near_rays
+            + self.near_gather_rays
+            + self.noise_check_rays
+    }
 }
 
 /// Per-vertex results.

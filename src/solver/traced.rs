@@ -8,7 +8,9 @@
 //! GPU tracer when the solver has one, else (or when it fails) on the CPU
 //! structure ([`super::compute::Tracers::any`]); the final gather and the
 //! noise check always run on the CPU structure (the GPU tracer shoots whole
-//! vertices' ray sets only).
+//! vertices' ray sets only). Which parts the CPU structure traced is kept
+//! ([`Traced::on_cpu`]), so a solve can say how many of its rays ran on
+//! the CPU (`SolveStats::cpu_traced_rays`).
 
 use super::compute::Tracers;
 use super::SolveParams;
@@ -31,6 +33,9 @@ pub struct Traced {
     pub near: NearField,
     /// A second estimate at a sample of vertices, which calibrates the noise estimate.
     pub noise_check: NoiseCheck,
+    /// Per part (in [`Part::ALL`] order): whether the CPU structure traced
+    /// some of its current rays ([`Traced::cpu_rays`]).
+    pub on_cpu: [bool; 6],
 }
 
 /// One traced part.
@@ -54,6 +59,11 @@ impl Part {
     /// Every part, in the order they are traced.
     pub const ALL: [Part; 6] =
         [Part::LightLinks, Part::Emitters, Part::Sky, Part::NearLight, Part::NearGather, Part::NoiseCheck];
+
+    /// The part's place in [`Part::ALL`].
+    pub fn index(self) -> usize {
+        self as usize
+    }
 }
 
 impl Traced {
@@ -61,6 +71,7 @@ impl Traced {
     pub fn trace(&mut self, parts: &[Part], scene: &PreparedScene, links: &Links, params: &SolveParams, t: Tracers) {
         let (near, rays, seed) = (&links.near, params.links.rays_per_vertex, params.seed());
         for part in parts {
+            t.take_cpu_used();
             match part {
                 Part::LightLinks => {
                     self.light_links =
@@ -95,9 +106,26 @@ impl Traced {
                     self.near.gather = t.cpu_only(|tr| NearGather::compute(scene, near, tr, &params.near_gather, seed))
                 }
                 Part::NoiseCheck => {
-                    self.noise_check = NoiseCheck::compute(scene, t.cpu, &params.links, &params.smoothing.noise)
+                    self.noise_check = NoiseCheck::compute(scene, t.cpu(), &params.links, &params.smoothing.noise)
                 }
             }
+            self.on_cpu[part.index()] = t.take_cpu_used();
         }
+    }
+
+    /// Rays of the parts the CPU structure traced (all of a part's rays
+    /// where it traced some of them): 0 when the GPU tracer served them all.
+    pub fn cpu_rays(&self) -> u64 {
+        use crate::exchange::near::NearTerm;
+        let n = &self.near;
+        let rays = |part: Part| match part {
+            Part::LightLinks => self.light_links.shadow_rays,
+            Part::Emitters => self.emitter_links.shadow_rays + n.emitters.cost().rays,
+            Part::Sky => self.sky.refine.rays + self.sky.portals.rays + n.sky.cost().rays,
+            Part::NearLight => n.light.cost().rays,
+            Part::NearGather => n.gather.cost().rays,
+            Part::NoiseCheck => self.noise_check.rays,
+        };
+        Part::ALL.iter().filter(|p| self.on_cpu[p.index()]).map(|&p| rays(p)).sum()
     }
 }
