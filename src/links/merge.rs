@@ -362,7 +362,12 @@ mod tests {
             // `half` without F16C rounds once, from the f64; the goldens
             // (and this function) round through f32.
             let (want, got) = (f16::from_f32(x as f32), f16_from_f64(x));
-            assert!(got.to_bits() == want.to_bits() || (got.is_nan() && want.is_nan()), "x = {x:e}: {:#x} {:#x}", got.to_bits(), want.to_bits());
+            assert!(
+                got.to_bits() == want.to_bits() || (got.is_nan() && want.is_nan()),
+                "x = {x:e}: {:#x} {:#x}",
+                got.to_bits(),
+                want.to_bits()
+            );
         }
     }
 
