@@ -278,8 +278,7 @@ impl PackedTargets {
 
     /// Appends a copy of row `v` of `other` (finished, or with `v` not its last row).
     pub fn push_row_of(&mut self, other: &PackedTargets, v: usize) {
-        self.starts.push(offset(self.bytes.len()));
-        self.bytes.extend_from_slice(&other.bytes[other.starts[v] as usize..other.starts[v + 1] as usize]);
+        self.push_rows_of(other, v..v + 1);
     }
 
     /// Appends a copy of rows `rows` of `other` (finished, or with

@@ -50,7 +50,7 @@ use crate::bvh::{Bvh, BvhBuildParams};
 use crate::kdtree::traverse::Ray;
 use crate::kdtree::triangle::{intersect, RayShear};
 use crate::kdtree::{Hit, KdTriangle};
-use crate::sampling::{vertex_frame, world_direction};
+use crate::sampling::world_direction;
 use crate::scene::motion::Motion;
 use crate::scene::prep::PreparedScene;
 use crate::sky::visibility::miss_mask;
@@ -227,9 +227,9 @@ impl Context<'_> {
         scratch.retrace.clear();
         scratch.dirs.clear();
         scratch.kept.clear();
-        let frame = vertex_frame(self.setup.normals[v], self.setup.rotations[v]);
+        let (frame, local) = self.setup.local_directions(v);
         let cone = self.cone(o, frame);
-        for (k, local) in self.setup.directions.set(self.setup.sets[v]).iter().enumerate() {
+        for (k, local) in local.iter().enumerate() {
             if cone.is_some_and(|(axis, cos)| local.dot(axis) < cos) {
                 continue;
             }

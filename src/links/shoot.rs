@@ -195,8 +195,16 @@ impl RaySetup {
     /// is computed once).
     #[inline]
     pub fn world_directions(&self, v: usize) -> impl Iterator<Item = Vec3> + '_ {
-        let frame = vertex_frame(self.normals[v], self.rotations[v]);
-        self.directions.set(self.sets[v]).iter().map(move |d| world_direction(frame, *d))
+        let (frame, local) = self.local_directions(v);
+        local.iter().map(move |d| world_direction(frame, *d))
+    }
+
+    /// Vertex `v`'s frame (tangent, bitangent, normal) and its rays'
+    /// directions in that frame, in ray order
+    /// ([`crate::sampling::world_direction`] turns one into the world's).
+    #[inline]
+    pub fn local_directions(&self, v: usize) -> ((Vec3, Vec3, Vec3), &[Vec3]) {
+        (vertex_frame(self.normals[v], self.rotations[v]), self.directions.set(self.sets[v]))
     }
 
     /// Traces all rays of vertex `v` with `tracer` into `out` (one record per ray).

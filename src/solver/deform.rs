@@ -14,6 +14,7 @@
 
 use super::traced::Part;
 use super::{SolveParams, Solver};
+use crate::exchange::near::NearChange;
 use crate::links::selective::{reshoot, shoot_groups};
 use crate::links::splice::splice_groups;
 use crate::links::{LinkParams, ReshootStats};
@@ -139,34 +140,14 @@ impl Solver {
             .update_deformed(&self.scene, &self.accel, &params.light, &motion)
             .expect("a CPU tracer cannot fail");
         stats.light_links_ms = t.elapsed().as_secs_f64() * 1e3;
-        // The near hits' light columns: those the motion can have changed traced again.
-        self.traced
-            .near
-            .light
-            .update_deformed(
-                &self.scene,
-                &near_before,
-                &self.links.near,
-                &near_redone,
-                &motion,
-                &self.accel,
-                &params.light,
-            )
-            .expect("a CPU tracer cannot fail");
-        // The near hits' gather rays: those the motion can have changed traced again.
-        self.traced
-            .near
-            .gather
-            .update_deformed(
-                &self.scene,
-                &near_before,
-                &self.links.near,
-                &near_redone,
-                &motion,
-                &self.accel,
-                &params.near_gather,
-                params.seed(),
-            )
+        // The near hits' light columns and gather rays: those the motion
+        // can have changed traced again.
+        let change =
+            NearChange { before: &near_before, after: &self.links.near, redone: &near_redone, motion: &motion };
+        let near = &mut self.traced.near;
+        near.light.update_deformed(&self.scene, &change, &self.accel, &params.light).expect("a CPU tracer cannot fail");
+        near.gather
+            .update_deformed(&self.scene, &change, &self.accel, &params.near_gather, params.seed())
             .expect("a CPU tracer cannot fail");
         // Everything else is traced anew: any motion can move an emitter or
         // what shades it; the sky's refined cells follow the new links'

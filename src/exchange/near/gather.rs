@@ -39,13 +39,13 @@
 //! the links' interpolation is known to fail (near hits).
 
 use super::{
-    albedo_and_interpolated, hit_origin, rank_on_triangle, trace_by_vertex, Bounce, Cost, Fields, NearTerm, Shape,
+    albedo_and_interpolated, hit_origin, rank_on_triangle, trace_by_vertex, Bounce, Cost, Fields, NearChange, NearTerm,
+    Shape,
 };
 use crate::kdtree::traverse::{Ray, NO_SKIP};
 use crate::kdtree::Hit;
 use crate::links::{NearHit, NearHits};
 use crate::sampling::stream::{cosine_direction, splitmix64, Stream};
-use crate::scene::motion::Motion;
 use crate::scene::prep::PreparedScene;
 use crate::trace::{Tracer, RAY_OFFSET};
 use glam::Vec3;
@@ -144,46 +144,37 @@ impl NearGather {
         Self::trace_with(scene, near, tracer, params, seed, |_, _, _, _| None)
     }
 
-    /// The gather rays after a deformation (`motion`), from `self` traced
-    /// over the near hits `before`: the rays of vertices flagged in
-    /// `redone` (their near hits were found anew), of hits on moved
-    /// triangles, of rays that landed on a moved triangle and of rays whose
-    /// segment (to where they landed, or the whole ray where they did not)
-    /// meets a box of the motion are traced; the others keep their landing
-    /// point, since nothing on their segment moved. Equals a fresh
-    /// [`NearGather::compute`]. Returns the rays traced.
-    #[allow(clippy::too_many_arguments)]
+    /// The gather rays after a deformation, from `self` traced over the
+    /// near hits `change.before`: the rays of hits whose vertex was redone
+    /// or that lie on a moved triangle, of rays that landed on a moved
+    /// triangle and of rays whose segment (to where they landed, or the
+    /// whole ray where they did not) meets a box of the motion are traced;
+    /// the others keep their landing point, since nothing on their segment
+    /// moved. Equals a fresh [`NearGather::compute`]. Returns the rays traced.
     pub fn update_deformed(
         &mut self,
         scene: &PreparedScene,
-        before: &NearHits,
-        after: &NearHits,
-        redone: &[bool],
-        motion: &Motion,
+        change: &NearChange,
         tracer: &dyn Tracer,
         params: &NearGatherParams,
         seed: u64,
     ) -> crate::Result<u64> {
         let m = params.rays as usize;
-        let comparable = self.per_hit == params.rays
-            && before.rows.offsets.len() == after.rows.offsets.len()
-            && self.hits.len() == before.rows.items.len() * m;
+        let comparable =
+            self.per_hit == params.rays && change.aligned() && self.hits.len() == change.before.rows.items.len() * m;
         let old = std::mem::take(self);
         *self = if comparable {
-            Self::trace_with(scene, after, tracer, params, seed, |v, i, h, rays| {
-                if redone[v] || motion.moved_triangle[h.tri as usize] {
-                    return None;
-                }
-                let k = before.rows.offsets[v] as usize + i;
+            Self::trace_with(scene, change.after, tracer, params, seed, |v, i, h, rays| {
+                let k = change.kept_at(v, i, h)?;
                 let landed = &old.hits[k * m..(k + 1) * m];
                 let unmoved = rays.iter().zip(landed).all(|(r, y)| match r {
                     None => true,
-                    Some(r) => !segment_meets_motion(scene, motion, r, y),
+                    Some(r) => !may_land_elsewhere(scene, change, r, y),
                 });
                 unmoved.then(|| landed.to_vec())
             })?
         } else {
-            Self::compute(scene, after, tracer, params, seed)?
+            Self::compute(scene, change.after, tracer, params, seed)?
         };
         Ok(self.cost.rays)
     }
@@ -253,11 +244,11 @@ impl NearGather {
 /// barycentrics are rounded to 2^-16, so it is lengthened by the
 /// triangle's longest edge over 2^12); a ray that met nothing or a back
 /// face (`NONE`, whose distance is not kept) is taken whole.
-fn segment_meets_motion(scene: &PreparedScene, motion: &Motion, r: &Ray, y: &GatherHit) -> bool {
+fn may_land_elsewhere(scene: &PreparedScene, change: &NearChange, r: &Ray, y: &GatherHit) -> bool {
     let tmax = if *y == GatherHit::NONE {
         f32::INFINITY
     } else {
-        if motion.moved_triangle[y.tri as usize] {
+        if change.motion.moved_triangle[y.tri as usize] {
             return true;
         }
         let corners = scene.triangles[y.tri as usize].map(|i| scene.positions[i as usize]);
@@ -269,8 +260,7 @@ fn segment_meets_motion(scene: &PreparedScene, motion: &Motion, r: &Ray, y: &Gat
             .max((corners[0] - corners[2]).length());
         (p - r.origin).length() * (1.0 + 1e-4) + edge / 4096.0
     };
-    let inv = r.dir.recip();
-    motion.boxes.iter().any(|b| b.meets_segment(r.origin, inv, r.tmin, tmax))
+    change.segment_moved(r, tmax)
 }
 
 impl NearTerm for NearGather {

@@ -35,11 +35,10 @@
 //! hits); shadow rays start `eps * l` off the surface (l: the triangle's
 //! longest edge) and stop as short of a point light, as the light links do.
 
-use super::{albedo_and_interpolated, hit_frame, Bounce, Cost, Fields, NearTerm, Shape, BATCH_HITS};
+use super::{albedo_and_interpolated, hit_frame, Bounce, Cost, Fields, NearChange, NearTerm, Shape, BATCH_HITS};
 use crate::exchange::sources::light_links::{geometry, same_column, toward, LightLinkParams};
 use crate::kdtree::traverse::{Ray, NO_SKIP};
 use crate::links::{NearHit, NearHits};
-use crate::scene::motion::Motion;
 use crate::scene::{prep::PreparedScene, Light};
 use crate::trace::{Tracer, RAY_OFFSET};
 use glam::Vec3;
@@ -234,25 +233,22 @@ fn column_at(
 }
 
 impl NearLight {
-    /// The columns after a deformation (`motion`), from `old` ones over the
-    /// near hits `before`: the hits of vertices flagged in `redone`
-    /// (their near hits were found anew), the hits on moved triangles and
-    /// those whose shadow segment meets a box of the motion are traced;
-    /// the others keep their value (nothing on their segment moved). The
-    /// columns equal a fresh [`NearLight::compute`]. Returns the hits traced per light.
-    #[allow(clippy::too_many_arguments)]
+    /// The columns after a deformation, from `self` over the near hits
+    /// `change.before`: hits whose vertex was redone or that lie on a moved
+    /// triangle, and those whose shadow segment meets a box of the motion,
+    /// are traced; the others keep their value (nothing on their segment
+    /// moved). The columns equal a fresh [`NearLight::compute`]. Returns
+    /// the hits traced per light.
     pub fn update_deformed(
         &mut self,
         scene: &PreparedScene,
-        before: &NearHits,
-        after: &NearHits,
-        redone: &[bool],
-        motion: &Motion,
+        change: &NearChange,
         tracer: &dyn Tracer,
         params: &LightLinkParams,
     ) -> crate::Result<u64> {
         let start = Instant::now();
-        if !self.covers(&scene.lights) || before.rows.offsets.len() != after.rows.offsets.len() {
+        let after = change.after;
+        if !self.covers(&scene.lights) || !change.aligned() {
             *self = NearLight::compute(scene, after, tracer, params)?;
             return Ok(after.rows.items.len() as u64);
         }
@@ -261,23 +257,18 @@ impl NearLight {
         let mut recomputed = 0u64;
         for (l, light) in scene.lights.iter().enumerate() {
             // Per new hit: Some(old value) to keep, None to trace.
+            let old = &self.columns[l];
             let kept: Vec<Option<f32>> = (0..n)
                 .into_par_iter()
                 .flat_map_iter(|v| {
-                    let (b0, a) = (before.rows.offsets[v] as usize, after.of(v));
-                    let old = &self.columns[l];
-                    a.iter()
+                    after
+                        .of(v)
+                        .iter()
                         .enumerate()
                         .map(move |(i, h)| {
-                            if redone[v] || motion.moved_triangle[h.tri as usize] {
-                                return None;
-                            }
+                            let k = change.kept_at(v, i, h)?;
                             let (_, ray) = shadow_ray(scene, h, light, params);
-                            let meets = ray.is_some_and(|r| {
-                                let inv = r.dir.recip();
-                                motion.boxes.iter().any(|b| b.meets_segment(r.origin, inv, r.tmin, r.tmax))
-                            });
-                            (!meets).then(|| old[b0 + i])
+                            (!ray.is_some_and(|r| change.segment_moved(&r, r.tmax))).then(|| old[k])
                         })
                         .collect::<Vec<_>>()
                 })

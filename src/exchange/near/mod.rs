@@ -35,6 +35,7 @@
 
 use crate::kdtree::{Hit, Ray};
 use crate::links::{NearHit, NearHits};
+use crate::scene::motion::Motion;
 use crate::scene::prep::PreparedScene;
 use crate::scene::Light;
 use crate::sky::Sky;
@@ -284,4 +285,39 @@ pub fn hit_origin(scene: &PreparedScene, h: &NearHit, eps: f32) -> (Vec3, Vec3) 
 /// where the CPU and GPU tracers give it one near hit more or less.
 pub fn rank_on_triangle(hits: &[NearHit], i: usize) -> usize {
     hits[..i].iter().filter(|o| o.tri == hits[i].tri).count()
+}
+
+/// The near hits before and after a deformation, as the near terms'
+/// selective updates (`update_deformed`) read them: a near hit keeps its
+/// rays' results unless its vertex's near hits were found anew, it lies
+/// on a moved triangle, or a ray's segment meets a box of the motion.
+pub struct NearChange<'a> {
+    /// The near hits the old results were traced over.
+    pub before: &'a NearHits,
+    /// The near hits now.
+    pub after: &'a NearHits,
+    /// Per vertex: its near hits were found anew.
+    pub redone: &'a [bool],
+    /// The deformation.
+    pub motion: &'a Motion,
+}
+
+impl NearChange<'_> {
+    /// The rows of `before` and `after` are of the same vertices.
+    pub fn aligned(&self) -> bool {
+        self.before.rows.offsets.len() == self.after.rows.offsets.len()
+    }
+
+    /// The index in `before` of near hit `h`, the `i`-th of vertex `v` now,
+    /// where it stands unchanged; `None` where it must be traced anew.
+    pub fn kept_at(&self, v: usize, i: usize, h: &NearHit) -> Option<usize> {
+        (!self.redone[v] && !self.motion.moved_triangle[h.tri as usize])
+            .then(|| self.before.rows.offsets[v] as usize + i)
+    }
+
+    /// Whether ray `r`'s segment `[r.tmin, tmax]` meets a box of the motion.
+    pub fn segment_moved(&self, r: &Ray, tmax: f32) -> bool {
+        let inv = r.dir.recip();
+        self.motion.boxes.iter().any(|b| b.meets_segment(r.origin, inv, r.tmin, tmax))
+    }
 }
