@@ -8,32 +8,21 @@
 //! that rounding implies (measured on an H200: docs/GPU.md).
 
 mod common;
+#[path = "common/gpu.rs"]
+mod gpu_device;
+
+use gpu_device::device;
 
 use glam::Vec3;
 use linkgi::exchange::{self, bounce::gather::drive, GatherParams, LightLinks};
-use linkgi::gpu::{self, schedule, GpuDevice, GpuLinks, GpuTracer};
+use linkgi::gpu::{self, GpuDevice, GpuLinks, GpuTracer, GpuWalk};
 use linkgi::links::{LinkParams, RaySetup};
 use linkgi::scene::TracerKind;
 use linkgi::scene::{self, prep, Bounces};
 use linkgi::solver::{Compute, GpuCompute, SolveParams, Solver};
-use std::sync::{Arc, OnceLock};
+use linkgi::trace::Accel;
+use std::sync::Arc;
 use std::time::Duration;
-
-fn device() -> Option<Arc<GpuDevice>> {
-    static DEV: OnceLock<Option<Arc<GpuDevice>>> = OnceLock::new();
-    DEV.get_or_init(|| {
-        let d = gpu::open_all().into_iter().next();
-        match &d {
-            Some(d) => eprintln!("GPU tests on {}", d.describe()),
-            None if std::env::var_os("CI").is_some() => {
-                panic!("no graphics adapter in CI: install mesa-vulkan-drivers (lavapipe)")
-            }
-            None => eprintln!("SKIPPED: no graphics adapter (install mesa-vulkan-drivers for lavapipe)"),
-        }
-        d
-    })
-    .clone()
-}
 
 fn gpu_compute(dev: &Arc<GpuDevice>, logical: usize) -> Compute {
     Compute::Gpu(GpuCompute::new(vec![dev.clone()]).with_logical(logical))
@@ -48,16 +37,20 @@ fn gpu_compute(dev: &Arc<GpuDevice>, logical: usize) -> Compute {
 /// rounding (torso: one ray of 1.86 M off by 1.1e-3 in u).
 fn compare_rays(
     name: &str,
-    dev: &Arc<GpuDevice>,
+    tracer: &GpuTracer,
     scene: &prep::PreparedScene,
-    kd: &linkgi::kdtree::KdTree,
+    oracle: &dyn linkgi::trace::CpuTracer,
 ) -> RayAgreement {
     let params = LinkParams::default();
     let setup = RaySetup::new(scene, &params);
-    let mut tracer = GpuTracer::new(dev.clone(), kd).expect("tracer");
-    tracer.set_directions(&setup.directions);
-    let verts = schedule::ray_vertices(&setup);
-    let mut gpu_hits = tracer.shoot(&verts).expect("shoot");
+    let all: Vec<u32> = (0..scene.vertex_count() as u32).collect();
+    // Through the tracer's `origin_rays` (`shoot_rays` with the batch's
+    // direction table), in slices that bound the host's memory.
+    let mut gpu_hits = Vec::new();
+    for chunk in all.chunks(16384) {
+        gpu_hits.extend(setup.trace_vertices(tracer, chunk).expect("shoot"));
+    }
+    let verts = all;
     let rays = setup.directions.len();
     assert_eq!(gpu_hits.len(), verts.len() * rays);
     let mut cpu = Vec::new();
@@ -65,9 +58,8 @@ fn compare_rays(
     let (mut max_duv, mut max_dt) = (0f32, 0f32);
     let mut vertex_same = vec![true; verts.len()];
     for v in 0..verts.len() {
-        let g = &mut gpu_hits[v * rays..(v + 1) * rays];
-        schedule::fix_wedges(&setup, v, g);
-        setup.trace_vertex(kd, v, &mut cpu);
+        let g = &gpu_hits[v * rays..(v + 1) * rays];
+        setup.trace_vertex(oracle, v, &mut cpu);
         for (c, g) in cpu.iter().zip(g.iter()) {
             total += 1;
             if c.tri == g.tri {
@@ -139,24 +131,37 @@ fn rel(a: Vec3, b: Vec3, floor: f32) -> f32 {
     ((a - b).abs() / a.abs().max(b.abs()).max(Vec3::splat(floor))).max_element()
 }
 
-/// CPU and GPU pipelines on built-in `name`; `share`: the fraction of
-/// same-ray vertices whose unsmoothed E_i must agree within 1e-4.
-fn agree_on_within(name: &str, share: f64) {
+/// CPU and GPU pipelines on built-in `name` with the GPU tracer `kind`
+/// names; `share`: the fraction of same-ray vertices whose unsmoothed E_i
+/// must agree within 1e-4. The GPU path traces every ray on the device.
+fn agree_on_within(name: &str, share: f64, kind: TracerKind) {
     let Some(dev) = device() else { return };
+    if kind == TracerKind::RayQuery && !dev.ray_query() {
+        assert!(std::env::var_os("CI").is_none(), "no ray queries in CI: .ci/run installs Mesa 25's lavapipe");
+        eprintln!("SKIPPED: ray queries ({} has none)", dev.describe());
+        return;
+    }
     let desc = scene::load(name).expect("built-in");
     let scene = prep::prepare(&desc).expect("prepares");
-    let params = SolveParams::from_settings(&scene.settings);
-    // The CPU solver builds the tree the GPU path uses, so both walk one tree.
-    let cpu =
-        Solver::new(scene.clone(), SolveParams { kd: params.kd_gpu, tracer: TracerKind::Kd, ..params }, &|_, _| {});
+    let params = SolveParams { tracer: kind, ..SolveParams::from_settings(&scene.settings) };
     let gpu = Solver::new_on(scene.clone(), params, &gpu_compute(&dev, 1), &|_, _| {}).expect("GPU solver");
-    gpu.accel().validate().expect("kd valid");
-    let (cpu_kd, gpu_kd) =
-        (cpu.accel().kd().expect("kd tracer"), gpu.accel().kd().expect("the GPU path walks a kd-tree"));
+    let tracer = &gpu.gpu().expect("GPU state").tracer;
+    // The CPU solver builds the tree the GPU path uses, so both walk one tree.
+    let cpu_params = match tracer.walk() {
+        GpuWalk::Kd => SolveParams { kd: params.kd_gpu, tracer: TracerKind::Kd, ..params },
+        _ => SolveParams { tracer: TracerKind::Bvh, ..params },
+    };
+    let cpu = Solver::new(scene.clone(), cpu_params, &|_, _| {});
+    gpu.accel().validate().expect("structure valid");
     gpu.links().validate().expect("GPU links valid");
-    assert_eq!(cpu_kd.nodes, gpu_kd.nodes, "the tree is built on the CPU either way");
+    match (cpu.accel(), gpu.accel()) {
+        (Accel::Kd(a), Accel::Kd(b)) => assert_eq!(a.nodes, b.nodes, "the tree is built on the CPU either way"),
+        (Accel::Bvh(a), Accel::Bvh(b)) => assert_eq!(a.nodes, b.nodes, "the tree is built on the CPU either way"),
+        _ => panic!("{name}: the GPU path's CPU structure is not the oracle's"),
+    }
+    eprintln!("{name}: GPU tracer {}", linkgi::trace::Tracer::name(tracer));
 
-    let rays = compare_rays(name, &dev, &scene, cpu_kd);
+    let rays = compare_rays(name, tracer, &scene, cpu.accel());
     let vertex_same = &rays.vertex_same;
 
     // Merged links: where every ray of a vertex met the same triangle, the
@@ -235,6 +240,9 @@ fn agree_on_within(name: &str, share: f64) {
     // light, and a vertex linked to it by what it reflects; smoothing would
     // spread it further).
     let (cs, gs) = (cpu.solve(), gpu.solve());
+    let stats = gpu.stats(&gs, 0.0);
+    assert_eq!(stats.cpu_traced_rays, 0, "{name}: the GPU path traced {} rays on the CPU", stats.cpu_traced_rays);
+    assert!(stats.near_gather_rays + stats.noise_check_rays + stats.shadow_rays > 0);
     let mean = common::mean(&cs.e_indirect).max_element().max(1e-30);
     let same = |v: usize| vertex_same[v] && near_same[v] && light_same[v];
     let unaffected: Vec<bool> = (0..scene.vertex_count())
@@ -284,7 +292,7 @@ fn agree_on_within(name: &str, share: f64) {
 }
 
 fn agree_on(name: &str) {
-    agree_on_within(name, 0.999)
+    agree_on_within(name, 0.999, TracerKind::Auto)
 }
 
 #[test]
@@ -317,7 +325,23 @@ fn gpu_agrees_tearoom() {
 /// within 1e-5 on the same links (`gpu_gather_with_emission_matches_cpu`).
 #[test]
 fn gpu_agrees_window() {
-    agree_on_within("window", 0.98);
+    agree_on_within("window", 0.98, TracerKind::Auto);
+}
+/// Each GPU tracer on its own (`auto` above takes ray queries where the
+/// adapter has them): the BVH walk and the kd-tree walk.
+#[test]
+fn gpu_bvh_agrees_cornell_and_torso() {
+    agree_on_within("cornell", 0.999, TracerKind::Bvh);
+    agree_on_within("torso", 0.999, TracerKind::Bvh);
+}
+#[test]
+fn gpu_kd_agrees_cornell_and_torso() {
+    agree_on_within("cornell", 0.999, TracerKind::Kd);
+    agree_on_within("torso", 0.999, TracerKind::Kd);
+}
+#[test]
+fn gpu_ray_queries_agree_cornell() {
+    agree_on_within("cornell", 0.999, TracerKind::RayQuery);
 }
 
 /// Both bounce kernels from the same first radiosity with emission and
@@ -542,7 +566,7 @@ fn wgsl_radiosity_matches_the_cpu_formula() {
          }}\n"
     );
     let d = &dev.device;
-    let pipeline = gpu::buffers::compute_pipelines(d, "radiosity check", Box::leak(shader.into_boxed_str()))("main");
+    let pipeline = gpu::buffers::compute_pipelines(d, "radiosity check", shader)("main");
     let inp = gpu::buffers::storage_init(d, "radiosity in", &input);
     let out = gpu::buffers::storage_init(d, "radiosity out", &vec![[0f32; 4]; n]);
     let bind = d.create_bind_group(&wgpu::BindGroupDescriptor {
@@ -611,5 +635,6 @@ fn cpu_traced_rays_count_what_the_cpu_traced() {
     let gpu = Solver::new_on(scene, params, &gpu_compute(&dev, 1), &|_, _| {}).expect("GPU solver");
     let g = gpu.stats(&gpu.solve(), 0.0);
     assert!(g.shadow_rays > 0, "the GPU traced the light links");
-    assert_eq!(g.cpu_traced_rays, g.near_gather_rays + g.noise_check_rays, "GPU path: the CPU-only parts");
+    assert!(g.near_gather_rays > 0 && g.noise_check_rays > 0);
+    assert_eq!(g.cpu_traced_rays, 0, "GPU path: every part on the device");
 }

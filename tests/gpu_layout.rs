@@ -2,8 +2,18 @@
 //! Rust and in the shaders (parsed with naga). No GPU needed.
 
 use linkgi::gpu::layout::{
-    shared_constants, shared_f32_constants, shared_structs, GATHER_WGSL, RENDER_WGSL, SHOOT_WGSL, TONEMAP_WGSL,
+    shared_constants, shared_f32_constants, shared_structs, tracer_wgsl, GATHER_WGSL, RENDER_WGSL, TONEMAP_WGSL,
 };
+use linkgi::gpu::GpuWalk;
+
+/// Every tracer's whole source (its walk joined with `trace.wgsl`), by the walk's file name.
+fn tracers() -> Vec<(&'static str, String)> {
+    vec![
+        ("walk_bvh.wgsl", tracer_wgsl(GpuWalk::Bvh)),
+        ("walk_kd.wgsl", tracer_wgsl(GpuWalk::Kd)),
+        ("walk_rq.wgsl", tracer_wgsl(GpuWalk::RayQuery)),
+    ]
+}
 use std::collections::HashMap;
 
 /// `name -> (size, [(field, offset)])` of every struct in a WGSL source.
@@ -21,12 +31,12 @@ fn wgsl_structs(src: &str, file: &str) -> HashMap<String, (usize, Vec<(String, u
 
 #[test]
 fn shared_structs_match_wgsl() {
-    let shaders = [
-        ("shoot.wgsl", wgsl_structs(SHOOT_WGSL, "shoot.wgsl")),
+    let mut shaders: Vec<_> = tracers().into_iter().map(|(f, src)| (f, wgsl_structs(&src, f))).collect();
+    shaders.extend([
         ("gather.wgsl", wgsl_structs(GATHER_WGSL, "gather.wgsl")),
         ("render.wgsl", wgsl_structs(RENDER_WGSL, "render.wgsl")),
         ("tonemap.wgsl", wgsl_structs(TONEMAP_WGSL, "tonemap.wgsl")),
-    ];
+    ]);
     for s in shared_structs() {
         let mut seen = 0;
         for (file, structs) in &shaders {
@@ -45,9 +55,13 @@ fn every_wgsl_struct_outside_the_shader_is_listed() {
     // Structs only the shaders use internally.
     // (The renderer uploads LightArray and ShadowMatrices as arrays of
     // LightGpu and column-major 4x4 matrices; VsOut and SkyOut are stage-internal.)
-    let internal = ["Shear", "Best", "VsOut", "SkyOut", "LightArray", "ShadowMatrices", "RowCursor"];
+    // RayDesc and RayIntersection are naga's predeclared ray-query types.
+    let internal =
+        ["Shear", "Best", "VsOut", "SkyOut", "LightArray", "ShadowMatrices", "RowCursor", "RayDesc", "RayIntersection"];
     let listed: Vec<&str> = shared_structs().iter().map(|s| s.name).collect();
-    for src in [SHOOT_WGSL, GATHER_WGSL, RENDER_WGSL, TONEMAP_WGSL] {
+    let mut sources: Vec<String> = tracers().into_iter().map(|(_, s)| s).collect();
+    sources.extend([GATHER_WGSL, RENDER_WGSL, TONEMAP_WGSL].map(String::from));
+    for src in &sources {
         for name in wgsl_structs(src, "shader").keys() {
             assert!(listed.contains(&name.as_str()) || internal.contains(&name.as_str()), "{name} has no Rust twin");
         }
@@ -57,11 +71,14 @@ fn every_wgsl_struct_outside_the_shader_is_listed() {
 /// The initializer of `const name` in the shader `file`.
 fn wgsl_constant(file: &str, name: &str) -> naga::Literal {
     let src = match file {
-        "gather.wgsl" => GATHER_WGSL,
-        "shoot.wgsl" => SHOOT_WGSL,
-        "render.wgsl" => RENDER_WGSL,
+        "gather.wgsl" => GATHER_WGSL.to_string(),
+        "render.wgsl" => RENDER_WGSL.to_string(),
+        // Constants of trace.wgsl are checked in the BVH tracer's source.
+        "trace.wgsl" | "walk_bvh.wgsl" => tracer_wgsl(GpuWalk::Bvh),
+        "walk_kd.wgsl" => tracer_wgsl(GpuWalk::Kd),
         other => panic!("no shader {other}"),
     };
+    let src = src.as_str();
     let module = naga::front::wgsl::parse_str(src).unwrap_or_else(|e| panic!("{file}: {}", e.emit_to_string(src)));
     let (_, c) = module
         .constants

@@ -23,7 +23,7 @@ pub const UNUSED: u32 = u32::MAX;
 /// Eight triangles: corners `v[corner][axis][lane]`, corner vertex ids
 /// `corners[corner][lane]` and triangle ids (416 bytes).
 #[repr(C, align(32))]
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct Block8 {
     /// Corners `v[corner][axis][lane]`, metres (NaN in unused lanes).
     pub v: [[[f32; LANES]; 3]; 3],

@@ -51,7 +51,8 @@ pub const EMPTY: u32 = u32::MAX;
 pub const LEAF_BIT: u32 = 0x8000_0000;
 /// Most blocks one leaf can name (4 bits of the child word).
 pub const MAX_LEAF_BLOCKS: u32 = 16;
-const FIRST_MASK: u32 = (1 << 27) - 1;
+/// Mask of a leaf child's first block.
+pub const FIRST_MASK: u32 = (1 << 27) - 1;
 
 /// Encodes a leaf child: `blocks` blocks from `first`.
 #[inline]
@@ -80,7 +81,7 @@ pub fn is_leaf(child: u32) -> bool {
 /// from the back for octant `o` (bit `a` of `o` set where the direction's
 /// axis `a` is negative).
 #[repr(C, align(32))]
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct Node8 {
     /// Child boxes, metres: `bounds[axis][slot]` for the minima (axes 0-2) and maxima (axes 3-5).
     pub bounds: [[f32; 8]; 6],

@@ -35,14 +35,14 @@ use std::mem::MaybeUninit;
 
 /// `1 + 2 gamma_3` (pbrt), with `gamma_n = n eps / (1 - n eps)` for
 /// `eps = 2^-24`: scales far distances so rounding never culls a touched box.
-pub(super) const ROBUST: f32 = 1.0 + 2.0 * (3.0 * f32::EPSILON * 0.5) / (1.0 - 3.0 * f32::EPSILON * 0.5);
+pub(crate) const ROBUST: f32 = 1.0 + 2.0 * (3.0 * f32::EPSILON * 0.5) / (1.0 - 3.0 * f32::EPSILON * 0.5);
 
 /// Margin on the nearest hit's distance when culling boxes: a triangle's
 /// computed `t` can lie a few ulps below its box's exact entry distance
 /// (the two are computed differently), and a box holding a triangle tied
 /// with the best hit (equal `t`, lower id wins) must still be entered.
 /// Measured: coincident triangles lost their lowest-id tie with no margin.
-pub(super) const CULL: f32 = 1.0 + 1e-5;
+pub(crate) const CULL: f32 = 1.0 + 1e-5;
 
 /// Entries of the traversal stack (7 per 8-wide level at most: 36 levels;
 /// a deeper tree falls back to a growable stack).

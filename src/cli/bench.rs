@@ -20,8 +20,8 @@ pub struct BenchArgs {
     /// Rays per vertex (a square number).
     #[arg(long, default_value_t = 256)]
     pub rays: u32,
-    /// CPU ray tracer: bvh (wide BVH) or kd (kd-tree with ropes); overrides the scenes' setting.
-    #[arg(long, value_name = "bvh|kd", value_parser = super::parse_tracer)]
+    /// Ray tracer: auto, bvh (wide BVH), kd (kd-tree with ropes) or rq (GPU ray queries); overrides the scenes' setting.
+    #[arg(long, value_name = "auto|bvh|kd|rq", value_parser = super::parse_tracer)]
     pub tracer: Option<TracerKind>,
     /// Measured runs per scene (after one warm-up run); the median is reported.
     #[arg(long, default_value_t = 5)]

@@ -31,8 +31,8 @@ pub struct ErrorArgs {
     /// Reference cache folder (default target/reference-cache).
     #[arg(long)]
     pub cache: Option<PathBuf>,
-    /// CPU ray tracer: bvh (wide BVH) or kd (kd-tree with ropes); overrides the scene's setting.
-    #[arg(long, value_name = "bvh|kd", value_parser = super::parse_tracer)]
+    /// Ray tracer: auto, bvh (wide BVH), kd (kd-tree with ropes) or rq (GPU ray queries); overrides the scene's setting.
+    #[arg(long, value_name = "auto|bvh|kd|rq", value_parser = super::parse_tracer)]
     pub tracer: Option<TracerKind>,
     /// Optional terms of the solve to switch off, comma-separated (as `solve --off`), to measure what they buy.
     #[arg(long, value_name = "TERM[,TERM]", value_parser = super::setup::parse_off)]

@@ -12,7 +12,7 @@ pub mod view;
 
 use linkgi::scene::TracerKind;
 
-/// Parses `--tracer` (clap value parser): "bvh" or "kd".
+/// Parses `--tracer` (clap value parser): "auto", "bvh", "kd" or "rq".
 pub fn parse_tracer(s: &str) -> Result<TracerKind, String> {
-    s.parse::<TracerKind>().map_err(|_| format!("unknown tracer \"{s}\": expected bvh or kd"))
+    s.parse::<TracerKind>().map_err(|_| format!("unknown tracer \"{s}\": expected auto, bvh, kd or rq"))
 }

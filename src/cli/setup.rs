@@ -28,8 +28,9 @@ pub struct Overrides {
     /// Rays per vertex of the GI solve (a square number); overrides the scene's setting.
     #[arg(long)]
     pub rays: Option<u32>,
-    /// CPU ray tracer: bvh (wide BVH) or kd (kd-tree with ropes); overrides the scene's setting.
-    #[arg(long, value_name = "bvh|kd", value_parser = super::parse_tracer)]
+    /// Ray tracer: auto (the BVH on the CPU; on a GPU, ray queries where the adapter has them, else
+    /// the BVH), bvh (wide BVH), kd (kd-tree with ropes) or rq (GPU ray queries); overrides the scene.
+    #[arg(long, value_name = "auto|bvh|kd|rq", value_parser = super::parse_tracer)]
     pub tracer: Option<TracerKind>,
     /// auto (a hardware GPU on machines with fewer than 12 CPU threads, else the CPU),
     /// gpu (any adapter, software ones too) or cpu:

@@ -98,7 +98,7 @@ pub fn checked<T>(dev: &GpuDevice, what: &str, f: impl FnOnce() -> T) -> Result<
 pub fn compute_pipelines<'a>(
     d: &'a wgpu::Device,
     label: &str,
-    source: &'static str,
+    source: impl Into<std::borrow::Cow<'static, str>>,
 ) -> impl Fn(&str) -> wgpu::ComputePipeline + 'a {
     let module = d.create_shader_module(wgpu::ShaderModuleDescriptor {
         label: Some(label),

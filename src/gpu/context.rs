@@ -42,6 +42,12 @@ impl GpuDevice {
         Ok(Arc::new(GpuDevice { device, queue, info, limits }))
     }
 
+    /// True where the device was opened with hardware ray queries
+    /// (`EXPERIMENTAL_RAY_QUERY`, the `rq` tracer).
+    pub fn ray_query(&self) -> bool {
+        self.device.features().contains(wgpu::Features::EXPERIMENTAL_RAY_QUERY)
+    }
+
     /// True for software adapters (lavapipe, llvmpipe, WARP).
     pub fn is_software(&self) -> bool {
         self.info.device_type == wgpu::DeviceType::Cpu
@@ -97,13 +103,30 @@ pub fn open_all() -> Vec<Arc<GpuDevice>> {
         if limits.max_storage_buffers_per_shader_stage < 8 {
             continue;
         }
-        let desc = wgpu::DeviceDescriptor {
+        // Hardware ray queries where the adapter has them (the `rq`
+        // tracer); a device that refuses them is opened without.
+        let rq = adapter.features().contains(wgpu::Features::EXPERIMENTAL_RAY_QUERY);
+        let rq_limits = limits.clone().using_acceleration_structure_values(offered.clone());
+        let plain = wgpu::DeviceDescriptor {
             label: Some("linkgi device"),
             required_features: wgpu::Features::empty(),
             required_limits: limits.clone(),
             ..Default::default()
         };
-        if let Ok((device, queue)) = pollster::block_on(adapter.request_device(&desc)) {
+        let with_rq = wgpu::DeviceDescriptor {
+            required_features: wgpu::Features::EXPERIMENTAL_RAY_QUERY,
+            required_limits: rq_limits.clone(),
+            // SAFETY: wgpu asks callers of its experimental features to
+            // accept that their implementation may still have bugs; linkgi
+            // uses ray queries only through `walk_rq.wgsl`, whose hits the
+            // tests check against the CPU's BVH on every run.
+            experimental_features: unsafe { wgpu::ExperimentalFeatures::enabled() },
+            ..plain.clone()
+        };
+        let opened =
+            if rq { pollster::block_on(adapter.request_device(&with_rq)).map(|d| (d, rq_limits)).ok() } else { None };
+        let opened = opened.or_else(|| pollster::block_on(adapter.request_device(&plain)).map(|d| (d, limits)).ok());
+        if let Some(((device, queue), limits)) = opened {
             // Errors outside our error scopes are reported, not turned into panics.
             let name = info.name.clone();
             device.on_uncaptured_error(Arc::new(move |e| log::error!("GPU error on {name}: {e}")));

@@ -7,6 +7,7 @@
 //! Lengths in metres; `vec3<f32>` fields are followed by a `u32`/`f32` so
 //! they fill 16 bytes as WGSL lays them out.
 
+use crate::bvh::{Block8, Node8};
 use crate::kdtree::{KdLeaf, KdNode, KdTriangle};
 use crate::links::HitRecord;
 use bytemuck::{Pod, Zeroable};
@@ -182,6 +183,8 @@ macro_rules! shared {
 pub fn shared_structs() -> Vec<SharedStruct> {
     vec![
         shared!(KdNode, "KdNode", [split, kind, a, b]),
+        shared!(Node8, "Node8", [bounds, child, perm]),
+        shared!(Block8, "Block8", [v, corners, tri]),
         shared!(KdLeaf, "KdLeaf", [min, first, max, count, ropes, _pad]),
         shared!(KdTriangle, "KdTriangle", [v0, ia, v1, ib, v2, ic]),
         shared!(HitRecord, "HitRecord", [tri, u, v, t]),
@@ -211,16 +214,47 @@ pub fn shared_constants() -> Vec<(&'static str, &'static str, u32)> {
         ("gather.wgsl", "GAP_BYTES", crate::links::packed::GAP_BYTES_WORD),
         ("gather.wgsl", "WORKGROUP", GATHER_WORKGROUP),
         ("render.wgsl", "NO_MAP", crate::scene::texture::NO_MAP),
+        ("walk_bvh.wgsl", "EMPTY", crate::bvh::EMPTY),
+        ("walk_bvh.wgsl", "LEAF_BIT", crate::bvh::LEAF_BIT),
+        ("walk_bvh.wgsl", "FIRST_MASK", crate::bvh::FIRST_MASK),
+        ("walk_bvh.wgsl", "UNUSED", crate::bvh::leaf::UNUSED),
+        ("walk_bvh.wgsl", "STACK", super::tracer::BVH_STACK as u32),
+        ("trace.wgsl", "HIT_MISS", crate::links::HIT_MISS),
+        ("trace.wgsl", "HIT_BACK", crate::links::HIT_BACK),
     ]
 }
 
 /// Float constants shared with WGSL, checked like [`shared_constants`].
 pub fn shared_f32_constants() -> Vec<(&'static str, &'static str, f32)> {
-    vec![("render.wgsl", "MAX_ALBEDO", crate::scene::MAX_ALBEDO)]
+    vec![
+        ("render.wgsl", "MAX_ALBEDO", crate::scene::MAX_ALBEDO),
+        ("walk_bvh.wgsl", "ROBUST", crate::bvh::traverse::ROBUST),
+        ("walk_bvh.wgsl", "CULL", crate::bvh::traverse::CULL),
+    ]
 }
 
-/// The WGSL sources, for pipelines and the layout test.
-pub const SHOOT_WGSL: &str = include_str!("../../shaders/shoot.wgsl");
+/// The WGSL sources, for pipelines and the layout test: the tracers'
+/// entry points and triangle test, joined after one structure's walk
+/// ([`tracer_wgsl`]).
+pub const TRACE_WGSL: &str = include_str!("../../shaders/trace.wgsl");
+/// The 8-wide BVH walk.
+pub const WALK_BVH_WGSL: &str = include_str!("../../shaders/walk_bvh.wgsl");
+/// The rope kd-tree walk.
+pub const WALK_KD_WGSL: &str = include_str!("../../shaders/walk_kd.wgsl");
+/// The ray-query walk (needs `EXPERIMENTAL_RAY_QUERY`).
+pub const WALK_RQ_WGSL: &str = include_str!("../../shaders/walk_rq.wgsl");
+
+/// The whole source of the tracer walking `walk`: its walk, then
+/// `trace.wgsl` (the walk comes first: it may open with an `enable`).
+pub fn tracer_wgsl(walk: super::tracer::GpuWalk) -> String {
+    use super::tracer::GpuWalk;
+    let w = match walk {
+        GpuWalk::Bvh => WALK_BVH_WGSL,
+        GpuWalk::Kd => WALK_KD_WGSL,
+        GpuWalk::RayQuery => WALK_RQ_WGSL,
+    };
+    format!("{w}\n{TRACE_WGSL}")
+}
 /// Invocations per workgroup of the gather shaders (`WORKGROUP` in `gather.wgsl`).
 pub const GATHER_WORKGROUP: u32 = 256;
 

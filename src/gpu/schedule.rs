@@ -16,7 +16,6 @@ use super::tracer::GpuTracer;
 use crate::error::{Error, Result};
 use crate::links::shoot::RaySetup;
 use crate::links::{assemble, GroupRun, HitRecord, LinkParams, Links};
-use crate::sampling::vertex_frame;
 use crate::scene::prep::PreparedScene;
 use rayon::prelude::*;
 use std::sync::Mutex;
@@ -65,32 +64,8 @@ pub struct DeviceShare {
 
 /// Per-vertex shooting data of the whole scene, in the shader's layout.
 pub fn ray_vertices(setup: &RaySetup) -> Vec<RayVertex> {
-    (0..setup.origins.len())
-        .map(|v| {
-            let (t, b, n) = vertex_frame(setup.normals[v], setup.rotations[v]);
-            RayVertex {
-                origin: setup.origins[v].into(),
-                skip: v as u32,
-                tangent: t.into(),
-                direction_set: setup.sets[v],
-                bitangent: b.into(),
-                normal: n.into(),
-                ..Default::default()
-            }
-        })
-        .collect()
-}
-
-/// Replaces the records of rays that dive under an incident triangle by
-/// self hits, exactly as the CPU tracer does before tracing (the shader
-/// traces them; the CPU decides, so both paths agree).
-pub fn fix_wedges(setup: &RaySetup, v: usize, hits: &mut [HitRecord]) {
-    let wedges = setup.wedges(v);
-    for (h, d) in hits.iter_mut().zip(setup.world_directions(v)) {
-        if let Some(w) = wedges.iter().find(|w| w.dives_under(d)) {
-            *h = w.self_hit();
-        }
-    }
+    let all: Vec<u32> = (0..setup.origins.len() as u32).collect();
+    super::tracer::ray_vertices_of(&setup.origin_rays(&all))
 }
 
 fn merge_batch(
@@ -109,7 +84,7 @@ fn merge_batch(
         .map(|(ci, chunk)| {
             let mut run = GroupRun::new(first + ci * CHUNK).with_near(near.clone());
             for (i, vh) in chunk.chunks_mut(rays).enumerate() {
-                fix_wedges(setup, run.first + i, vh);
+                setup.self_hits(run.first + i, vh);
                 run.push_vertex(vh, triangles, weight_per_ray);
             }
             run

@@ -40,6 +40,17 @@ pub struct HitRecord {
     pub t: f32,
 }
 
+impl HitRecord {
+    /// The record of a traced ray's hit ([`HIT_MISS`] with `t = inf` for none).
+    #[inline]
+    pub fn of(hit: Option<crate::kdtree::Hit>) -> HitRecord {
+        match hit {
+            None => HitRecord { tri: HIT_MISS, u: 0.0, v: 0.0, t: f32::INFINITY },
+            Some(h) => HitRecord { tri: if h.front { h.tri } else { h.tri | HIT_BACK }, u: h.u, v: h.v, t: h.t },
+        }
+    }
+}
+
 /// Counts of one vertex's rays.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct HitCounts {

@@ -107,13 +107,6 @@ fn id_counts(ids: &[u32]) -> [u64; 3] {
     c
 }
 
-fn record_of(hit: Option<Hit>) -> HitRecord {
-    match hit {
-        None => HitRecord { tri: HIT_MISS, u: 0.0, v: 0.0, t: f32::INFINITY },
-        Some(h) => HitRecord { tri: if h.front { h.tri } else { h.tri | HIT_BACK }, u: h.u, v: h.v, t: h.t },
-    }
-}
-
 fn triangle(scene: &PreparedScene, positions: &[Vec3], t: u32) -> KdTriangle {
     let [a, b, c] = scene.triangles[t as usize];
     let p = |i: u32| positions[i as usize].to_array();
@@ -125,7 +118,7 @@ fn triangle(scene: &PreparedScene, positions: &[Vec3], t: u32) -> KdTriangle {
 /// (never for the positions and ray it was traced with).
 pub(super) fn recorded(scene: &PreparedScene, positions: &[Vec3], id: u32, o: Vec3, d: Vec3) -> Option<HitRecord> {
     if id == HIT_MISS {
-        return Some(record_of(None));
+        return Some(HitRecord::of(None));
     }
     let tri = id & !HIT_BACK;
     let (t, u, v, front) = intersect(&triangle(scene, positions, tri), o, &RayShear::new(d), 0.0, f32::INFINITY)?;
@@ -256,7 +249,7 @@ impl Context<'_> {
         scratch.deltas.clear();
         let mut changed = false;
         for i in 0..scratch.retrace.len() {
-            let (k, d, r) = (scratch.retrace[i] as usize, scratch.dirs[i], record_of(scratch.hits[i]));
+            let (k, d, r) = (scratch.retrace[i] as usize, scratch.dirs[i], HitRecord::of(scratch.hits[i]));
             let old_id = row[k];
             let was = if old_id == HIT_MISS || old_id & HIT_BACK != 0 {
                 None
@@ -369,7 +362,7 @@ impl Context<'_> {
             out.push(match wedges.iter().find(|w| w.dives_under(d)) {
                 Some(w) => w.self_hit(),
                 None => kept_record(self.scene, row[k], o, d).unwrap_or_else(|| {
-                    record_of(self.tracer.intersect(&Ray {
+                    HitRecord::of(self.tracer.intersect(&Ray {
                         origin: o,
                         dir: d,
                         tmin: 0.0,

@@ -19,12 +19,12 @@
 
 use super::assemble::{CsrBuilder, GroupRun};
 use super::merge::RayHits;
-use super::merge::{HitRecord, HIT_BACK, HIT_MISS};
+use super::merge::{HitRecord, HIT_BACK};
 use super::Links;
 use crate::kdtree::Hit;
 use crate::sampling::{vertex_frame, vertex_rotations_and_sets, world_direction, DirectionSet};
 use crate::scene::prep::PreparedScene;
-use crate::trace::CpuTracer;
+use crate::trace::{CpuTracer, OriginRays, Tracer};
 use glam::{DVec3, Vec3};
 use rayon::prelude::*;
 use std::time::Instant;
@@ -256,10 +256,45 @@ impl RaySetup {
         tracer.intersect_origin(self.origins[v], v as u32, dirs, &mut scratch.hits);
         let mut traced = scratch.hits.iter();
         for rec in out.iter_mut().filter(|r| r.tri == TO_TRACE) {
-            *rec = match traced.next().copied().flatten() {
-                None => HitRecord { tri: HIT_MISS, u: 0.0, v: 0.0, t: f32::INFINITY },
-                Some(h) => HitRecord { tri: if h.front { h.tri } else { h.tri | HIT_BACK }, u: h.u, v: h.v, t: h.t },
-            };
+            *rec = HitRecord::of(traced.next().copied().flatten());
+        }
+    }
+
+    /// The rays of `vertices` as one batch ([`Tracer::origin_rays`]).
+    pub fn origin_rays(&self, vertices: &[u32]) -> OriginRays {
+        let at = |v: &u32| *v as usize;
+        OriginRays {
+            origins: vertices.iter().map(|v| self.origins[at(v)]).collect(),
+            skip: vertices.to_vec(),
+            frames: vertices.iter().map(|v| vertex_frame(self.normals[at(v)], self.rotations[at(v)])).collect(),
+            sets: vertices.iter().map(|v| self.sets[at(v)]).collect(),
+            directions: self.directions.dirs.clone(),
+            per_origin: self.directions.len(),
+        }
+    }
+
+    /// The hit records of every ray of `vertices`, traced by `tracer` as
+    /// one batch ([`Tracer::origin_rays`]), vertex after vertex: those of
+    /// [`RaySetup::trace_vertex`] (rays that dive under an incident
+    /// triangle are its self hits, [`RaySetup::self_hits`]).
+    pub fn trace_vertices(&self, tracer: &dyn Tracer, vertices: &[u32]) -> crate::Result<Vec<HitRecord>> {
+        let hits = tracer.origin_rays(&self.origin_rays(vertices))?;
+        let mut out: Vec<HitRecord> = hits.into_iter().map(HitRecord::of).collect();
+        let n = self.directions.len().max(1);
+        out.par_chunks_mut(n).zip(vertices.par_iter()).for_each(|(recs, &v)| self.self_hits(v as usize, recs));
+        Ok(out)
+    }
+
+    /// Replaces the records of vertex `v`'s rays (`hits`, in ray order)
+    /// that dive under an incident triangle by its self hits, as
+    /// [`RaySetup::trace_vertex`] decides before tracing: a tracer that
+    /// traced them anyway (the GPU) gives the same records.
+    pub fn self_hits(&self, v: usize, hits: &mut [HitRecord]) {
+        let wedges = self.wedges(v);
+        for (h, d) in hits.iter_mut().zip(self.world_directions(v)) {
+            if let Some(w) = wedges.iter().find(|w| w.dives_under(d)) {
+                *h = w.self_hit();
+            }
         }
     }
 }

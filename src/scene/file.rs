@@ -327,9 +327,9 @@ fn settings_from(path: &Path, s: &SettingsFile) -> Result<Settings> {
         },
         tracer: match &s.tracer {
             None => d.tracer,
-            Some(t) => t
-                .parse::<TracerKind>()
-                .map_err(|_| scene_err(path, format!("settings.tracer = \"{t}\": expected \"bvh\" or \"kd\"")))?,
+            Some(t) => t.parse::<TracerKind>().map_err(|_| {
+                scene_err(path, format!("settings.tracer = \"{t}\": expected \"auto\", \"bvh\", \"kd\" or \"rq\""))
+            })?,
         },
         terms: super::terms::Terms::with_off(s.off.iter().map(String::as_str))
             .map_err(|e| scene_err(path, format!("settings.off: {e}")))?,
@@ -561,7 +561,7 @@ pub fn to_toml(scene: &SceneDesc, obj_names: &[String]) -> String {
                 b => Some(b.name().to_string()),
             },
             tracer: match s.tracer {
-                TracerKind::Bvh => None,
+                TracerKind::Auto => None,
                 t => Some(t.name().to_string()),
             },
             off: s.terms.off().into_iter().map(String::from).collect(),

@@ -195,34 +195,57 @@ pub enum Bounces {
     Auto,
 }
 
-/// Which CPU structure traces rays (`tracer` in the scene TOML, `--tracer`).
+/// Which structure traces rays (`tracer` in the scene TOML, `--tracer`).
+/// On the CPU path `bvh` and `kd` name the CPU structure (the others trace
+/// with the BVH); on the GPU path they name the structure the GPU walks.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum TracerKind {
-    /// The 8-wide BVH with SIMD node tests (`crate::bvh`); the fastest on the CPU.
+    /// The fastest the path has: the BVH on the CPU; on a GPU, hardware ray
+    /// queries where the adapter has them, else the BVH.
     #[default]
+    Auto,
+    /// The 8-wide BVH with SIMD node tests (`crate::bvh`); on a GPU, the
+    /// same tree walked with a short stack.
     Bvh,
-    /// The kd-tree with ropes (`crate::kdtree`), the structure the GPU shader walks.
+    /// The kd-tree with ropes (`crate::kdtree`), on the CPU or the GPU.
     Kd,
+    /// Hardware ray queries (GPU path, adapters with `EXPERIMENTAL_RAY_QUERY`;
+    /// elsewhere an error on the GPU path, the BVH on the CPU path).
+    #[serde(rename = "rq")]
+    RayQuery,
 }
 
 impl std::str::FromStr for TracerKind {
     type Err = crate::Error;
     fn from_str(s: &str) -> crate::Result<TracerKind> {
         match s.to_ascii_lowercase().as_str() {
+            "auto" => Ok(TracerKind::Auto),
             "bvh" => Ok(TracerKind::Bvh),
             "kd" => Ok(TracerKind::Kd),
-            _ => Err(crate::Error::Setting(format!("tracer \"{s}\": expected bvh or kd"))),
+            "rq" | "rayquery" | "ray-query" => Ok(TracerKind::RayQuery),
+            _ => Err(crate::Error::Setting(format!("tracer \"{s}\": expected auto, bvh, kd or rq"))),
         }
     }
 }
 
 impl TracerKind {
-    /// The setting's name ("bvh", "kd").
+    /// The setting's name ("auto", "bvh", "kd", "rq").
     pub fn name(self) -> &'static str {
         match self {
+            TracerKind::Auto => "auto",
             TracerKind::Bvh => "bvh",
             TracerKind::Kd => "kd",
+            TracerKind::RayQuery => "rq",
+        }
+    }
+
+    /// The CPU structure this setting traces with: the kd-tree for `kd`,
+    /// else the BVH.
+    pub fn cpu(self) -> TracerKind {
+        match self {
+            TracerKind::Kd => TracerKind::Kd,
+            _ => TracerKind::Bvh,
         }
     }
 }
@@ -279,7 +302,7 @@ pub struct Settings {
     pub seed: u64,
     /// Where links and bounces are computed.
     pub backend: Backend,
-    /// Which CPU structure traces rays.
+    /// Which structure traces rays.
     pub tracer: TracerKind,
     /// Which optional terms of the solve are on (`off = [...]`; all on by default).
     pub terms: terms::Terms,
@@ -295,7 +318,7 @@ impl Default for Settings {
             smoothing_angle_deg: 30.0,
             seed: 1,
             backend: Backend::Auto,
-            tracer: TracerKind::Bvh,
+            tracer: TracerKind::Auto,
             terms: terms::Terms::ALL,
             refine: refine::RefineSettings::default(),
         }

@@ -152,13 +152,7 @@ impl<'a> Tracers<'a> {
     /// names the stage in the warning.
     pub fn any<T>(&self, what: &str, mut f: impl FnMut(&dyn Tracer) -> crate::Result<T>) -> T {
         let on_gpu = self.gpu.map(|g| f(g));
-        gpu_else_cpu(what, on_gpu, || self.cpu_only(f))
-    }
-
-    /// `f` run with the CPU structure: stages the GPU tracer does not
-    /// serve (arbitrary closest-hit batches).
-    pub fn cpu_only<T>(&self, mut f: impl FnMut(&dyn Tracer) -> crate::Result<T>) -> T {
-        f(self.cpu()).expect("a CPU tracer cannot fail")
+        gpu_else_cpu(what, on_gpu, || f(self.cpu()).expect("a CPU tracer cannot fail"))
     }
 
     /// The CPU structure, for stages that walk it ray by ray.

@@ -26,12 +26,12 @@
 //! Lengths in metres, irradiance in W/m^2, times in ms.
 
 use crate::exchange::{EmitterLinks, HiddenParams, LightLinks, NearField, NoiseCheck};
-use crate::gpu::{self, GpuLinks, GpuTracer, LogicalDevice};
+use crate::gpu::{self, GpuLinks, GpuTracer, GpuWalk, LogicalDevice};
 use crate::kdtree::KdTree;
 use crate::links::{self, Links, RayHits};
 use crate::scene::prep::PreparedScene;
 use crate::sky::SkyRays;
-use crate::trace::Accel;
+use crate::trace::{Accel, TracerKind};
 use compute::Tracers;
 use std::sync::{Arc, Mutex};
 use std::time::Instant;
@@ -137,9 +137,10 @@ impl Solver {
         s
     }
 
-    /// Builds everything on `compute`: on a GPU, the kd-tree on the CPU
-    /// (with `params.kd_gpu`), the links on the GPU's logical devices, and
-    /// the traced parts on the GPU tracer where it serves them.
+    /// Builds everything on `compute`: on a GPU, the structure
+    /// `params.tracer` names ([`GpuWalk::choose`]) on the CPU and uploaded to each
+    /// logical device, the links on the GPU's logical devices, and every
+    /// traced part on the GPU tracer.
     pub fn new_on(
         scene: PreparedScene,
         params: SolveParams,
@@ -151,7 +152,14 @@ impl Solver {
             Compute::Cpu => return Ok(Solver::new(scene, params, progress)),
             Compute::Gpu(g) => g,
         };
-        let kd = KdTree::build(&scene.positions, &scene.triangles, &params.kd_gpu);
+        let first = g.devices.first().ok_or_else(|| crate::Error::Gpu("no GPU device to solve on".into()))?;
+        let walk = GpuWalk::choose(params.tracer, first)?;
+        let accel = match walk {
+            GpuWalk::Kd => Accel::Kd(KdTree::build(&scene.positions, &scene.triangles, &params.kd_gpu)),
+            GpuWalk::Bvh | GpuWalk::RayQuery => {
+                Accel::build(TracerKind::Bvh, &scene.positions, &scene.triangles, &params.bvh, &params.kd)
+            }
+        };
         let mut logical = Vec::new();
         for dev in &g.devices {
             for i in 0..g.logical_per_device {
@@ -160,7 +168,7 @@ impl Solver {
                 let delay = g.delays().get(logical.len()).copied().unwrap_or_default();
                 logical.push(LogicalDevice {
                     label,
-                    tracer: GpuTracer::new(dev.clone(), &kd)?,
+                    tracer: GpuTracer::of(dev.clone(), walk, &accel, &scene.positions, &scene.triangles)?,
                     delay_per_vertex: delay,
                 });
             }
@@ -169,7 +177,7 @@ impl Solver {
         let tracer = logical.swap_remove(0).tracer;
         let gpu_links = GpuLinks::new(tracer.dev.clone(), &links, &scene.albedo)?;
         let gpu = GpuState { tracer, links: gpu_links, shares };
-        Ok(Solver::assemble(scene, params, Accel::Kd(kd), links, Some(gpu), compute.clone(), None))
+        Ok(Solver::assemble(scene, params, accel, links, Some(gpu), compute.clone(), None))
     }
 
     /// Traces `parts` again for the current scene and links.

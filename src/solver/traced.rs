@@ -6,9 +6,7 @@
 //! deformation retraces the parts it does not update selectively; an
 //! emission or sky edit retraces only its own part. Each part runs on the
 //! GPU tracer when the solver has one, else (or when it fails) on the CPU
-//! structure ([`super::compute::Tracers::any`]); the final gather and the
-//! noise check always run on the CPU structure (the GPU tracer shoots whole
-//! vertices' ray sets only). Which parts the CPU structure traced is kept
+//! structure ([`super::compute::Tracers::any`]). Which parts the CPU structure traced is kept
 //! ([`Traced::on_cpu`]), so a solve can say how many of its rays ran on
 //! the CPU (`SolveStats::cpu_traced_rays`).
 
@@ -103,10 +101,14 @@ impl Traced {
                         t.any("tracing near-hit light", |tr| NearLight::compute(scene, near, tr, &params.light))
                 }
                 Part::NearGather => {
-                    self.near.gather = t.cpu_only(|tr| NearGather::compute(scene, near, tr, &params.near_gather, seed))
+                    self.near.gather = t.any("tracing the near hits' final gather", |tr| {
+                        NearGather::compute(scene, near, tr, &params.near_gather, seed)
+                    })
                 }
                 Part::NoiseCheck => {
-                    self.noise_check = NoiseCheck::compute(scene, t.cpu(), &params.links, &params.smoothing.noise)
+                    self.noise_check = t.any("tracing the noise check", |tr| {
+                        NoiseCheck::compute(scene, tr, &params.links, &params.smoothing.noise)
+                    })
                 }
             }
             self.on_cpu[part.index()] = t.take_cpu_used();

@@ -9,7 +9,7 @@
 //! [`CpuTracer`] adds single-ray queries and the rays of one origin (a
 //! vertex's rays), which the CPU structures answer without batching;
 //! [`Accel`] is the CPU structure a solver built, chosen by
-//! [`TracerKind`] (`tracer = "bvh" | "kd"` in the scene TOML, `--tracer`).
+//! [`TracerKind`] (`tracer = "auto" | "bvh" | "kd" | "rq"` in the scene TOML, `--tracer`).
 //!
 //! Every tracer uses the same watertight triangle test
 //! ([`crate::kdtree::triangle`]) and orders hits with equal `t` by triangle
@@ -32,10 +32,62 @@ pub use crate::scene::TracerKind;
 /// below any feature the solver resolves.
 pub const RAY_OFFSET: f32 = 1e-4;
 
-/// Batches of rays: closest hits and any-hit visibility.
+/// Rays of several origins sharing one table of local directions (the
+/// vertex ray sets of link shooting): origin `i` shoots the
+/// `per_origin` directions of set `sets[i]`
+/// (`directions[sets[i] * per_origin..][..per_origin]`), each turned into
+/// its frame `frames[i]` (tangent, bitangent, normal) with
+/// [`crate::sampling::world_direction`], over `[0, inf)`, skipping vertex
+/// `skip[i]`. Answers come origin after origin, in direction order.
+#[derive(Clone, Debug, Default)]
+pub struct OriginRays {
+    /// Ray origins, metres.
+    pub origins: Vec<Vec3>,
+    /// The vertex each origin's rays skip.
+    pub skip: Vec<u32>,
+    /// Each origin's frame (tangent, bitangent, normal).
+    pub frames: Vec<(Vec3, Vec3, Vec3)>,
+    /// Which direction set each origin shoots.
+    pub sets: Vec<u32>,
+    /// The direction sets (local frame, unit), one after the other.
+    pub directions: Vec<Vec3>,
+    /// Directions a set.
+    pub per_origin: usize,
+}
+
+impl OriginRays {
+    /// Rays in the batch.
+    pub fn len(&self) -> usize {
+        self.origins.len() * self.per_origin
+    }
+
+    /// True when the batch holds no ray.
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// Origin `i`'s world directions, in order.
+    pub fn world_directions(&self, i: usize) -> impl Iterator<Item = Vec3> + '_ {
+        let set = self.sets[i] as usize * self.per_origin;
+        let frame = self.frames[i];
+        self.directions[set..set + self.per_origin].iter().map(move |d| crate::sampling::world_direction(frame, *d))
+    }
+}
+
+/// Batches of rays: closest hits, any-hit visibility and the rays of
+/// several origins sharing a direction table.
 pub trait Tracer: Sync {
-    /// Short name for figures ("bvh", "kd", "gpu-kd").
+    /// Short name for figures ("bvh", "kd", "gpu-bvh", "gpu-kd", "gpu-rq").
     fn name(&self) -> &'static str;
+
+    /// True for tracers on a GPU (whose rays the CPU did not trace).
+    fn on_gpu(&self) -> bool {
+        false
+    }
+
+    /// The nearest hit of every ray of `batch` (see [`OriginRays`]),
+    /// origin after origin.
+    fn origin_rays(&self, batch: &OriginRays) -> crate::Result<Vec<Option<Hit>>>;
 
     /// The nearest hit (front or back face) of every ray in `[tmin, tmax]`,
     /// ignoring triangles with the ray's `skip` vertex as a corner; `None`
@@ -96,6 +148,18 @@ impl<T: CpuTracer> Tracer for T {
         CpuTracer::name(self)
     }
 
+    /// Each origin's rays together ([`CpuTracer::intersect_origin`]), origins over rayon threads.
+    fn origin_rays(&self, batch: &OriginRays) -> crate::Result<Vec<Option<Hit>>> {
+        let mut out = vec![None; batch.len()];
+        if batch.per_origin > 0 {
+            out.par_chunks_mut(batch.per_origin).enumerate().for_each(|(i, o)| {
+                let dirs: Vec<Vec3> = batch.world_directions(i).collect();
+                self.intersect_origin(batch.origins[i], batch.skip[i], &dirs, o);
+            });
+        }
+        Ok(out)
+    }
+
     /// Runs of `RUN` rays ([`CpuTracer::intersect_run`]) over rayon threads.
     fn closest_hits(&self, rays: &[Ray]) -> crate::Result<Vec<Option<Hit>>> {
         let mut out = vec![None; rays.len()];
@@ -121,7 +185,7 @@ pub enum Accel {
 }
 
 impl Accel {
-    /// Builds the structure `kind` names over `triangles` (vertex ids into
+    /// Builds the CPU structure `kind` names ([`TracerKind::cpu`]) over `triangles` (vertex ids into
     /// `positions`) with its parameters.
     pub fn build(
         kind: TracerKind,
@@ -130,9 +194,9 @@ impl Accel {
         bvh: &crate::bvh::BvhBuildParams,
         kd: &crate::kdtree::KdBuildParams,
     ) -> Accel {
-        match kind {
-            TracerKind::Bvh => Accel::Bvh(Bvh::build(positions, triangles, bvh)),
+        match kind.cpu() {
             TracerKind::Kd => Accel::Kd(KdTree::build(positions, triangles, kd)),
+            _ => Accel::Bvh(Bvh::build(positions, triangles, bvh)),
         }
     }
 

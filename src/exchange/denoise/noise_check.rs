@@ -79,10 +79,10 @@
 
 use crate::csr::{Csr, RowBuilder};
 use crate::exchange::denoise::noise::{iid_variance, vertex_moments, NoiseParams};
-use crate::links::{merge_vertex, LinkParams, Links, MergeScratch, RaySetup, TraceScratch};
+use crate::links::{merge_vertex, LinkParams, Links, MergeScratch, RaySetup};
 use crate::sampling::stream::Stream;
 use crate::scene::prep::PreparedScene;
-use crate::trace::CpuTracer;
+use crate::trace::Tracer;
 use glam::{Vec3, Vec4};
 use half::f16;
 use rayon::prelude::*;
@@ -156,34 +156,31 @@ fn stratum(v: usize, n: usize, m: usize) -> usize {
 
 impl NoiseCheck {
     /// Shoots the check's rays at `params.check_vertices` vertices of
-    /// `scene` with `tracer` (the links' ray setup and shooting,
-    /// [`RaySetup::trace_vertex_with`], with the check's seed).
+    /// `scene` with `tracer` as one batch (the links' ray setup,
+    /// [`RaySetup::trace_vertices`], with the check's seed).
     pub fn compute(
         scene: &PreparedScene,
-        tracer: &dyn CpuTracer,
+        tracer: &dyn Tracer,
         link: &LinkParams,
         params: &NoiseParams,
-    ) -> NoiseCheck {
+    ) -> crate::Result<NoiseCheck> {
         let start = Instant::now();
         let vertices = sample_vertices(scene.vertex_count(), params.check_vertices as usize, link.seed);
         if vertices.is_empty() {
-            return NoiseCheck::default();
+            return Ok(NoiseCheck::default());
         }
         let setup = RaySetup::new(scene, &LinkParams { seed: Stream::NOISE_CHECK.seed(link.seed), ..*link });
         let n_rays = setup.directions.len();
         let weight_per_ray = std::f64::consts::PI / n_rays as f64;
+        let records = setup.trace_vertices(tracer, &vertices)?;
         // Per sampled vertex: its merged group.
-        let groups: Vec<(Vec<u32>, Vec<f16>)> = vertices
-            .par_iter()
-            .map_init(
-                || (TraceScratch::default(), Vec::new(), MergeScratch::default()),
-                |(trace, records, merge), &v| {
-                    setup.trace_vertex_with(tracer, v as usize, trace, records);
-                    let (mut targets, mut weights) = (Vec::new(), Vec::new());
-                    merge_vertex(records, &scene.triangles, weight_per_ray, merge, &mut targets, &mut weights);
-                    (targets, weights)
-                },
-            )
+        let groups: Vec<(Vec<u32>, Vec<f16>)> = records
+            .par_chunks(n_rays.max(1))
+            .map_init(MergeScratch::default, |merge, records| {
+                let (mut targets, mut weights) = (Vec::new(), Vec::new());
+                merge_vertex(records, &scene.triangles, weight_per_ray, merge, &mut targets, &mut weights);
+                (targets, weights)
+            })
             .collect();
         let rays = (vertices.len() * n_rays) as u64;
         let mut out = NoiseCheck {
@@ -204,7 +201,7 @@ impl NoiseCheck {
             out.kernel = kernel_weights(&at, params.check_neighbours as usize);
         }
         out.ms = start.elapsed().as_secs_f64() * 1e3;
-        out
+        Ok(out)
     }
 
     /// True when no vertex is sampled.
