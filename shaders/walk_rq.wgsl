@@ -9,8 +9,11 @@ enable wgpu_ray_query;
 // corner. An accepted, closer candidate is confirmed, which lets the driver
 // cull what lies beyond it; any-hit queries stop at the first accepted one.
 // The driver's segment is widened by `SLACK` on both ends so its rounding
-// never drops a candidate the watertight test would take. Distances in
-// metres.
+// never drops a candidate the watertight test would take; its start moves
+// back along the ray by `SLACK` of the origin's magnitude too, so a
+// triangle through the origin (t = 0, which the watertight test takes) is
+// still proposed (a driver's t may round below 0, and its tmin cannot be
+// negative). Distances in metres.
 
 // Relative widening of the driver's [tmin, tmax].
 const SLACK: f32 = 1e-5;
@@ -34,9 +37,11 @@ fn trace(o: vec3<f32>, d: vec3<f32>, tmin: f32, tmax: f32, skip: u32, any_hit: b
     }
     let s = make_shear(d);
     var rq: ray_query;
+    let ao = abs(o);
+    let back = SLACK * max(max(ao.x, ao.y), max(ao.z, 1.0));
     let lo = max(tmin - SLACK * abs(tmin), 0.0);
-    let hi = min(tmax + SLACK * abs(tmax), 3.0e38);
-    rayQueryInitialize(&rq, scene_tlas, RayDesc(RAY_FLAG_FORCE_NO_OPAQUE, 0xffu, lo, hi, o, d));
+    let hi = min(tmax + SLACK * abs(tmax) + 2.0 * back, 3.0e38);
+    rayQueryInitialize(&rq, scene_tlas, RayDesc(RAY_FLAG_FORCE_NO_OPAQUE, 0xffu, lo, hi, o - back * d, d));
     while rayQueryProceed(&rq) {
         let c = rayQueryGetCandidateIntersection(&rq);
         if c.kind != RAY_QUERY_INTERSECTION_TRIANGLE {
