@@ -155,7 +155,7 @@ pub struct RunTimes {
     /// The sky turned by 30 degrees (a gather-only update: `E_sky` from the
     /// kept miss masks, bounces, smoothing), ms; NaN without a sky.
     pub sky_turn_ms: f64,
-    /// Scenes with deformers, CPU ([`time_deformation`]): the selective
+    /// Scenes with deformers, on either path ([`time_deformation`]): the selective
     /// update from the rest pose to [`DEFORM_TIME_S`] with bounces and
     /// smoothing, ms; NaN otherwise.
     pub deform_update_ms: f64,
@@ -227,7 +227,7 @@ pub struct BenchRow {
     pub light_move_ms: Stat,
     /// Scenes with a sky: turning it by 30 degrees (gather only), ms.
     pub sky_turn_ms: Stat,
-    /// Scenes with deformers (CPU): selective update after a deformation
+    /// Scenes with deformers (either path): selective update after a deformation
     /// with bounces and smoothing, ms ([`time_deformation`]); NaN otherwise.
     pub deform_update_ms: Stat,
     /// The full update after the same deformation, ms.
@@ -387,14 +387,14 @@ pub struct DeformTimes {
     pub static_rays_fraction: f64,
 }
 
-/// Times deformation updates. The solver (at rest,
-/// CPU) is moved to [`DEFORM_TIME_S`] by a full update, back by a
+/// Times deformation updates. The solver (at rest, on
+/// either path) is moved to [`DEFORM_TIME_S`] by a full update, back by a
 /// selective one with a preview (timing the preview), and to
 /// [`DEFORM_TIME_S`] again by a selective one (timed); each time with
-/// bounces and smoothing. `None` without deformers or on the GPU path.
+/// bounces and smoothing. `None` without deformers.
 pub fn time_deformation(solver: Solver) -> (Solver, Option<DeformTimes>) {
     use crate::scene::deform::{deform_scene, has_deformers};
-    if !has_deformers(solver.scene()) || solver.gpu().is_some() {
+    if !has_deformers(solver.scene()) {
         return (solver, None);
     }
     let rest = solver.scene().clone();

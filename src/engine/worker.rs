@@ -204,8 +204,9 @@ impl Worker {
             let mut c = Counters::default();
             let mut s = match solver.take() {
                 Some(s) if !dirty.geometry => s,
-                // A deformation on the CPU: refit the BVH, re-shoot what moved.
-                Some(s) if matches!(compute, crate::solver::Compute::Cpu) && s.gpu().is_none() => {
+                // A deformation on the path the solver runs on: refit the
+                // structure, re-shoot what moved (on the GPU there).
+                Some(s) if matches!(compute, crate::solver::Compute::Gpu(_)) == s.gpu().is_some() => {
                     let t = Instant::now();
                     let mut show = |p: &Solver| {
                         c.preview_ms = t0.elapsed().as_secs_f64() * 1e3;

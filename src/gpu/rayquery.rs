@@ -94,8 +94,15 @@ impl RqScene {
         tlas[0] = Some(wgpu::TlasInstance::new(&blas, IDENTITY, 0, 0xff));
         let corners: Vec<KdTriangle> = corners(positions, triangles);
         let triangles_buf = super::buffers::storage_init(d, "rq triangles", &corners);
-        let scene =
-            RqScene { tlas, blas, size, vertices, vertex_count: positions.len(), triangles: triangles_buf, triangle_ids: triangles.to_vec() };
+        let scene = RqScene {
+            tlas,
+            blas,
+            size,
+            vertices,
+            vertex_count: positions.len(),
+            triangles: triangles_buf,
+            triangle_ids: triangles.to_vec(),
+        };
         scene.encode_build(dev, true);
         dev.wait()?;
         Ok(scene)

@@ -15,7 +15,7 @@ use super::layout::RayVertex;
 use super::tracer::GpuTracer;
 use crate::error::{Error, Result};
 use crate::links::shoot::RaySetup;
-use crate::links::{assemble, GroupRun, HitRecord, LinkParams, Links};
+use crate::links::{assemble, GroupRun, HitRecord, LinkParams, Links, RayHits};
 use crate::scene::prep::PreparedScene;
 use rayon::prelude::*;
 use std::sync::Mutex;
@@ -73,6 +73,7 @@ fn merge_batch(
     triangles: &[[u32; 3]],
     near: &Option<std::sync::Arc<[f32]>>,
     first: usize,
+    record: bool,
     hits: &mut [HitRecord],
 ) -> GroupRun {
     let rays = setup.directions.len();
@@ -82,7 +83,9 @@ fn merge_batch(
         .par_chunks_mut(rays * CHUNK)
         .enumerate()
         .map(|(ci, chunk)| {
-            let mut run = GroupRun::new(first + ci * CHUNK).with_near(near.clone());
+            let at = first + ci * CHUNK;
+            let run = if record { GroupRun::recording(at) } else { GroupRun::new(at) };
+            let mut run = run.with_near(near.clone());
             for (i, vh) in chunk.chunks_mut(rays).enumerate() {
                 setup.self_hits(run.first + i, vh);
                 run.push_vertex(vh, triangles, weight_per_ray);
@@ -90,22 +93,25 @@ fn merge_batch(
             run
         })
         .collect();
-    let mut out = GroupRun::new(first);
+    let mut out = if record { GroupRun::recording(first) } else { GroupRun::new(first) };
     for p in parts {
         out.append(p);
     }
     out
 }
 
-/// Shoots every vertex's rays on `devices` and builds the merged links.
+/// Shoots every vertex's rays on `devices` and builds the merged links;
+/// with `record`, also the per-ray state selective updates read
+/// ([`RayHits`], as the CPU's `shoot_links_recording` keeps it).
 /// `progress(done, total)` is called as batches are merged.
 pub fn shoot_links_gpu(
     scene: &PreparedScene,
     params: &LinkParams,
     sched: &ScheduleParams,
     devices: &mut [LogicalDevice],
+    record: bool,
     progress: &(dyn Fn(usize, usize) + Sync),
-) -> Result<(Links, Vec<DeviceShare>)> {
+) -> Result<(Links, Option<RayHits>, Vec<DeviceShare>)> {
     if devices.is_empty() {
         return Err(Error::Gpu("no device to shoot rays on".into()));
     }
@@ -125,6 +131,8 @@ pub fn shoot_links_gpu(
     let mut shares: Vec<DeviceShare> =
         devices.iter().map(|d| DeviceShare { label: d.label.clone(), ..Default::default() }).collect();
     let mut batches: Vec<GroupRun> = Vec::new();
+    // With `record`: each batch's hit ids, by its first vertex.
+    let mut batch_ids: Vec<(usize, Vec<u32>)> = Vec::new();
     let mut merged_vertices = 0usize;
     let mut first_error = None;
     std::thread::scope(|s| {
@@ -191,7 +199,10 @@ pub fn shoot_links_gpu(
                         )));
                         continue;
                     }
-                    batches.push(merge_batch(&setup, &scene.triangles, &near, a, &mut hits));
+                    batches.push(merge_batch(&setup, &scene.triangles, &near, a, record, &mut hits));
+                    if record {
+                        batch_ids.push((a, hits.iter().map(|h| h.tri).collect()));
+                    }
                     merged_vertices += b - a;
                     progress(merged_vertices, n);
                 }
@@ -207,6 +218,10 @@ pub fn shoot_links_gpu(
     if merged_vertices != n {
         return Err(Error::Gpu(format!("only {merged_vertices} of {n} vertices came back from the devices")));
     }
-    let links = assemble(n, batches, start.elapsed().as_secs_f64() * 1e3).map_err(Error::Gpu)?;
-    Ok((links, shares))
+    let (links, sums) = assemble(n, batches, start.elapsed().as_secs_f64() * 1e3).map_err(Error::Gpu)?;
+    let hits = record.then(|| {
+        batch_ids.sort_by_key(|b| b.0);
+        RayHits { rays_per_vertex: rays, ids: batch_ids.into_iter().flat_map(|b| b.1).collect(), sums }
+    });
+    Ok((links, hits, shares))
 }

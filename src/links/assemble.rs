@@ -196,14 +196,16 @@ impl CsrBuilder {
     }
 }
 
-/// Stitches runs covering vertices `0..n` (in any order) into CSR links;
-/// `shoot_ms` is the time the caller spent, ms. Missing or overlapping runs
-/// are an error naming the first gap.
-pub fn assemble(n: usize, mut runs: Vec<GroupRun>, shoot_ms: f64) -> Result<Links, String> {
+/// Stitches runs covering vertices `0..n` (in any order) into CSR links,
+/// with the links' fixed-point sums where the runs recorded them (else
+/// empty); `shoot_ms` is the time the caller spent, ms. Missing or
+/// overlapping runs are an error naming the first gap.
+pub fn assemble(n: usize, mut runs: Vec<GroupRun>, shoot_ms: f64) -> Result<(Links, Vec<u32>), String> {
     runs.sort_by_key(|r| r.first);
     let mut csr = CsrBuilder::new(n);
     for r in runs {
         csr.push(r)?;
     }
-    csr.finish(n, shoot_ms)
+    let sums = csr.take_sums();
+    Ok((csr.finish(n, shoot_ms)?, sums))
 }

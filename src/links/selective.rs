@@ -54,7 +54,7 @@ use crate::sampling::world_direction;
 use crate::scene::motion::Motion;
 use crate::scene::prep::PreparedScene;
 use crate::sky::visibility::miss_mask;
-use crate::trace::CpuTracer;
+use crate::trace::{CpuTracer, Tracer};
 use glam::Vec3;
 use half::f16;
 use rayon::prelude::*;
@@ -152,6 +152,48 @@ struct Context<'a> {
     near_limits: Option<std::sync::Arc<[f32]>>,
     union_box: crate::scene::motion::Aabb,
     weight_per_ray: f64,
+    /// With a batch tracer: the vertices it re-shot, all their rays.
+    batch: Option<Batch>,
+}
+
+/// What a batch tracer traced: every ray of the remade vertices, and the
+/// rays of the other vertices that must be traced again.
+struct Batch {
+    /// Per vertex: its place among the remade ones, or `u32::MAX`.
+    slot: Vec<u32>,
+    /// The remade vertices' records, vertex after vertex.
+    records: Vec<HitRecord>,
+    rays: usize,
+    /// Per vertex: its re-traced rays' range in the arrays below.
+    start: Vec<u32>,
+    /// Ray index, direction, kept old record and new hit of each re-traced ray.
+    retrace: Vec<u32>,
+    dirs: Vec<Vec3>,
+    kept: Vec<Option<HitRecord>>,
+    hits: Vec<Option<Hit>>,
+}
+
+impl Batch {
+    /// Vertex `v`'s records, where it was remade.
+    fn records(&self, v: usize) -> Option<&[HitRecord]> {
+        let s = self.slot[v];
+        (s != u32::MAX).then(|| &self.records[s as usize * self.rays..(s as usize + 1) * self.rays])
+    }
+
+    /// Vertex `v`'s re-traced rays into `scratch` (as [`Context::to_retrace`]
+    /// leaves them, with their hits); false when there is none.
+    fn retraced(&self, v: usize, scratch: &mut Scratch) -> bool {
+        let r = self.start[v] as usize..self.start[v + 1] as usize;
+        scratch.retrace.clear();
+        scratch.retrace.extend_from_slice(&self.retrace[r.clone()]);
+        scratch.dirs.clear();
+        scratch.dirs.extend_from_slice(&self.dirs[r.clone()]);
+        scratch.kept.clear();
+        scratch.kept.extend_from_slice(&self.kept[r.clone()]);
+        scratch.hits.clear();
+        scratch.hits.extend_from_slice(&self.hits[r.clone()]);
+        !r.is_empty()
+    }
 }
 
 impl Context<'_> {
@@ -202,19 +244,53 @@ impl Context<'_> {
 
     /// Updates vertex `v` whose hit ids are `row`.
     fn vertex(&self, v: usize, row: &mut [u32], scratch: &mut Scratch) -> (Option<Patch>, u64) {
+        if let Some(b) = &self.batch {
+            // What the batch traced: all rays of a remade vertex, the others' to re-trace.
+            if let Some(records) = b.records(v) {
+                scratch.records.clear();
+                scratch.records.extend_from_slice(records);
+                return (Some(self.remerge(v, row, scratch)), row.len() as u64);
+            }
+            if !b.retraced(v, scratch) {
+                return (None, 0);
+            }
+            let traced = scratch.retrace.len() as u64;
+            return self.patch_retraced(v, row, scratch, traced);
+        }
         if self.motion.remade[v] {
             self.setup.trace_vertex_with(self.tracer, v, &mut scratch.trace, &mut scratch.records);
-            let old = id_counts(row);
-            for (id, r) in row.iter_mut().zip(&scratch.records) {
-                *id = r.tri;
-            }
-            let mut p = self.merge(v, scratch);
-            p.old = old;
-            return (Some(p), row.len() as u64);
+            return (Some(self.remerge(v, row, scratch)), row.len() as u64);
+        }
+        if !self.to_retrace(v, row, scratch) {
+            return (None, 0);
         }
         let o = self.setup.origins[v];
+        let traced = scratch.retrace.len() as u64;
+        scratch.hits.clear();
+        scratch.hits.resize(scratch.dirs.len(), None);
+        self.tracer.intersect_origin(o, v as u32, &scratch.dirs, &mut scratch.hits);
+        self.patch_retraced(v, row, scratch, traced)
+    }
+
+    /// Vertex `v`'s group merged from all its rays' records
+    /// (`scratch.records`), its hit ids `row` set from them.
+    fn remerge(&self, v: usize, row: &mut [u32], scratch: &mut Scratch) -> Patch {
+        let old = id_counts(row);
+        for (id, r) in row.iter_mut().zip(&scratch.records) {
+            *id = r.tri;
+        }
+        let mut p = self.merge(v, scratch);
+        p.old = old;
+        p
+    }
+
+    /// The rays of a vertex that was not remade that must be traced again
+    /// (their ray indices, directions and kept records into `scratch`);
+    /// false when there is none.
+    fn to_retrace(&self, v: usize, row: &[u32], scratch: &mut Scratch) -> bool {
+        let o = self.setup.origins[v];
         if self.union_box.below_plane(o, self.setup.normals[v], self.union_box.rounding_margin()) {
-            return (None, 0);
+            return false;
         }
         let wedges = self.setup.wedges(v);
         scratch.retrace.clear();
@@ -237,13 +313,13 @@ impl Context<'_> {
                 scratch.kept.push(kept);
             }
         }
-        let traced = scratch.retrace.len() as u64;
-        if traced == 0 {
-            return (None, 0);
-        }
-        scratch.hits.clear();
-        scratch.hits.resize(scratch.dirs.len(), None);
-        self.tracer.intersect_origin(o, v as u32, &scratch.dirs, &mut scratch.hits);
+        !scratch.retrace.is_empty()
+    }
+
+    /// Vertex `v`'s group patched with its re-traced rays' hits
+    /// (`scratch.hits` for `scratch.retrace`); `traced` rays were traced.
+    fn patch_retraced(&self, v: usize, row: &mut [u32], scratch: &mut Scratch, traced: u64) -> (Option<Patch>, u64) {
+        let o = self.setup.origins[v];
         let old = id_counts(row);
         // The changed rays' corner weights: old ones out, new ones in.
         scratch.deltas.clear();
@@ -418,15 +494,23 @@ struct Scratch {
 /// (built over the new positions). `params` must be the ones the links
 /// were shot with. Returns the new links, the figures, and per vertex
 /// whether its near hits were found anew (empty without near hits).
+///
+/// With `batch` (a GPU's tracer), the same rays are traced there, in two
+/// batches (the remade vertices' ray sets, then every other ray to trace
+/// again), before the groups are merged or patched as above: the same
+/// result. `tracer` then traces nothing but a ray whose kept record its
+/// triangle no longer gives, which the rule above never leaves. An error
+/// where the batch tracer fails, with `links` and `hits` as they were.
 pub fn reshoot(
     scene: &PreparedScene,
     old_positions: &[Vec3],
     motion: &Motion,
     tracer: &dyn CpuTracer,
+    batch: Option<&dyn Tracer>,
     params: &LinkParams,
     links: &Links,
     hits: &mut RayHits,
-) -> (Links, ReshootStats, Vec<bool>) {
+) -> crate::Result<(Links, ReshootStats, Vec<bool>)> {
     let start = Instant::now();
     let n = scene.vertex_count();
     let setup = RaySetup::new(scene, params);
@@ -452,7 +536,13 @@ pub fn reshoot(
             .flatten(),
         union_box: motion.union_box(),
         weight_per_ray: std::f64::consts::PI / rays as f64,
+        batch: None,
     };
+    let mut ctx = ctx;
+    if let Some(tracer) = batch {
+        ctx.batch = Some(batch_records(&ctx, ids, tracer)?);
+    }
+    let ctx = ctx;
     const CHUNK: usize = 16;
     let results: Vec<(Vec<Option<Patch>>, u64, u64)> = ids
         .par_chunks_mut(rays * CHUNK)
@@ -540,7 +630,71 @@ pub fn reshoot(
     *sums = new_sums;
     stats.ms = start.elapsed().as_secs_f64() * 1e3;
     out.stats.shoot_ms = stats.ms;
-    (out, stats, near_redone)
+    Ok((out, stats, near_redone))
+}
+
+/// Traces on `tracer`, in two batches, every ray of the remade vertices
+/// ([`Tracer::origin_rays`]) and the other vertices' rays that must be
+/// traced again ([`Context::to_retrace`], [`Tracer::closest_hits`]).
+fn batch_records(ctx: &Context, ids: &[u32], tracer: &dyn Tracer) -> crate::Result<Batch> {
+    let n = ctx.scene.vertex_count();
+    let rays = ctx.setup.directions.len();
+    let remade: Vec<u32> = (0..n as u32).filter(|&v| ctx.motion.remade[v as usize]).collect();
+    let records = ctx.setup.trace_vertices(tracer, &remade)?;
+    let mut slot = vec![u32::MAX; n];
+    for (i, &v) in remade.iter().enumerate() {
+        slot[v as usize] = i as u32;
+    }
+    type Lists = (Vec<u32>, Vec<Vec3>, Vec<Option<HitRecord>>);
+    let lists: Vec<Option<Lists>> = (0..n)
+        .into_par_iter()
+        .map_init(Scratch::default, |scratch, v| {
+            let row = &ids[v * rays..(v + 1) * rays];
+            (!ctx.motion.remade[v] && ctx.to_retrace(v, row, scratch)).then(|| {
+                (
+                    std::mem::take(&mut scratch.retrace),
+                    std::mem::take(&mut scratch.dirs),
+                    std::mem::take(&mut scratch.kept),
+                )
+            })
+        })
+        .collect();
+    let mut b = Batch { slot, records, rays, start: Vec::with_capacity(n + 1), ..Batch::empty() };
+    let mut traced = Vec::new();
+    b.start.push(0);
+    for (v, l) in lists.into_iter().enumerate() {
+        if let Some((retrace, dirs, kept)) = l {
+            let o = ctx.setup.origins[v];
+            traced.extend(dirs.iter().map(|&d| Ray {
+                origin: o,
+                dir: d,
+                tmin: 0.0,
+                tmax: f32::INFINITY,
+                skip: v as u32,
+            }));
+            b.retrace.extend(retrace);
+            b.dirs.extend(dirs);
+            b.kept.extend(kept);
+        }
+        b.start.push(b.retrace.len() as u32);
+    }
+    b.hits = tracer.closest_hits(&traced)?;
+    Ok(b)
+}
+
+impl Batch {
+    fn empty() -> Batch {
+        Batch {
+            slot: Vec::new(),
+            records: Vec::new(),
+            rays: 0,
+            start: Vec::new(),
+            retrace: Vec::new(),
+            dirs: Vec::new(),
+            kept: Vec::new(),
+            hits: Vec::new(),
+        }
+    }
 }
 
 /// The near hits after an update ([`super::near`]): those of patched
@@ -584,23 +738,26 @@ fn near_hits(
     (NearHits { rows: rows.finish() }, redone.iter().map(Option::is_some).collect())
 }
 
-/// The link groups of `vertices` shot with `params` (used for previews at
-/// few rays); returns `(vertex, targets, weights)` per vertex.
+/// The link groups of `vertices` shot with `params` through `tracer` in
+/// one batch (used for previews at few rays); returns
+/// `(vertex, targets, weights)` per vertex.
 pub fn shoot_groups(
     scene: &PreparedScene,
-    tracer: &dyn CpuTracer,
+    tracer: &dyn Tracer,
     params: &LinkParams,
     vertices: &[u32],
-) -> Vec<(u32, Vec<u32>, Vec<f16>)> {
+) -> crate::Result<Vec<(u32, Vec<u32>, Vec<f16>)>> {
     let setup = RaySetup::new(scene, params);
-    let weight_per_ray = std::f64::consts::PI / setup.directions.len() as f64;
-    vertices
+    let rays = setup.directions.len().max(1);
+    let weight_per_ray = std::f64::consts::PI / rays as f64;
+    let records = setup.trace_vertices(tracer, vertices)?;
+    Ok(vertices
         .par_iter()
-        .map_init(Scratch::default, |s, &v| {
-            setup.trace_vertex_with(tracer, v as usize, &mut s.trace, &mut s.records);
+        .zip(records.par_chunks(rays))
+        .map_init(MergeScratch::default, |merge, (&v, records)| {
             let (mut t, mut w) = (Vec::new(), Vec::new());
-            merge_vertex(&s.records, &scene.triangles, weight_per_ray, &mut s.merge, &mut t, &mut w);
+            merge_vertex(records, &scene.triangles, weight_per_ray, merge, &mut t, &mut w);
             (v, t, w)
         })
-        .collect()
+        .collect())
 }

@@ -12,15 +12,18 @@
 //! is a full one ([`Solver::deformed`]). Either way the result equals a
 //! full solve of the deformed scene with the same seed. Times in ms.
 
+use super::compute::{gpu_else_cpu, GpuState, Tracers};
 use super::traced::Part;
-use super::{SolveParams, Solver};
+use super::{Compute, SolveParams, Solver};
 use crate::exchange::near::NearChange;
+use crate::gpu::{GpuLinks, LogicalDevice};
+use crate::kdtree::KdTree;
 use crate::links::selective::{reshoot, shoot_groups};
 use crate::links::splice::splice_groups;
 use crate::links::{LinkParams, ReshootStats};
 use crate::scene::motion::Motion;
 use crate::scene::prep::PreparedScene;
-use crate::trace::Accel;
+use crate::trace::{Accel, Tracer};
 use std::time::Instant;
 
 /// Rays per vertex of the remade vertices in a deformation preview.
@@ -78,12 +81,12 @@ impl Solver {
     ) -> (Solver, DeformStats) {
         let start = Instant::now();
         let params = params.staged();
-        let same = self.gpu.is_none()
-            && self.ray_hits.is_some()
+        let same = self.ray_hits.is_some()
             && params.links == self.params.links
             && params.tracer == self.params.tracer
             && params.bvh == self.params.bvh
-            && params.kd == self.params.kd;
+            && params.kd == self.params.kd
+            && params.kd_gpu == self.params.kd_gpu;
         let motion = if same { Motion::between(&self.scene, &scene) } else { None };
         let Some(motion) = motion else {
             let (s, refitted) = self.deformed(scene, params, progress);
@@ -109,13 +112,7 @@ impl Solver {
         };
         let mut stats = DeformStats { selective: true, ..Default::default() };
         let t = Instant::now();
-        let refitted = match &mut self.accel {
-            Accel::Bvh(b) => b.update(&scene.positions, &scene.triangles) == crate::bvh::refit::Update::Refit,
-            Accel::Kd(_) => {
-                self.accel = Accel::build(params.tracer, &scene.positions, &scene.triangles, &params.bvh, &params.kd);
-                false
-            }
-        };
+        let refitted = self.update_accel(&scene, &params);
         stats.refitted = refitted;
         stats.accel_ms = t.elapsed().as_secs_f64() * 1e3;
         let old_positions = std::mem::replace(&mut self.scene, scene).positions;
@@ -125,30 +122,41 @@ impl Solver {
             stats.preview_ms = start.elapsed().as_secs_f64() * 1e3;
         }
         let mut hits = self.ray_hits.take().expect("checked above");
-        let (links, link_stats, near_redone) =
-            reshoot(&self.scene, &old_positions, &motion, &self.accel, &params.links, &self.links, &mut hits);
+        // On the GPU path the GPU re-shoots (every ray of the vertices with
+        // one to trace again); where it fails, the CPU structure does.
+        let batch = self.gpu.as_ref().map(|g| &g.tracer as &dyn Tracer);
+        let on_gpu = batch.map(|b| {
+            reshoot(&self.scene, &old_positions, &motion, &self.accel, Some(b), &params.links, &self.links, &mut hits)
+        });
+        let (links, link_stats, near_redone) = gpu_else_cpu("re-shooting links", on_gpu, || {
+            reshoot(&self.scene, &old_positions, &motion, &self.accel, None, &params.links, &self.links, &mut hits)
+                .expect("a CPU tracer cannot fail")
+        });
         let near_before = std::mem::take(&mut self.links.near);
         progress(self.scene.vertex_count(), self.scene.vertex_count());
         self.links = links;
         self.links_changed();
+        self.upload_links();
         self.ray_hits = Some(hits);
         stats.links = link_stats;
         let t = Instant::now();
-        stats.light_links_recomputed = self
-            .traced
-            .light_links
-            .update_deformed(&self.scene, &self.accel, &params.light, &motion)
-            .expect("a CPU tracer cannot fail");
+        let tracers = Tracers::of(&self.gpu, &self.accel);
+        let (scene, traced) = (&self.scene, &mut self.traced);
+        stats.light_links_recomputed = tracers
+            .any("updating light links", |tr| traced.light_links.update_deformed(scene, tr, &params.light, &motion));
+        traced.on_cpu[Part::LightLinks.index()] |= tracers.take_cpu_used();
         stats.light_links_ms = t.elapsed().as_secs_f64() * 1e3;
         // The near hits' light columns and gather rays: those the motion
         // can have changed traced again.
         let change =
             NearChange { before: &near_before, after: &self.links.near, redone: &near_redone, motion: &motion };
-        let near = &mut self.traced.near;
-        near.light.update_deformed(&self.scene, &change, &self.accel, &params.light).expect("a CPU tracer cannot fail");
-        near.gather
-            .update_deformed(&self.scene, &change, &self.accel, &params.near_gather, params.seed())
-            .expect("a CPU tracer cannot fail");
+        let near = &mut traced.near;
+        tracers.any("updating near-hit light", |tr| near.light.update_deformed(scene, &change, tr, &params.light));
+        traced.on_cpu[Part::NearLight.index()] |= tracers.take_cpu_used();
+        tracers.any("updating the near hits' final gather", |tr| {
+            near.gather.update_deformed(scene, &change, tr, &params.near_gather, params.seed())
+        });
+        traced.on_cpu[Part::NearGather.index()] |= tracers.take_cpu_used();
         // Everything else is traced anew: any motion can move an emitter or
         // what shades it; the sky's refined cells follow the new links'
         // misses, the portals' rays the new positions, the near hits' sky
@@ -162,33 +170,89 @@ impl Solver {
 
     /// The solver of `scene`, a deformation of this solver's scene (same
     /// vertices and triangles, new positions), with `params`, rebuilt in
-    /// full: on the CPU path with an unchanged tracer and triangles, the BVH
-    /// is refitted ([`crate::bvh::Bvh::update`], which rebuilds when the
-    /// refit's SAH cost has grown past `rebuild_factor`), the kd-tree
-    /// rebuilt, then links and every traced part are traced anew. Anything
-    /// else builds from scratch ([`Solver::new`]). Returns the solver and
-    /// whether the BVH was refitted.
+    /// full: with an unchanged tracer and triangles the structure is
+    /// updated ([`Solver::update_accel`]: the BVH refitted, or rebuilt when
+    /// the refit's SAH cost has grown past `rebuild_factor`; the kd-tree
+    /// rebuilt; the GPU's copy or the driver's structure brought along),
+    /// then links and every traced part are traced anew, on the GPU on the
+    /// GPU path. Anything else builds from scratch ([`Solver::new_on`]).
+    /// Returns the solver and whether the BVH was refitted.
     pub fn deformed(
-        self,
+        mut self,
         scene: PreparedScene,
         params: SolveParams,
         progress: &(dyn Fn(usize, usize) + Sync),
     ) -> (Solver, bool) {
         let params = params.staged();
-        let same_mesh = self.gpu.is_none()
-            && self.scene.triangles == scene.triangles
+        let same_mesh = self.scene.triangles == scene.triangles
             && params.tracer == self.params.tracer
             && params.bvh == self.params.bvh
-            && params.kd == self.params.kd;
-        let Accel::Bvh(mut bvh) = self.accel else {
-            return (Solver::new(scene, params, progress), false);
-        };
-        if !same_mesh {
-            return (Solver::new(scene, params, progress), false);
+            && params.kd == self.params.kd
+            && params.kd_gpu == self.params.kd_gpu;
+        let compute = self.compute.clone();
+        if !same_mesh || (self.gpu.is_none() && !matches!(self.accel, Accel::Bvh(_))) {
+            return (rebuilt(scene, params, &compute, progress), false);
         }
-        let refitted = bvh.update(&scene.positions, &scene.triangles) == crate::bvh::refit::Update::Refit;
+        let refitted = self.update_accel(&scene, &params);
         let record = scene.meshes.iter().any(|m| m.dynamic);
-        (Solver::on_cpu(scene, params, Accel::Bvh(bvh), record, progress), refitted)
+        let (Some(g), Compute::Gpu(gc)) = (self.gpu.take(), &compute) else {
+            return (Solver::on_cpu(scene, params, self.accel, record, progress), refitted);
+        };
+        let label = g.tracer.dev.info.name.clone();
+        let mut logical = vec![LogicalDevice { label, tracer: g.tracer, delay_per_vertex: Default::default() }];
+        let shot = crate::gpu::shoot_links_gpu(&scene, &params.links, &gc.schedule, &mut logical, record, progress);
+        let tracer = logical.swap_remove(0).tracer;
+        let links = shot.and_then(|(links, hits, shares)| {
+            let gpu_links = GpuLinks::new(tracer.dev.clone(), &links, &scene.albedo)?;
+            Ok((links, hits, GpuState { tracer, links: gpu_links, shares }))
+        });
+        match links {
+            Ok((links, hits, gpu)) => {
+                (Solver::assemble(scene, params, self.accel, links, Some(gpu), compute, hits), refitted)
+            }
+            Err(e) => {
+                log::warn!("{e}; the deformed scene is solved on the CPU");
+                (Solver::on_cpu(scene, params, self.accel, record, progress), refitted)
+            }
+        }
+    }
+
+    /// Brings the CPU structure and the GPU tracer to `scene`'s positions
+    /// (same triangles): the BVH refitted, or rebuilt past its rebuild
+    /// factor; the kd-tree rebuilt (with the GPU's parameters on the GPU
+    /// path); the GPU's copy uploaded or the driver's structure refitted.
+    /// Returns whether the BVH was refitted. A GPU tracer that fails to
+    /// follow is dropped with a warning: the solver goes on on the CPU.
+    fn update_accel(&mut self, scene: &PreparedScene, params: &SolveParams) -> bool {
+        let refitted = match &mut self.accel {
+            Accel::Bvh(b) => b.update(&scene.positions, &scene.triangles) == crate::bvh::refit::Update::Refit,
+            Accel::Kd(_) => {
+                let kd = if self.gpu.is_some() { &params.kd_gpu } else { &params.kd };
+                self.accel = Accel::Kd(KdTree::build(&scene.positions, &scene.triangles, kd));
+                false
+            }
+        };
+        if let Some(g) = &mut self.gpu {
+            if let Err(e) = g.tracer.update(self.accel.bvh(), self.accel.kd(), &scene.positions) {
+                log::warn!("{e}; the solver goes on on the CPU");
+                self.gpu = None;
+            }
+        }
+        refitted
+    }
+
+    /// Uploads the links to the GPU after they changed (the bounces read
+    /// them there); where that fails, the solver goes on on the CPU.
+    fn upload_links(&mut self) {
+        if let Some(g) = &mut self.gpu {
+            match GpuLinks::new(g.tracer.dev.clone(), &self.links, &self.scene.albedo) {
+                Ok(l) => g.links = l,
+                Err(e) => {
+                    log::warn!("{e}; the solver goes on on the CPU");
+                    self.gpu = None;
+                }
+            }
+        }
     }
 
     /// Calls `show` with the preview state of the module doc, then restores
@@ -196,17 +260,36 @@ impl Solver {
     fn show_preview(&mut self, motion: &Motion, rays: u32, show: &mut dyn FnMut(&Solver)) {
         let remade: Vec<u32> = (0..self.scene.vertex_count() as u32).filter(|&v| motion.remade[v as usize]).collect();
         let coarse = LinkParams { rays_per_vertex: rays, ..self.params.links };
-        let groups = shoot_groups(&self.scene, &self.accel, &coarse, &remade);
+        let tracers = Tracers::of(&self.gpu, &self.accel);
+        let scene = &self.scene;
+        let groups = tracers.any("shooting the preview's links", |tr| shoot_groups(scene, tr, &coarse, &remade));
         let mut light = self.traced.light_links.clone();
-        light
-            .preview_deformed(&self.scene, &self.accel, &self.params.light, &remade)
-            .expect("a CPU tracer cannot fail");
+        tracers.any("the preview's light links", |tr| light.preview_deformed(scene, tr, &self.params.light, &remade));
         let saved = splice_groups(&mut self.links, &groups);
         self.links_changed();
+        // The GPU's bounces read the preview's links (the update uploads its own after).
+        self.upload_links();
         std::mem::swap(&mut self.traced.light_links, &mut light);
         show(self);
         saved.restore(&mut self.links);
         self.links_changed();
         std::mem::swap(&mut self.traced.light_links, &mut light);
+    }
+}
+
+/// A solver of `scene` built from scratch on `compute`; on the CPU where
+/// the GPU fails (with a warning).
+fn rebuilt(
+    scene: PreparedScene,
+    params: SolveParams,
+    compute: &Compute,
+    progress: &(dyn Fn(usize, usize) + Sync),
+) -> Solver {
+    match Solver::new_on(scene.clone(), params, compute, progress) {
+        Ok(s) => s,
+        Err(e) => {
+            log::warn!("{e}; solving on the CPU");
+            Solver::new(scene, params, progress)
+        }
     }
 }

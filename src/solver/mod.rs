@@ -173,11 +173,14 @@ impl Solver {
                 });
             }
         }
-        let (links, shares) = gpu::shoot_links_gpu(&scene, &params.links, &g.schedule, &mut logical, progress)?;
+        // Per-ray state for selective updates, as on the CPU path.
+        let record = scene.meshes.iter().any(|m| m.dynamic);
+        let (links, ray_hits, shares) =
+            gpu::shoot_links_gpu(&scene, &params.links, &g.schedule, &mut logical, record, progress)?;
         let tracer = logical.swap_remove(0).tracer;
         let gpu_links = GpuLinks::new(tracer.dev.clone(), &links, &scene.albedo)?;
         let gpu = GpuState { tracer, links: gpu_links, shares };
-        Ok(Solver::assemble(scene, params, accel, links, Some(gpu), compute.clone(), None))
+        Ok(Solver::assemble(scene, params, accel, links, Some(gpu), compute.clone(), ray_hits))
     }
 
     /// Traces `parts` again for the current scene and links.
