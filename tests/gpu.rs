@@ -665,10 +665,11 @@ fn gpu_deformation_equals_fresh(kind: TracerKind) {
     let mut solver = Solver::new_on(at(0.3), params, &compute, &|_, _| {}).expect("GPU solver");
     assert!(solver.ray_hits().is_some(), "the GPU path keeps per-ray state for dynamic meshes");
     // The CPU path's update of the same motion, for the rays it re-traces.
-    let mut cpu = Solver::new(at(0.3), SolveParams { tracer: TracerKind::Bvh, ..params }, &|_, _| {});
+    let cpu_params = SolveParams { tracer: TracerKind::Bvh, ..params };
+    let mut cpu = Solver::new(at(0.3), cpu_params, &|_, _| {});
     for t in [0.9f32, 1.7] {
         let (next, stats) = solver.deform(at(t), params, None, &|_, _| {});
-        let (next_cpu, cpu_stats) = cpu.deform(at(t), *cpu.params(), None, &|_, _| {});
+        let (next_cpu, cpu_stats) = cpu.deform(at(t), cpu_params, None, &|_, _| {});
         cpu = next_cpu;
         let (g, c) = (stats.links.rays_reshot as f64, cpu_stats.links.rays_reshot as f64);
         assert!((g - c).abs() <= 1e-3 * c, "t = {t}: the GPU re-shot {g} rays, the CPU {c}: not the same selection");
