@@ -21,7 +21,7 @@ const EMPTY: u32 = 0xffffffffu;
 const LEAF_BIT: u32 = 0x80000000u;
 const FIRST_MASK: u32 = 0x07ffffffu;
 const UNUSED: u32 = 0xffffffffu;
-const STACK: u32 = 64u;
+const STACK: u32 = 96u;
 // 1 + 2 gamma_3 (pbrt): far distances scaled so rounding never culls a touched box.
 const ROBUST: f32 = 1.0000003576278687;
 // Margin on the best hit's distance, so a box holding a tie is entered.

@@ -298,3 +298,16 @@ fn vertex_rays_agree_cornell() {
 fn vertex_rays_agree_tearoom() {
     vertex_rays_agree("tearoom");
 }
+
+/// Every built-in scene's BVH fits the GPU walk's stack (a tree that did
+/// not would be refused with an error, and the solver would fall back).
+#[test]
+fn every_builtin_bvh_fits_the_gpu_stack() {
+    for name in builtin::NAMES {
+        let scene = prep::prepare(&builtin::builtin(name).expect("built-in")).expect("prepares");
+        let bvh = Bvh::build(&scene.positions, &scene.triangles, &BvhBuildParams::default());
+        let need = stack_need(&bvh);
+        eprintln!("{name}: {} triangles, depth {}, {need} of {BVH_STACK} stack entries", scene.triangles.len(), bvh.stats.max_depth);
+        assert!(need <= BVH_STACK, "{name}: the GPU walk would need {need} stack entries");
+    }
+}
