@@ -307,7 +307,11 @@ fn every_builtin_bvh_fits_the_gpu_stack() {
         let scene = prep::prepare(&builtin::builtin(name).expect("built-in")).expect("prepares");
         let bvh = Bvh::build(&scene.positions, &scene.triangles, &BvhBuildParams::default());
         let need = stack_need(&bvh);
-        eprintln!("{name}: {} triangles, depth {}, {need} of {BVH_STACK} stack entries", scene.triangles.len(), bvh.stats.max_depth);
+        eprintln!(
+            "{name}: {} triangles, depth {}, {need} of {BVH_STACK} stack entries",
+            scene.triangles.len(),
+            bvh.stats.max_depth
+        );
         assert!(need <= BVH_STACK, "{name}: the GPU walk would need {need} stack entries");
     }
 }

@@ -257,7 +257,7 @@ pub struct BenchRow {
     /// links), best of `runs` passes over every vertex's rays, the figure
     /// set beside Embree's trace-only rate; CPU rows only (NaN otherwise).
     pub trace_k_rays_per_s: f64,
-    /// The tracer of the CPU rows ("bvh" or "kd"; "gpu-kd" on the GPU).
+    /// The tracer of the row ("bvh" or "kd" on the CPU; "gpu-bvh", "gpu-kd" or "gpu-rq" on the GPU).
     pub tracer: String,
 }
 
@@ -334,6 +334,8 @@ pub struct Sizes {
     pub ray_state_bytes: u64,
     /// Link rays recorded as near hits ([`crate::links::near`]).
     pub near_hits: u64,
+    /// The tracer the rays went through ([`Solver::tracer_name`]).
+    pub tracer: &'static str,
 }
 
 /// Moves light 0 a little and times the preview and the full update, each
@@ -444,6 +446,7 @@ pub fn run_once(
     let sky_turn_ms = time_sky_turn(&mut solver);
     let l = solver.links().stats;
     let sizes = Sizes {
+        tracer: solver.tracer_name(),
         vertices: solver.scene().vertex_count(),
         triangles: solver.scene().triangles.len(),
         kd_nodes: solver
@@ -574,7 +577,7 @@ pub fn run_scene(
         row.render_fps = fps;
         row.renderer = renderer;
     }
-    row.tracer = if label == "CPU" { solve_params.tracer.name().to_string() } else { "gpu-kd".to_string() };
+    row.tracer = sizes.tracer.to_string();
     // Embree on the same mesh and workload, in this same run (CPU rows: the
     // peer traces on the CPU with as many threads as our pool).
     if label == "CPU" {

@@ -88,7 +88,10 @@ pub fn run(args: SolveArgs) -> Result<()> {
     println!("backend          {}", s.backend);
     println!("vertices         {}", s.vertices);
     println!("triangles        {}", s.triangles);
-    println!("tracer           {}", s.tracer);
+    match solver.gpu() {
+        Some(g) => println!("tracer           {} ({})", s.tracer, g.tracer.walk().reason(solver.params().tracer)),
+        None => println!("tracer           {}", s.tracer),
+    }
     println!(
         "cpu-traced rays  {} of {} ({:.1}%)",
         s.cpu_traced_rays,

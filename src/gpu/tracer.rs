@@ -57,6 +57,16 @@ impl GpuWalk {
         })
     }
 
+    /// Why the `tracer` setting `kind` gave this walk, for the output.
+    pub fn reason(self, kind: crate::scene::TracerKind) -> &'static str {
+        use crate::scene::TracerKind as K;
+        match (kind, self) {
+            (K::Auto, GpuWalk::RayQuery) => "auto: the adapter has hardware ray queries",
+            (K::Auto, _) => "auto: the adapter has no hardware ray queries, so the BVH walk",
+            _ => "the tracer setting",
+        }
+    }
+
     /// The tracer's name in figures.
     pub fn name(self) -> &'static str {
         match self {

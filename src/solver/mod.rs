@@ -290,12 +290,12 @@ impl Solver {
         self.ray_hits.as_ref().map_or(0, |h| h.bytes())
     }
 
-    /// The tracer the rays go through: "bvh", "kd" or "gpu-kd".
+    /// The tracer the rays go through: "bvh" or "kd" on the CPU path;
+    /// "gpu-bvh", "gpu-kd" or "gpu-rq" on the GPU path.
     pub fn tracer_name(&self) -> &'static str {
-        if self.gpu.is_some() {
-            "gpu-kd"
-        } else {
-            self.accel.kind().name()
+        match &self.gpu {
+            Some(g) => g.tracer.walk().name(),
+            None => self.accel.kind().name(),
         }
     }
 

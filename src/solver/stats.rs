@@ -76,7 +76,7 @@ pub struct SolveStats {
     pub smooth_ms: f64,
     /// "cpu (N threads; processor; node tests)" or the adapters.
     pub backend: String,
-    /// The tracer the rays went through ("bvh", "kd" or "gpu-kd").
+    /// The tracer the rays went through ("bvh", "kd", "gpu-bvh", "gpu-kd" or "gpu-rq").
     pub tracer: String,
     /// Build time of the CPU wide BVH, ms (NaN when the solve used no BVH).
     pub bvh_build_ms: f64,
