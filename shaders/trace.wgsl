@@ -21,6 +21,17 @@ const HIT_MISS: u32 = 0xffffffffu;
 const HIT_BACK: u32 = 0x80000000u;
 const WORKGROUP: u32 = 64u;
 
+// A triangle's corners and corner vertex ids (the kd-tree's and the
+// ray-query walk's copy, by triangle id).
+struct KdTriangle {
+    v0: vec3<f32>,
+    ia: u32,
+    v1: vec3<f32>,
+    ib: u32,
+    v2: vec3<f32>,
+    ic: u32,
+}
+
 struct HitRecord {
     tri: u32,
     u: f32,

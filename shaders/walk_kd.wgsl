@@ -24,15 +24,6 @@ struct KdLeaf {
     _pad: array<u32, 2>,
 }
 
-struct KdTriangle {
-    v0: vec3<f32>,
-    ia: u32,
-    v1: vec3<f32>,
-    ib: u32,
-    v2: vec3<f32>,
-    ic: u32,
-}
-
 @group(0) @binding(1) var<storage, read> nodes: array<KdNode>;
 @group(0) @binding(2) var<storage, read> leaves: array<KdLeaf>;
 @group(0) @binding(3) var<storage, read> leaf_triangles: array<u32>;

@@ -18,15 +18,6 @@ enable wgpu_ray_query;
 // Relative widening of the driver's [tmin, tmax].
 const SLACK: f32 = 1e-5;
 
-struct KdTriangle {
-    v0: vec3<f32>,
-    ia: u32,
-    v1: vec3<f32>,
-    ib: u32,
-    v2: vec3<f32>,
-    ic: u32,
-}
-
 @group(0) @binding(1) var scene_tlas: acceleration_structure;
 @group(0) @binding(2) var<storage, read> rq_triangles: array<KdTriangle>;
 

@@ -165,10 +165,17 @@ fn tracer_setting_is_checked_and_round_trips() {
     let back = scene::file::parse_toml(&p, &text).unwrap();
     assert_eq!(back.settings, desc.settings);
 
-    // The default (bvh) is left out when written, and read back as bvh.
+    // Ray queries round-trip as "rq".
+    let p = write(&d, "rq.toml", &format!("[settings]\ntracer = \"rq\"\n{}", scene_toml("m.obj")));
+    let desc = scene::load(p.to_str().unwrap()).unwrap();
+    assert_eq!(desc.settings.tracer, scene::TracerKind::RayQuery);
+    let text = scene::file::to_toml(&desc, &["m.obj".to_string()]);
+    assert!(text.contains("tracer = \"rq\""), "{text}");
+
+    // The default (auto) is left out when written, and read back as auto.
     let desc = scene::load(write(&d, "b.toml", &scene_toml("m.obj")).to_str().unwrap()).unwrap();
-    assert_eq!(desc.settings.tracer, scene::TracerKind::Bvh);
+    assert_eq!(desc.settings.tracer, scene::TracerKind::Auto);
     let text = scene::file::to_toml(&desc, &["m.obj".to_string()]);
     assert!(!text.contains("tracer"), "{text}");
-    assert_eq!(scene::file::parse_toml(&p, &text).unwrap().settings.tracer, scene::TracerKind::Bvh);
+    assert_eq!(scene::file::parse_toml(&p, &text).unwrap().settings.tracer, scene::TracerKind::Auto);
 }

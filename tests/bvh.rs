@@ -12,32 +12,9 @@ use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg32;
 
 mod common;
-use common::{rvec, soup};
+use common::{grid, random_rays, rvec, soup};
 
 type Mesh = (Vec<Vec3>, Vec<[u32; 3]>);
-
-/// A regular grid of `n x n` quads on a plane of constant `axis`
-/// coordinate `at`, sharing vertices (a flat, regular mesh).
-fn grid(n: u32, axis: usize, at: f32, pos: &mut Vec<Vec3>, tris: &mut Vec<[u32; 3]>) {
-    let base = pos.len() as u32;
-    let (a, b) = ((axis + 1) % 3, (axis + 2) % 3);
-    for i in 0..=n {
-        for j in 0..=n {
-            let mut p = Vec3::ZERO;
-            p[axis] = at;
-            p[a] = i as f32 / n as f32;
-            p[b] = j as f32 / n as f32;
-            pos.push(p);
-        }
-    }
-    let id = |i: u32, j: u32| base + i * (n + 1) + j;
-    for i in 0..n {
-        for j in 0..n {
-            tris.push([id(i, j), id(i + 1, j), id(i + 1, j + 1)]);
-            tris.push([id(i, j), id(i + 1, j + 1), id(i, j + 1)]);
-        }
-    }
-}
 
 /// Axis-aligned grids on the three middle planes (coincident bounds, many ties).
 fn axis_aligned(n: u32) -> Mesh {
@@ -46,33 +23,6 @@ fn axis_aligned(n: u32) -> Mesh {
         grid(n, axis, 0.5, &mut pos, &mut tris);
     }
     (pos, tris)
-}
-
-fn random_rays(rng: &mut Pcg32, count: usize, skip_max: u32) -> Vec<Ray> {
-    (0..count)
-        .map(|i| {
-            let origin = rvec(rng, -0.2, 1.2);
-            let dir = if i % 7 == 0 {
-                // Axis-parallel directions (zero components).
-                let mut d = Vec3::ZERO;
-                d[i % 3] = if i % 2 == 0 { 1.0 } else { -1.0 };
-                d
-            } else {
-                rvec(rng, -1.0, 1.0).normalize()
-            };
-            let mut r = Ray::new(origin, dir);
-            if i % 3 == 0 {
-                r.tmax = rng.random_range(0.1..2.0);
-            }
-            if i % 4 == 0 {
-                r.tmin = rng.random_range(0.0..0.3);
-            }
-            if i % 5 == 0 && skip_max > 0 {
-                r.skip = rng.random_range(0..skip_max);
-            }
-            r
-        })
-        .collect()
 }
 
 fn key(h: Option<Hit>) -> Option<(u32, u32, u32, u32, bool)> {

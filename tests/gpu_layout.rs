@@ -2,8 +2,9 @@
 //! Rust and in the shaders (parsed with naga). No GPU needed.
 
 use linkgi::gpu::layout::{
-    shared_constants, shared_f32_constants, shared_structs, tracer_wgsl, GATHER_WGSL, RENDER_WGSL, TONEMAP_WGSL,
+    shared_constants, shared_f32_constants, shared_structs, GATHER_WGSL, RENDER_WGSL, TONEMAP_WGSL,
 };
+use linkgi::gpu::tracer::tracer_wgsl;
 use linkgi::gpu::GpuWalk;
 
 /// Every tracer's whole source (its walk joined with `trace.wgsl`), by the walk's file name.

@@ -15,7 +15,7 @@ mod common;
 #[path = "common/gpu.rs"]
 mod gpu_device;
 
-use common::{rvec, soup};
+use common::{grid, random_rays, soup};
 use glam::Vec3;
 use gpu_device::device;
 use linkgi::bvh::{Bvh, BvhBuildParams};
@@ -26,7 +26,7 @@ use linkgi::kdtree::{Hit, KdBuildParams, KdTree, Ray};
 use linkgi::links::{LinkParams, RaySetup, HIT_BACK, HIT_MISS};
 use linkgi::scene::{builtin, prep};
 use linkgi::trace::{CpuTracer, Tracer};
-use rand::{Rng, SeedableRng};
+use rand::SeedableRng;
 use rand_pcg::Pcg32;
 use std::sync::Arc;
 
@@ -121,54 +121,6 @@ fn check_rays(dev: &Arc<GpuDevice>, what: &str, mesh: &Mesh, rays: &[Ray]) -> us
     cpu_hits.iter().filter(|h| h.is_some()).count()
 }
 
-fn random_rays(rng: &mut Pcg32, count: usize, skip_max: u32) -> Vec<Ray> {
-    (0..count)
-        .map(|i| {
-            let origin = rvec(rng, -0.2, 1.2);
-            let dir = if i % 7 == 0 {
-                let mut d = Vec3::ZERO;
-                d[i % 3] = if i % 2 == 0 { 1.0 } else { -1.0 };
-                d
-            } else {
-                rvec(rng, -1.0, 1.0).normalize()
-            };
-            let mut r = Ray::new(origin, dir);
-            if i % 3 == 0 {
-                r.tmax = rng.random_range(0.1..2.0);
-            }
-            if i % 4 == 0 {
-                r.tmin = rng.random_range(0.0..0.3);
-            }
-            if i % 5 == 0 && skip_max > 0 {
-                r.skip = rng.random_range(0..skip_max);
-            }
-            r
-        })
-        .collect()
-}
-
-/// A regular `n x n` grid on the plane of constant `axis` coordinate `at`.
-fn grid(n: u32, axis: usize, at: f32, mesh: &mut Mesh) {
-    let base = mesh.0.len() as u32;
-    let (a, b) = ((axis + 1) % 3, (axis + 2) % 3);
-    for i in 0..=n {
-        for j in 0..=n {
-            let mut p = Vec3::ZERO;
-            p[axis] = at;
-            p[a] = i as f32 / n as f32;
-            p[b] = j as f32 / n as f32;
-            mesh.0.push(p);
-        }
-    }
-    let id = |i: u32, j: u32| base + i * (n + 1) + j;
-    for i in 0..n {
-        for j in 0..n {
-            mesh.1.push([id(i, j), id(i + 1, j), id(i + 1, j + 1)]);
-            mesh.1.push([id(i, j), id(i + 1, j + 1), id(i, j + 1)]);
-        }
-    }
-}
-
 #[test]
 fn random_soup_hits_as_the_cpu_bvh() {
     let Some(dev) = device() else { return };
@@ -184,7 +136,7 @@ fn grids_and_coincident_triangles_hit_as_the_cpu_bvh() {
     let mut rng = Pcg32::seed_from_u64(22);
     let mut aa = (Vec::new(), Vec::new());
     for axis in 0..3 {
-        grid(24, axis, 0.5, &mut aa);
+        grid(24, axis, 0.5, &mut aa.0, &mut aa.1);
     }
     let rays = random_rays(&mut rng, 3000, aa.0.len() as u32);
     assert!(check_rays(&dev, "axis-aligned grids", &aa, &rays) > 600);
@@ -219,7 +171,7 @@ fn refitted_tracers_hit_as_the_refitted_cpu_bvh() {
     let mut rng = Pcg32::seed_from_u64(23);
     let mut mesh = (Vec::new(), Vec::new());
     for axis in 0..3 {
-        grid(20, axis, 0.3 + 0.2 * axis as f32, &mut mesh);
+        grid(20, axis, 0.3 + 0.2 * axis as f32, &mut mesh.0, &mut mesh.1);
     }
     let rays = random_rays(&mut rng, 3000, mesh.0.len() as u32);
     let params = BvhBuildParams::default();

@@ -348,6 +348,7 @@ mod tests {
             gather_bytes: 6_500_000,
             ray_state_bytes: 0,
             near_hits: 400_000,
+            tracer: "bvh",
         };
         let mut row = BenchRow::from_runs(scene, &sizes, 256, &runs);
         row.tracer = "bvh".into();

@@ -218,7 +218,7 @@ pub fn shared_constants() -> Vec<(&'static str, &'static str, u32)> {
         ("walk_bvh.wgsl", "LEAF_BIT", crate::bvh::LEAF_BIT),
         ("walk_bvh.wgsl", "FIRST_MASK", crate::bvh::FIRST_MASK),
         ("walk_bvh.wgsl", "UNUSED", crate::bvh::leaf::UNUSED),
-        ("walk_bvh.wgsl", "STACK", super::tracer::BVH_STACK as u32),
+        ("walk_bvh.wgsl", "STACK", BVH_STACK as u32),
         ("trace.wgsl", "HIT_MISS", crate::links::HIT_MISS),
         ("trace.wgsl", "HIT_BACK", crate::links::HIT_BACK),
     ]
@@ -233,9 +233,14 @@ pub fn shared_f32_constants() -> Vec<(&'static str, &'static str, f32)> {
     ]
 }
 
+/// Entries of the BVH walk's stack (`STACK` in `walk_bvh.wgsl`): at most
+/// 7 a level, so trees 13 levels deep; the built-in scenes' need 23 to 46
+/// (conference, 237k triangles, 7 levels: 45).
+pub const BVH_STACK: usize = 96;
+
 /// The WGSL sources, for pipelines and the layout test: the tracers'
 /// entry points and triangle test, joined after one structure's walk
-/// ([`tracer_wgsl`]).
+/// ([`super::tracer::tracer_wgsl`]).
 pub const TRACE_WGSL: &str = include_str!("../../shaders/trace.wgsl");
 /// The 8-wide BVH walk.
 pub const WALK_BVH_WGSL: &str = include_str!("../../shaders/walk_bvh.wgsl");
@@ -244,17 +249,6 @@ pub const WALK_KD_WGSL: &str = include_str!("../../shaders/walk_kd.wgsl");
 /// The ray-query walk (needs `EXPERIMENTAL_RAY_QUERY`).
 pub const WALK_RQ_WGSL: &str = include_str!("../../shaders/walk_rq.wgsl");
 
-/// The whole source of the tracer walking `walk`: its walk, then
-/// `trace.wgsl` (the walk comes first: it may open with an `enable`).
-pub fn tracer_wgsl(walk: super::tracer::GpuWalk) -> String {
-    use super::tracer::GpuWalk;
-    let w = match walk {
-        GpuWalk::Bvh => WALK_BVH_WGSL,
-        GpuWalk::Kd => WALK_KD_WGSL,
-        GpuWalk::RayQuery => WALK_RQ_WGSL,
-    };
-    format!("{w}\n{TRACE_WGSL}")
-}
 /// Invocations per workgroup of the gather shaders (`WORKGROUP` in `gather.wgsl`).
 pub const GATHER_WORKGROUP: u32 = 256;
 

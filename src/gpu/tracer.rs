@@ -15,7 +15,8 @@
 
 use super::buffers::{checked, compute_pipelines, dispatch_size, read_back, storage_init, uniform_init};
 use super::context::GpuDevice;
-use super::layout::{tracer_wgsl, RayVertex, ShadowRay, TraceParams};
+pub use super::layout::BVH_STACK;
+use super::layout::{RayVertex, ShadowRay, TraceParams, TRACE_WGSL, WALK_BVH_WGSL, WALK_KD_WGSL, WALK_RQ_WGSL};
 use crate::bvh::Bvh;
 use crate::error::{Error, Result};
 use crate::kdtree::KdTree;
@@ -145,11 +146,6 @@ pub fn stack_need(bvh: &Bvh) -> usize {
     }
 }
 
-/// Entries of the BVH walk's stack (`STACK` in `walk_bvh.wgsl`): at most
-/// 7 a level, so trees 13 levels deep; the built-in scenes' need 23 to 46
-/// (conference, 237k triangles, 7 levels: 45).
-pub const BVH_STACK: usize = 96;
-
 impl GpuTracer {
     /// The tracer walking `walk` over the CPU structure `accel` (the same
     /// tree for `Bvh` and `Kd`; the driver's, built over `positions` and
@@ -197,12 +193,7 @@ impl GpuTracer {
     /// Uploads the 8-wide BVH `bvh` as it is. Refused where a walk could
     /// need more than [`BVH_STACK`] stack entries ([`stack_need`]).
     pub fn bvh(dev: Arc<GpuDevice>, bvh: &Bvh) -> Result<GpuTracer> {
-        let need = stack_need(bvh);
-        if need > BVH_STACK {
-            return Err(Error::Gpu(format!(
-                "the BVH's walk can hold {need} stack entries, the GPU walk has {BVH_STACK}"
-            )));
-        }
+        fits_stack(bvh)?;
         fits(
             &dev,
             "the BVH",
@@ -255,12 +246,7 @@ impl GpuTracer {
     pub fn update(&mut self, bvh: Option<&Bvh>, kd: Option<&KdTree>, positions: &[Vec3]) -> Result<()> {
         match (self.walk, bvh, kd) {
             (GpuWalk::Bvh, Some(b), _) => {
-                let need = stack_need(b);
-                if need > BVH_STACK {
-                    return Err(Error::Gpu(format!(
-                        "the BVH's walk can hold {need} stack entries, the GPU walk has {BVH_STACK}"
-                    )));
-                }
+                fits_stack(b)?;
                 let Structure::Bvh { nodes, blocks } = &mut self.structure else { unreachable!("a BVH tracer") };
                 // A refit keeps the sizes: the buffers are overwritten; a rebuild replaces them.
                 let dev = &self.dev;
@@ -439,6 +425,26 @@ fn rewrite<T: bytemuck::Pod>(dev: &GpuDevice, buf: &mut wgpu::Buffer, label: &st
     } else {
         *buf = storage_init(&dev.device, label, data);
     }
+}
+
+/// The whole source of the tracer walking `walk`: its walk, then
+/// `trace.wgsl` (the walk comes first: it may open with an `enable`).
+pub fn tracer_wgsl(walk: super::tracer::GpuWalk) -> String {
+    let w = match walk {
+        GpuWalk::Bvh => WALK_BVH_WGSL,
+        GpuWalk::Kd => WALK_KD_WGSL,
+        GpuWalk::RayQuery => WALK_RQ_WGSL,
+    };
+    format!("{w}\n{TRACE_WGSL}")
+}
+
+/// An error where a walk of `bvh` could need more than [`BVH_STACK`] entries.
+fn fits_stack(bvh: &Bvh) -> Result<()> {
+    let need = stack_need(bvh);
+    if need > BVH_STACK {
+        return Err(Error::Gpu(format!("the BVH's walk can hold {need} stack entries, the GPU walk has {BVH_STACK}")));
+    }
+    Ok(())
 }
 
 /// The origins of `batch` in the shader's layout.
