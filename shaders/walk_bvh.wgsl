@@ -61,8 +61,8 @@ fn test_blocks(leaf: u32, o: vec3<f32>, s: Shear, tmin: f32, tmax_ray: f32, skip
             if id == UNUSED {
                 continue;
             }
-            let c = bvh_blocks[b].corners;
-            if c[0][lane] == skip || c[1][lane] == skip || c[2][lane] == skip {
+            if bvh_blocks[b].corners[0][lane] == skip || bvh_blocks[b].corners[1][lane] == skip
+                || bvh_blocks[b].corners[2][lane] == skip {
                 continue;
             }
             var tmax = tmax_ray;
@@ -121,27 +121,29 @@ fn trace(o: vec3<f32>, d: vec3<f32>, tmin: f32, tmax: f32, skip: u32, any_hit: b
             }
         } else {
             let limit = tbest * CULL;
-            var tn = array<f32, 8>(tmin, tmin, tmin, tmin, tmin, tmin, tmin, tmin);
-            var tf = array<f32, 8>(limit, limit, limit, limit, limit, limit, limit, limit);
-            for (var a = 0u; a < 3u; a++) {
-                for (var i = 0u; i < 8u; i++) {
-                    tn[i] = max(tn[i], (bvh_nodes[cur].bounds[near[a]][i] - o[a]) * inv[a]);
-                    tf[i] = min(tf[i], (bvh_nodes[cur].bounds[far[a]][i] - o[a]) * inv[a]);
-                }
-            }
             var last = EMPTY;
             var last_t = 0.0;
             for (var i = 0u; i < 8u; i++) {
                 let slot = (bvh_nodes[cur].perm[i] >> shift) & 7u;
                 let c = bvh_nodes[cur].child[slot];
-                if c != EMPTY && tn[slot] <= tf[slot] * ROBUST {
+                if c == EMPTY {
+                    continue;
+                }
+                // The slab distances of this slot, axis by axis as on the CPU.
+                var tn = tmin;
+                var tf = limit;
+                for (var a = 0u; a < 3u; a++) {
+                    tn = max(tn, (bvh_nodes[cur].bounds[near[a]][slot] - o[a]) * inv[a]);
+                    tf = min(tf, (bvh_nodes[cur].bounds[far[a]][slot] - o[a]) * inv[a]);
+                }
+                if tn <= tf * ROBUST {
                     if last != EMPTY && sp < STACK {
                         stack_child[sp] = last;
                         stack_t[sp] = last_t;
                         sp += 1u;
                     }
                     last = c;
-                    last_t = tn[slot];
+                    last_t = tn;
                 }
             }
             if last != EMPTY {

@@ -23,9 +23,11 @@ fn stat_or_dash(s: &Stat, digits: usize) -> String {
 /// The structure a row's rays went through, as the size table names it.
 fn tree(r: &BenchRow) -> &'static str {
     match r.tracer.as_str() {
-        "bvh" => "bvh8",
-        "" => "?",
-        _ => "kd",
+        "bvh" | "gpu-bvh" => "bvh8",
+        "kd" | "gpu-kd" => "kd",
+        // The driver's own structure; the node count is the CPU BVH's beside it.
+        "gpu-rq" => "ray queries",
+        _ => "?",
     }
 }
 
@@ -73,8 +75,9 @@ pub fn markdown(rows: &[BenchRow]) -> String {
     let _ = writeln!(
         out,
         "\nThe paper gives one link count without saying raw or merged; it is shown in the raw column. \
-         Tree: the structure the rays went through (ours: 8-wide BVH nodes with the `bvh` tracer, \
-         kd-tree nodes with `kd` and on the GPU; the paper's: a kd-tree)."
+         Tree: the structure the rays went through (ours: 8-wide BVH nodes with the `bvh` tracer on \
+         the CPU or the GPU, kd-tree nodes with `kd`, with GPU ray queries the driver's structure and \
+         the CPU BVH's nodes beside it; the paper's: a kd-tree)."
     );
     let _ = writeln!(out, "\n### Times (median [min, max] of {runs} runs, 3 bounces)\n");
     let _ = writeln!(
