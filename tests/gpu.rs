@@ -711,3 +711,40 @@ fn gpu_bvh_and_kd_deformations_equal_fresh_solves() {
     gpu_deformation_equals_fresh(TracerKind::Bvh);
     gpu_deformation_equals_fresh(TracerKind::Kd);
 }
+
+/// The engine on the GPU path deforms its solver (preview, then the
+/// selective update on the GPU) instead of rebuilding it: the full result
+/// equals a fresh GPU solve of the deformed scene, the counters carry the
+/// selective update's figures, and no ray runs on the CPU.
+#[test]
+fn engine_deforms_on_the_gpu() {
+    use linkgi::engine::{Change, Engine, EngineParams};
+    use linkgi::scene::deform::deform_scene;
+    let Some(dev) = device() else { return };
+    let mut desc = scene::load("torso").expect("built-in");
+    desc.settings.rays_per_vertex = 16;
+    let rest = prep::prepare(&desc).expect("prepares");
+    let params = SolveParams::from_settings(&rest.settings);
+    let compute = gpu_compute(&dev, 1);
+    let opts = EngineParams { deform_preview: true, ..Default::default() };
+    let mut e = Engine::start(rest.clone(), params, compute.clone(), opts).expect("the worker starts");
+    let wait = Duration::from_secs(300);
+    assert!(e.wait_idle(wait));
+    let (positions, normals) = deform_scene(&rest, &rest.positions, &rest.normals, 0.8);
+    e.send(Change::Deform { positions: positions.clone() });
+    assert!(e.wait_idle(wait));
+    let c = e.counters();
+    let d = c.deform.expect("the GPU solver was deformed, not rebuilt");
+    assert!(d.selective && d.links.rays_reshot > 0, "{d:?}");
+    assert_eq!(c.previews, 1, "one preview");
+    let latest = e.latest().expect("a result");
+    assert!(!latest.preview);
+    let fresh =
+        Solver::new_on(prep::PreparedScene { positions, normals, ..rest.clone() }, params, &compute, &|_, _| {})
+            .expect("fresh GPU solver");
+    let sol = fresh.solve();
+    let mean = common::mean(&sol.e_indirect).max_element().max(1e-30);
+    for (a, b) in latest.e_indirect.iter().zip(&sol.e_indirect) {
+        assert!((*a - *b).abs().max_element() <= 1e-4 * mean + 1e-5 * b.max_element(), "{a} vs {b}");
+    }
+}
