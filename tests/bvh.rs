@@ -8,7 +8,7 @@ use linkgi::bvh::refit::Update;
 use linkgi::bvh::{Bvh, BvhBuildParams, Isa};
 use linkgi::kdtree::traverse::brute_force;
 use linkgi::kdtree::{Hit, KdBuildParams, KdTree, Ray};
-use rand::{Rng, SeedableRng};
+use rand::SeedableRng;
 use rand_pcg::Pcg32;
 
 mod common;

@@ -47,10 +47,6 @@ impl Tracer for GpuTracer {
         self.walk().name()
     }
 
-    fn on_gpu(&self) -> bool {
-        true
-    }
-
     fn origin_rays(&self, batch: &OriginRays) -> crate::Result<Vec<Option<Hit>>> {
         if batch.is_empty() {
             return Ok(vec![None; batch.len()]);

@@ -171,7 +171,7 @@ impl Solver {
     /// The solver of `scene`, a deformation of this solver's scene (same
     /// vertices and triangles, new positions), with `params`, rebuilt in
     /// full: with an unchanged tracer and triangles the structure is
-    /// updated ([`Solver::update_accel`]: the BVH refitted, or rebuilt when
+    /// updated (`Solver::update_accel`: the BVH refitted, or rebuilt when
     /// the refit's SAH cost has grown past `rebuild_factor`; the kd-tree
     /// rebuilt; the GPU's copy or the driver's structure brought along),
     /// then links and every traced part are traced anew, on the GPU on the

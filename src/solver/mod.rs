@@ -153,7 +153,7 @@ impl Solver {
             Compute::Gpu(g) => g,
         };
         let first = g.devices.first().ok_or_else(|| crate::Error::Gpu("no GPU device to solve on".into()))?;
-        let walk = GpuWalk::choose(params.tracer, first)?;
+        let mut walk = GpuWalk::choose(params.tracer, first)?;
         let accel = match walk {
             GpuWalk::Kd => Accel::Kd(KdTree::build(&scene.positions, &scene.triangles, &params.kd_gpu)),
             GpuWalk::Bvh | GpuWalk::RayQuery => {
@@ -166,11 +166,18 @@ impl Solver {
                 let label =
                     if g.logical_per_device > 1 { format!("{} #{i}", dev.info.name) } else { dev.info.name.clone() };
                 let delay = g.delays().get(logical.len()).copied().unwrap_or_default();
-                logical.push(LogicalDevice {
-                    label,
-                    tracer: GpuTracer::of(dev.clone(), walk, &accel, &scene.positions, &scene.triangles)?,
-                    delay_per_vertex: delay,
-                });
+                let of = |walk| GpuTracer::of(dev.clone(), walk, &accel, &scene.positions, &scene.triangles);
+                let tracer = match of(walk) {
+                    // `auto` falls back from ray queries (a driver that cannot
+                    // build the structure: too many triangles, out of memory) to the BVH walk.
+                    Err(e) if walk == GpuWalk::RayQuery && params.tracer == TracerKind::Auto => {
+                        log::warn!("{e}; tracing with the BVH walk instead of ray queries");
+                        walk = GpuWalk::Bvh;
+                        of(walk)?
+                    }
+                    t => t?,
+                };
+                logical.push(LogicalDevice { label, tracer, delay_per_vertex: delay });
             }
         }
         // Per-ray state for selective updates, as on the CPU path.

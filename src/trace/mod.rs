@@ -80,11 +80,6 @@ pub trait Tracer: Sync {
     /// Short name for figures ("bvh", "kd", "gpu-bvh", "gpu-kd", "gpu-rq").
     fn name(&self) -> &'static str;
 
-    /// True for tracers on a GPU (whose rays the CPU did not trace).
-    fn on_gpu(&self) -> bool {
-        false
-    }
-
     /// The nearest hit of every ray of `batch` (see [`OriginRays`]),
     /// origin after origin.
     fn origin_rays(&self, batch: &OriginRays) -> crate::Result<Vec<Option<Hit>>>;

@@ -38,10 +38,12 @@
 //! the order of the rays), then the group is requantized to f16
 //! ([`super::merge::requantize`]): the group a full merge of all the rays
 //! gives, bit for bit. Remade vertices merge all their rays anew.
+//!
+//! On the GPU path the same rays are traced on the GPU, in two batches,
+//! before the same merges and patches (`batch.rs`).
 
 use super::merge::{
-    corner_weights, fixed_scale, merge_vertex, merge_vertex_sums, requantize, HitRecord, MergeScratch, RayHits,
-    HIT_BACK, HIT_MISS,
+    corner_weights, fixed_scale, merge_vertex_sums, requantize, HitRecord, MergeScratch, RayHits, HIT_BACK, HIT_MISS,
 };
 use super::near::{near_limits, push_near, NearHit, NearHits};
 use super::shoot::{RaySetup, TraceScratch};
@@ -55,6 +57,10 @@ use crate::scene::motion::Motion;
 use crate::scene::prep::PreparedScene;
 use crate::sky::visibility::miss_mask;
 use crate::trace::{CpuTracer, Tracer};
+
+mod batch;
+pub use batch::shoot_groups;
+use batch::{batch_records, Batch};
 use glam::Vec3;
 use half::f16;
 use rayon::prelude::*;
@@ -154,46 +160,6 @@ struct Context<'a> {
     weight_per_ray: f64,
     /// With a batch tracer: the vertices it re-shot, all their rays.
     batch: Option<Batch>,
-}
-
-/// What a batch tracer traced: every ray of the remade vertices, and the
-/// rays of the other vertices that must be traced again.
-struct Batch {
-    /// Per vertex: its place among the remade ones, or `u32::MAX`.
-    slot: Vec<u32>,
-    /// The remade vertices' records, vertex after vertex.
-    records: Vec<HitRecord>,
-    rays: usize,
-    /// Per vertex: its re-traced rays' range in the arrays below.
-    start: Vec<u32>,
-    /// Ray index, direction, kept old record and new hit of each re-traced ray.
-    retrace: Vec<u32>,
-    dirs: Vec<Vec3>,
-    kept: Vec<Option<HitRecord>>,
-    hits: Vec<Option<Hit>>,
-}
-
-impl Batch {
-    /// Vertex `v`'s records, where it was remade.
-    fn records(&self, v: usize) -> Option<&[HitRecord]> {
-        let s = self.slot[v];
-        (s != u32::MAX).then(|| &self.records[s as usize * self.rays..(s as usize + 1) * self.rays])
-    }
-
-    /// Vertex `v`'s re-traced rays into `scratch` (as [`Context::to_retrace`]
-    /// leaves them, with their hits); false when there is none.
-    fn retraced(&self, v: usize, scratch: &mut Scratch) -> bool {
-        let r = self.start[v] as usize..self.start[v + 1] as usize;
-        scratch.retrace.clear();
-        scratch.retrace.extend_from_slice(&self.retrace[r.clone()]);
-        scratch.dirs.clear();
-        scratch.dirs.extend_from_slice(&self.dirs[r.clone()]);
-        scratch.kept.clear();
-        scratch.kept.extend_from_slice(&self.kept[r.clone()]);
-        scratch.hits.clear();
-        scratch.hits.extend_from_slice(&self.hits[r.clone()]);
-        !r.is_empty()
-    }
 }
 
 impl Context<'_> {
@@ -633,70 +599,6 @@ pub fn reshoot(
     Ok((out, stats, near_redone))
 }
 
-/// Traces on `tracer`, in two batches, every ray of the remade vertices
-/// ([`Tracer::origin_rays`]) and the other vertices' rays that must be
-/// traced again ([`Context::to_retrace`], [`Tracer::closest_hits`]).
-fn batch_records(ctx: &Context, ids: &[u32], tracer: &dyn Tracer) -> crate::Result<Batch> {
-    let n = ctx.scene.vertex_count();
-    let rays = ctx.setup.directions.len();
-    let remade: Vec<u32> = (0..n as u32).filter(|&v| ctx.motion.remade[v as usize]).collect();
-    let records = ctx.setup.trace_vertices(tracer, &remade)?;
-    let mut slot = vec![u32::MAX; n];
-    for (i, &v) in remade.iter().enumerate() {
-        slot[v as usize] = i as u32;
-    }
-    type Lists = (Vec<u32>, Vec<Vec3>, Vec<Option<HitRecord>>);
-    let lists: Vec<Option<Lists>> = (0..n)
-        .into_par_iter()
-        .map_init(Scratch::default, |scratch, v| {
-            let row = &ids[v * rays..(v + 1) * rays];
-            (!ctx.motion.remade[v] && ctx.to_retrace(v, row, scratch)).then(|| {
-                (
-                    std::mem::take(&mut scratch.retrace),
-                    std::mem::take(&mut scratch.dirs),
-                    std::mem::take(&mut scratch.kept),
-                )
-            })
-        })
-        .collect();
-    let mut b = Batch { slot, records, rays, start: Vec::with_capacity(n + 1), ..Batch::empty() };
-    let mut traced = Vec::new();
-    b.start.push(0);
-    for (v, l) in lists.into_iter().enumerate() {
-        if let Some((retrace, dirs, kept)) = l {
-            let o = ctx.setup.origins[v];
-            traced.extend(dirs.iter().map(|&d| Ray {
-                origin: o,
-                dir: d,
-                tmin: 0.0,
-                tmax: f32::INFINITY,
-                skip: v as u32,
-            }));
-            b.retrace.extend(retrace);
-            b.dirs.extend(dirs);
-            b.kept.extend(kept);
-        }
-        b.start.push(b.retrace.len() as u32);
-    }
-    b.hits = tracer.closest_hits(&traced)?;
-    Ok(b)
-}
-
-impl Batch {
-    fn empty() -> Batch {
-        Batch {
-            slot: Vec::new(),
-            records: Vec::new(),
-            rays: 0,
-            start: Vec::new(),
-            retrace: Vec::new(),
-            dirs: Vec::new(),
-            kept: Vec::new(),
-            hits: Vec::new(),
-        }
-    }
-}
-
 /// The near hits after an update ([`super::near`]): those of patched
 /// vertices and of vertices with a near hit on a moved triangle redone
 /// (`found` where the group's merge found them, else from their hit ids
@@ -736,28 +638,4 @@ fn near_hits(
         rows.end_row();
     }
     (NearHits { rows: rows.finish() }, redone.iter().map(Option::is_some).collect())
-}
-
-/// The link groups of `vertices` shot with `params` through `tracer` in
-/// one batch (used for previews at few rays); returns
-/// `(vertex, targets, weights)` per vertex.
-pub fn shoot_groups(
-    scene: &PreparedScene,
-    tracer: &dyn Tracer,
-    params: &LinkParams,
-    vertices: &[u32],
-) -> crate::Result<Vec<(u32, Vec<u32>, Vec<f16>)>> {
-    let setup = RaySetup::new(scene, params);
-    let rays = setup.directions.len().max(1);
-    let weight_per_ray = std::f64::consts::PI / rays as f64;
-    let records = setup.trace_vertices(tracer, vertices)?;
-    Ok(vertices
-        .par_iter()
-        .zip(records.par_chunks(rays))
-        .map_init(MergeScratch::default, |merge, (&v, records)| {
-            let (mut t, mut w) = (Vec::new(), Vec::new());
-            merge_vertex(records, &scene.triangles, weight_per_ray, merge, &mut t, &mut w);
-            (v, t, w)
-        })
-        .collect())
 }
