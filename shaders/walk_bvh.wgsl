@@ -15,7 +15,7 @@
 // NaN as the CPU's inverted boxes and NaN corners rely on).
 //
 // The stack holds `STACK` entries; the tracer refuses a tree whose walk
-// could push more (`GpuBvh::stack_need`). Distances in metres.
+// could push more (`stack_need` in `src/gpu/tracer.rs`). Distances in metres.
 
 const EMPTY: u32 = 0xffffffffu;
 const LEAF_BIT: u32 = 0x80000000u;
