@@ -194,7 +194,7 @@ fn refitted_tracers_hit_as_the_refitted_cpu_bvh() {
                 .count();
             eprintln!("twist {step}, {}: {wrong} of {} rays differ", Tracer::name(t), rays.len());
             assert!(wrong as f64 <= 1e-3 * rays.len() as f64 + 1.0, "{}: {wrong} rays differ", Tracer::name(t));
-            // A moved vertex's ray set equals the CPU's too.
+            // Not vacuous: the twisted grids are still hit.
             assert!(got.iter().filter(|h| h.is_some()).count() > 300);
         }
     }

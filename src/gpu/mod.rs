@@ -34,7 +34,7 @@ pub use schedule::{shoot_links_gpu, DeviceShare, LogicalDevice, ScheduleParams};
 pub use tracer::{GpuTracer, GpuWalk};
 
 use crate::kdtree::{Hit, Ray};
-use crate::links::{HitRecord, HIT_BACK, HIT_MISS};
+use crate::links::HitRecord;
 use crate::trace::{OriginRays, Tracer};
 use layout::ShadowRay;
 
@@ -57,7 +57,7 @@ impl Tracer for GpuTracer {
         let mut out = Vec::with_capacity(batch.len());
         for chunk in verts.chunks(per_batch) {
             let records = self.shoot_with(chunk, &dirs, batch.per_origin as u32)?;
-            out.extend(records.into_iter().map(hit_of));
+            out.extend(records.into_iter().map(HitRecord::hit));
         }
         Ok(out)
     }
@@ -66,7 +66,7 @@ impl Tracer for GpuTracer {
         let mut out = Vec::with_capacity(rays.len());
         for chunk in rays.chunks(self.max_batch_rays().max(1)) {
             let gpu: Vec<ShadowRay> = chunk.iter().map(shadow_ray).collect();
-            out.extend(self.closest(&gpu)?.into_iter().map(hit_of));
+            out.extend(self.closest(&gpu)?.into_iter().map(HitRecord::hit));
         }
         Ok(out)
     }
@@ -92,9 +92,4 @@ fn shadow_ray(r: &Ray) -> ShadowRay {
         tmax: r.tmax.min(3.0e38),
         ..Default::default()
     }
-}
-
-/// The hit a shader's record names (`None` for a miss).
-fn hit_of(r: HitRecord) -> Option<Hit> {
-    (r.tri != HIT_MISS).then(|| Hit { tri: r.tri & !HIT_BACK, u: r.u, v: r.v, t: r.t, front: r.tri & HIT_BACK == 0 })
 }

@@ -79,10 +79,21 @@ impl GpuWalk {
 }
 
 /// The device buffers of one structure, bound in group 0 from binding 1
-/// in this order.
+/// in this order (the kd walk also reads its leaf count and root box from
+/// the dispatch's parameters).
 pub(super) enum Structure {
-    Bvh { nodes: wgpu::Buffer, blocks: wgpu::Buffer },
-    Kd { nodes: wgpu::Buffer, leaves: wgpu::Buffer, leaf_triangles: wgpu::Buffer, triangles: wgpu::Buffer },
+    Bvh {
+        nodes: wgpu::Buffer,
+        blocks: wgpu::Buffer,
+    },
+    Kd {
+        nodes: wgpu::Buffer,
+        leaves: wgpu::Buffer,
+        leaf_triangles: wgpu::Buffer,
+        triangles: wgpu::Buffer,
+        leaf_count: u32,
+        root: (Vec3, Vec3),
+    },
     RayQuery(super::rayquery::RqScene),
 }
 
@@ -90,7 +101,7 @@ impl Structure {
     fn resources(&self) -> Vec<wgpu::BindingResource<'_>> {
         match self {
             Structure::Bvh { nodes, blocks } => vec![nodes.as_entire_binding(), blocks.as_entire_binding()],
-            Structure::Kd { nodes, leaves, leaf_triangles, triangles } => vec![
+            Structure::Kd { nodes, leaves, leaf_triangles, triangles, .. } => vec![
                 nodes.as_entire_binding(),
                 leaves.as_entire_binding(),
                 leaf_triangles.as_entire_binding(),
@@ -117,8 +128,6 @@ pub struct GpuTracer {
     pipelines: [wgpu::ComputePipeline; 3],
     structure: Structure,
     directions: Option<(wgpu::Buffer, u32)>,
-    leaf_count: u32,
-    root: (Vec3, Vec3),
 }
 
 /// The most stack entries a walk of `bvh` can hold: at each node it
@@ -185,8 +194,10 @@ impl GpuTracer {
                 leaves: storage_init(d, "kd leaves", &kd.leaves),
                 leaf_triangles: storage_init(d, "kd leaf triangles", &kd.leaf_triangles),
                 triangles: storage_init(d, "kd triangles", &kd.triangles),
+                leaf_count: kd.leaves.len() as u32,
+                root: (kd.min, kd.max),
             };
-            Self::with(dev.clone(), GpuWalk::Kd, structure, kd.leaves.len() as u32, (kd.min, kd.max))
+            Self::with(dev.clone(), GpuWalk::Kd, structure)
         })
     }
 
@@ -205,7 +216,7 @@ impl GpuTracer {
                 nodes: storage_init(d, "bvh nodes", &bvh.nodes),
                 blocks: storage_init(d, "bvh blocks", &bvh.blocks),
             };
-            Self::with(dev.clone(), GpuWalk::Bvh, structure, 0, (bvh.min, bvh.max))
+            Self::with(dev.clone(), GpuWalk::Bvh, structure)
         })
     }
 
@@ -214,24 +225,17 @@ impl GpuTracer {
     /// device was not opened with them ([`GpuDevice::ray_query`]).
     pub fn ray_query(dev: Arc<GpuDevice>, positions: &[Vec3], triangles: &[[u32; 3]]) -> Result<GpuTracer> {
         let scene = super::rayquery::RqScene::new(&dev, positions, triangles)?;
-        let (min, max) = bounds(positions);
         checked(&dev.clone(), "ray-query pipelines", || {
-            Self::with(dev.clone(), GpuWalk::RayQuery, Structure::RayQuery(scene), 0, (min, max))
+            Self::with(dev.clone(), GpuWalk::RayQuery, Structure::RayQuery(scene))
         })
     }
 
-    fn with(
-        dev: Arc<GpuDevice>,
-        walk: GpuWalk,
-        structure: Structure,
-        leaf_count: u32,
-        root: (Vec3, Vec3),
-    ) -> GpuTracer {
+    fn with(dev: Arc<GpuDevice>, walk: GpuWalk, structure: Structure) -> GpuTracer {
         let pipelines = {
             let pipeline = compute_pipelines(&dev.device, walk.name(), tracer_wgsl(walk));
             [pipeline("shoot_rays"), pipeline("closest_hits"), pipeline("light_visibility")]
         };
-        GpuTracer { pipelines, structure, directions: None, leaf_count, root, walk, dev }
+        GpuTracer { pipelines, structure, directions: None, walk, dev }
     }
 
     /// Which structure this tracer walks.
@@ -254,10 +258,10 @@ impl GpuTracer {
                     rewrite(dev, nodes, "bvh nodes", &b.nodes);
                     rewrite(dev, blocks, "bvh blocks", &b.blocks);
                 })?;
-                self.root = (b.min, b.max);
             }
             (GpuWalk::Kd, _, Some(k)) => {
-                let Structure::Kd { nodes, leaves, leaf_triangles, triangles } = &mut self.structure else {
+                let Structure::Kd { nodes, leaves, leaf_triangles, triangles, leaf_count, root } = &mut self.structure
+                else {
                     unreachable!("a kd tracer")
                 };
                 let dev = &self.dev;
@@ -267,13 +271,12 @@ impl GpuTracer {
                     rewrite(dev, leaf_triangles, "kd leaf triangles", &k.leaf_triangles);
                     rewrite(dev, triangles, "kd triangles", &k.triangles);
                 })?;
-                self.leaf_count = k.leaves.len() as u32;
-                self.root = (k.min, k.max);
+                *leaf_count = k.leaves.len() as u32;
+                *root = (k.min, k.max);
             }
             (GpuWalk::RayQuery, _, _) => {
                 let Structure::RayQuery(s) = &mut self.structure else { unreachable!("a ray-query tracer") };
                 s.refit(&self.dev, positions)?;
-                self.root = bounds(positions);
             }
             (w, _, _) => return Err(Error::Gpu(format!("{}: no structure given to update", w.name()))),
         }
@@ -328,27 +331,25 @@ impl GpuTracer {
 
     /// The nearest hit of every ray (`shaders/trace.wgsl`'s `closest_hits`).
     pub fn closest(&self, rays: &[ShadowRay]) -> Result<Vec<HitRecord>> {
-        if rays.is_empty() {
-            return Ok(Vec::new());
-        }
-        checked(&self.dev, "closest hits", || {
-            let d = &self.dev.device;
-            let ray_buf = storage_init(d, "rays", rays);
-            let hits = output(d, "hits", rays.len() as u64 * std::mem::size_of::<HitRecord>() as u64);
-            self.run(Entry::Closest, rays.len() as u32, 1, &[(2, &ray_buf), (3, &hits)], &hits)
-        })?
+        self.each_ray(Entry::Closest, rays, "closest hits", 3)
     }
 
     /// Any-hit test of ray segments: 1 where the segment is free.
     pub fn visibility(&self, rays: &[ShadowRay]) -> Result<Vec<u32>> {
+        self.each_ray(Entry::Visibility, rays, "shadow rays", 4)
+    }
+
+    /// One result a ray of `rays` from `entry`, which writes them to
+    /// group 1's binding `out`.
+    fn each_ray<T: bytemuck::Pod>(&self, entry: Entry, rays: &[ShadowRay], what: &str, out: u32) -> Result<Vec<T>> {
         if rays.is_empty() {
             return Ok(Vec::new());
         }
-        checked(&self.dev, "shadow rays", || {
+        checked(&self.dev, what, || {
             let d = &self.dev.device;
-            let ray_buf = storage_init(d, "shadow rays", rays);
-            let visible = output(d, "visibility", rays.len() as u64 * 4);
-            self.run(Entry::Visibility, rays.len() as u32, 1, &[(2, &ray_buf), (4, &visible)], &visible)
+            let ray_buf = storage_init(d, what, rays);
+            let results = output(d, what, (rays.len() * std::mem::size_of::<T>()) as u64);
+            self.run(entry, rays.len() as u32, 1, &[(2, &ray_buf), (out, &results)], &results)
         })?
     }
 
@@ -365,19 +366,11 @@ impl GpuTracer {
         let d = &self.dev.device;
         let pipeline = &self.pipelines[entry as usize];
         let (gx, gy) = dispatch_size(count, WORKGROUP, self.dev.limits.max_compute_workgroups_per_dimension);
-        let params = uniform_init(
-            d,
-            "trace params",
-            &TraceParams {
-                count,
-                rays_per_vertex,
-                groups_x: gx,
-                leaf_count: self.leaf_count,
-                root_min: self.root.0.into(),
-                root_max: self.root.1.into(),
-                ..Default::default()
-            },
-        );
+        let mut p = TraceParams { count, rays_per_vertex, groups_x: gx, ..Default::default() };
+        if let Structure::Kd { leaf_count, root, .. } = &self.structure {
+            (p.leaf_count, p.root_min, p.root_max) = (*leaf_count, root.0.into(), root.1.into());
+        }
+        let params = uniform_init(d, "trace params", &p);
         let mut tree = vec![wgpu::BindGroupEntry { binding: 0, resource: params.as_entire_binding() }];
         tree.extend(
             self.structure
@@ -492,8 +485,4 @@ fn fits(dev: &GpuDevice, what: &str, sizes: &[usize]) -> Result<()> {
         )));
     }
     Ok(())
-}
-
-fn bounds(positions: &[Vec3]) -> (Vec3, Vec3) {
-    positions.iter().fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), p| (lo.min(*p), hi.max(*p)))
 }

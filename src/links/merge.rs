@@ -49,6 +49,19 @@ impl HitRecord {
             Some(h) => HitRecord { tri: if h.front { h.tri } else { h.tri | HIT_BACK }, u: h.u, v: h.v, t: h.t },
         }
     }
+
+    /// The hit this record names (`None` for a miss or a record that is
+    /// not a traced hit): the inverse of [`HitRecord::of`].
+    #[inline]
+    pub fn hit(self) -> Option<crate::kdtree::Hit> {
+        (self.tri != HIT_MISS).then(|| crate::kdtree::Hit {
+            tri: self.tri & !HIT_BACK,
+            u: self.u,
+            v: self.v,
+            t: self.t,
+            front: self.tri & HIT_BACK == 0,
+        })
+    }
 }
 
 /// Counts of one vertex's rays.

@@ -12,7 +12,7 @@
 //! is a full one ([`Solver::deformed`]). Either way the result equals a
 //! full solve of the deformed scene with the same seed. Times in ms.
 
-use super::compute::{gpu_else_cpu, GpuState, Tracers};
+use super::compute::{gpu_else_cpu, Tracers};
 use super::traced::Part;
 use super::{Compute, SolveParams, Solver};
 use crate::exchange::near::NearChange;
@@ -199,14 +199,8 @@ impl Solver {
             return (Solver::on_cpu(scene, params, self.accel, record, progress), refitted);
         };
         let label = g.tracer.dev.info.name.clone();
-        let mut logical = vec![LogicalDevice { label, tracer: g.tracer, delay_per_vertex: Default::default() }];
-        let shot = crate::gpu::shoot_links_gpu(&scene, &params.links, &gc.schedule, &mut logical, record, progress);
-        let tracer = logical.swap_remove(0).tracer;
-        let links = shot.and_then(|(links, hits, shares)| {
-            let gpu_links = GpuLinks::new(tracer.dev.clone(), &links, &scene.albedo)?;
-            Ok((links, hits, GpuState { tracer, links: gpu_links, shares }))
-        });
-        match links {
+        let logical = vec![LogicalDevice { label, tracer: g.tracer, delay_per_vertex: Default::default() }];
+        match Solver::shoot_on_gpu(&scene, &params, logical, gc, progress) {
             Ok((links, hits, gpu)) => {
                 (Solver::assemble(scene, params, self.accel, links, Some(gpu), compute, hits), refitted)
             }

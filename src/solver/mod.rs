@@ -180,14 +180,27 @@ impl Solver {
                 logical.push(LogicalDevice { label, tracer, delay_per_vertex: delay });
             }
         }
-        // Per-ray state for selective updates, as on the CPU path.
+        let (links, ray_hits, gpu) = Solver::shoot_on_gpu(&scene, &params, logical, g, progress)?;
+        Ok(Solver::assemble(scene, params, accel, links, Some(gpu), compute.clone(), ray_hits))
+    }
+
+    /// The links of `scene` shot on `logical` (their tracers walking the
+    /// solver's structure), with per-ray state for scenes with dynamic
+    /// meshes as on the CPU path, and the GPU state that keeps the first
+    /// one's tracer for every traced part.
+    fn shoot_on_gpu(
+        scene: &PreparedScene,
+        params: &SolveParams,
+        mut logical: Vec<LogicalDevice>,
+        g: &compute::GpuCompute,
+        progress: &(dyn Fn(usize, usize) + Sync),
+    ) -> crate::Result<(Links, Option<RayHits>, GpuState)> {
         let record = scene.meshes.iter().any(|m| m.dynamic);
         let (links, ray_hits, shares) =
-            gpu::shoot_links_gpu(&scene, &params.links, &g.schedule, &mut logical, record, progress)?;
+            gpu::shoot_links_gpu(scene, &params.links, &g.schedule, &mut logical, record, progress)?;
         let tracer = logical.swap_remove(0).tracer;
         let gpu_links = GpuLinks::new(tracer.dev.clone(), &links, &scene.albedo)?;
-        let gpu = GpuState { tracer, links: gpu_links, shares };
-        Ok(Solver::assemble(scene, params, accel, links, Some(gpu), compute.clone(), ray_hits))
+        Ok((links, ray_hits, GpuState { tracer, links: gpu_links, shares }))
     }
 
     /// Traces `parts` again for the current scene and links.
