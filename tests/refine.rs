@@ -231,8 +231,11 @@ fn carried_hits_equal_a_fresh_solve_of_the_refined_mesh() {
         }
     }
     let scene = r.solver.scene().clone();
-    let params = *r.solver.params();
+    // The scene's own settings, as the rounds started from (the solver's
+    // parameters hold the terms it decided off).
+    let params = linkgi::solver::SolveParams::from_settings(&scene.settings);
     let fresh = linkgi::solver::Solver::new(scene.clone(), params, &|_, _| {});
+    assert_eq!(fresh.params(), r.solver.params(), "the same parameters");
     let (a, b) = (r.solver.links(), fresh.links());
     let differing: Vec<usize> = (0..scene.vertex_count()).filter(|&v| a.group(v) != b.group(v)).collect();
     for &v in differing.iter().take(5) {
@@ -247,6 +250,22 @@ fn carried_hits_equal_a_fresh_solve_of_the_refined_mesh() {
     assert!(differing.is_empty(), "{} link groups differ from a fresh shoot", differing.len());
     assert_eq!(a.near, b.near, "near hits");
     assert_eq!(a.sky, b.sky, "sky visibility");
+    // Every traced part equals a fresh build's (the rounds before traced
+    // the sources only, at marking quality; the last traced the rest).
+    let (ea, eb) = (r.solver.emitter_links(), fresh.emitter_links());
+    assert_eq!(
+        (&ea.rows, &ea.group_vertex, ea.shadow_rays),
+        (&eb.rows, &eb.group_vertex, eb.shadow_rays),
+        "emitter links"
+    );
+    assert!(ea.shadow_rays > 0, "the box's lamp has emitter links");
+    let (na, nb) = (r.solver.near(), fresh.near());
+    assert_eq!(na.emitters.rows, nb.emitters.rows, "near emitters");
+    assert!(!na.emitters.rows.items.is_empty(), "near emitters traced");
+    assert_eq!((&na.gather.hits, na.gather.per_hit), (&nb.gather.hits, nb.gather.per_hit), "near gather");
+    assert_eq!(na.light.columns, nb.light.columns, "near light");
+    assert_eq!(r.solver.noise_check().rays, fresh.noise_check().rays, "noise check");
+    assert_eq!(r.solver.term_decisions(), fresh.term_decisions(), "the same terms decided");
     let (sa, sb) = (&r.solution, fresh.solve());
     assert_eq!(sa.e_indirect, sb.e_indirect, "the solutions");
     // The same mesh as a fresh preparation of the refined scene.
@@ -267,22 +286,55 @@ fn carried_hits_equal_a_fresh_solve_of_the_refined_mesh() {
 #[test]
 fn the_vertex_budget_holds() {
     let (desc, _) = coarse_cornell(RefineSettings::default());
-    let apriori: usize = refine::apriori(&desc, &desc.settings.refine).0.meshes.iter().map(|m| m.positions.len()).sum();
-    let budget = apriori + 150;
-    let (limited, _) = coarse_cornell(RefineSettings { max_vertices: budget as u32, ..Default::default() });
+    let count_positions = |d: &SceneDesc| d.meshes.iter().map(|m| m.positions.len()).sum::<usize>();
+    let input = count_positions(&desc);
+    let apriori = count_positions(&refine::apriori(&desc, &desc.settings.refine).0);
+    // The budget is room beyond the input: 150 positions past the a-priori step.
+    let added = apriori - input + 150;
+    let (limited, _) = coarse_cornell(RefineSettings { max_added: added as u32, ..Default::default() });
     let r = solve(&limited);
-    let positions: usize = r.desc.meshes.iter().map(|m| m.positions.len()).sum();
+    let positions = count_positions(&r.desc);
+    let budget = input + added;
     eprintln!("a priori {apriori} positions, budget {budget}, reached {positions} in {} rounds", r.rounds.len());
     assert!(positions <= budget && positions > apriori, "{positions} positions for a budget of {budget}");
     // A budget under the a-priori step itself: the mesh stays as loaded.
-    let (tiny, _) = coarse_cornell(RefineSettings { max_vertices: 10, ..Default::default() });
+    let (tiny, _) = coarse_cornell(RefineSettings { max_added: 0, ..Default::default() });
     let (same, _) = refine::apriori(&tiny, &tiny.settings.refine);
     let count = |d: &SceneDesc| d.meshes.iter().map(|m| m.triangles.len()).sum::<usize>();
     assert_eq!(count(&same), count(&tiny));
 }
 
+/// A scene whose input alone holds more positions than the budget still
+/// refines where its light needs it (the budget is room beyond the
+/// input; it used to count the input, and such a scene refined nothing),
+/// and a round the budget cuts says so.
+#[test]
+fn a_scene_bigger_than_the_budget_still_refines() {
+    let (mut desc, _) = coarse_cornell(RefineSettings::default());
+    let count_positions = |d: &SceneDesc| d.meshes.iter().map(|m| m.positions.len()).sum::<usize>();
+    let (input, apriori) = (count_positions(&desc), count_positions(&refine::apriori(&desc, &desc.settings.refine).0));
+    let added = apriori - input + 40;
+    // A fine grid under the floor, facing down: more positions than the budget, nothing coarse.
+    let mut g = MeshBuilder::new();
+    let grey = g.add_material("grey", Vec3::splat(0.5));
+    let n = (added as f32).sqrt() as u32 + 4;
+    g.quad_grid(Vec3::new(-0.25, -0.05, -0.25), Vec3::new(0.5, 0.0, 0.0), Vec3::new(0.0, 0.0, 0.5), n, n, grey);
+    desc.meshes.push(g.finish("filler", 30.0));
+    desc.settings.refine.max_added = added as u32;
+    let input = count_positions(&desc);
+    assert!(input > added, "{input} input positions, budget {added}");
+    let r = solve(&desc);
+    let positions = count_positions(&r.desc);
+    eprintln!("input {input}, budget {added}, reached {positions}; rounds {:?}", r.rounds);
+    assert!(positions > input, "refined nothing: {positions} positions of {input}");
+    assert!(r.rounds.len() > 1 && r.rounds[0].marked > 0, "the rounds split edges: {:?}", r.rounds);
+    assert!(positions <= input + added, "{positions} positions past the budget of {added} beyond {input}");
+    let cut = r.rounds.iter().find(|x| x.marked < x.wanted).expect("a round the budget cut");
+    assert!(cut.marked < cut.wanted);
+}
+
 /// `refine`, `refine_max_edge`, `refine_tolerance` and
-/// `refine_max_vertices` in `[settings]`: read, checked, written back.
+/// `refine_max_added` in `[settings]`: read, checked, written back.
 #[test]
 fn refine_settings_load_check_and_save() {
     let dir = std::env::temp_dir().join(format!("linkgi-refine-{}", std::process::id()));
@@ -293,12 +345,11 @@ fn refine_settings_load_check_and_save() {
         std::fs::write(&p, format!("[settings]\n{settings}\n[[mesh]]\nobj = \"q.obj\"\n")).unwrap();
         linkgi::scene::load(p.to_str().unwrap())
     };
-    let d =
-        toml("refine = \"off\"\nrefine_max_edge = 0.3\nrefine_tolerance = 0.1\nrefine_max_vertices = 5000").unwrap();
+    let d = toml("refine = \"off\"\nrefine_max_edge = 0.3\nrefine_tolerance = 0.1\nrefine_max_added = 5000").unwrap();
     let r = d.settings.refine;
-    assert_eq!((r.mode, r.max_edge, r.tolerance, r.max_vertices), (RefineMode::Off, 0.3, 0.1, 5000));
+    assert_eq!((r.mode, r.max_edge, r.tolerance, r.max_added), (RefineMode::Off, 0.3, 0.1, 5000));
     let text = linkgi::scene::file::to_toml(&d, &["q.obj".to_string()]);
-    for key in ["refine = \"off\"", "refine_max_edge = 0.3", "refine_tolerance = 0.1", "refine_max_vertices = 5000"] {
+    for key in ["refine = \"off\"", "refine_max_edge = 0.3", "refine_tolerance = 0.1", "refine_max_added = 5000"] {
         assert!(text.contains(key), "{key} missing from\n{text}");
     }
     assert_eq!(toml("").unwrap().settings.refine, RefineSettings::default());
@@ -337,7 +388,8 @@ fn refinement_is_scale_free() {
 }
 
 /// The command line: `solve` refines a coarse OBJ by default and says so;
-/// `--refine-max-vertices` caps it, `--refine off` keeps it as loaded.
+/// `--refine-max-added` caps it (and a note says so), `--refine off`
+/// keeps it as loaded.
 #[test]
 fn the_cli_refines_and_its_flags_hold() {
     let dir = std::env::temp_dir().join(format!("linkgi-refine-cli-{}", std::process::id()));
@@ -378,11 +430,12 @@ fn the_cli_refines_and_its_flags_hold() {
     };
     let (auto, note) = solve(&[]);
     assert!(auto > 200 && note.contains("coarse meshes refined"), "{auto} vertices; {note}");
-    let (capped, _) = solve(&["--refine-max-vertices", "100"]);
+    let (capped, note) = solve(&["--refine-max-added", "92"]);
     assert!(
         capped < auto && capped <= 100 * 3,
-        "{capped} vertices under a budget of 100 positions (crease copies at most 3 each)"
+        "{capped} vertices under a budget of 8 + 92 positions (crease copies at most 3 each)"
     );
+    assert!(note.contains("refinement budget"), "the budget's cut is said: {note}");
     let (off, note) = solve(&["--refine", "off"]);
     assert_eq!(off, 24, "8 corners, each split three ways at the creases");
     assert!(!note.contains("refined"), "{note}");

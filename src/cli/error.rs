@@ -55,9 +55,9 @@ pub struct ErrorArgs {
     /// Error-driven refinement's tolerance (as `render --refine-tolerance`).
     #[arg(long, value_name = "SHARE")]
     pub refine_tolerance: Option<f32>,
-    /// Refinement's budget of mesh positions (as `render --refine-max-vertices`).
+    /// Most positions refinement may add to the input (as `render --refine-max-added`).
     #[arg(long, value_name = "N")]
-    pub refine_max_vertices: Option<u32>,
+    pub refine_max_added: Option<u32>,
     /// Only the picture's score (`--image`): no sweep, no path-tracer ladder.
     #[arg(long)]
     pub image_only: bool,
@@ -83,7 +83,7 @@ pub fn run(args: ErrorArgs) -> Result<()> {
             max_edge: args.max_edge,
             refine: args.refine,
             refine_tolerance: args.refine_tolerance,
-            refine_max_vertices: args.refine_max_vertices,
+            refine_max_added: args.refine_max_added,
             ..Default::default()
         },
     )?;
@@ -215,11 +215,25 @@ fn image_score(
     let s = solver.scene();
     let refined_bvh = linkgi::bvh::Bvh::build(&s.positions, &s.triangles, &Default::default());
     let (ours, _) = render_cpu(&frame, &params, Some(&refined_bvh))?;
-    let b = bar(h as usize, "image ref");
     let rp = ReferenceParams { seed: prepared.settings.seed, ..Default::default() };
     let t = Instant::now();
-    let reference = reference::image::render(prepared, &bvh, &camera, w, h, args.image_spp, &rp, &|| b.inc(1));
-    b.finish_and_clear();
+    let cache = args.cache.clone().unwrap_or_else(reference::cache::default_dir);
+    let key = reference::cache::image_key(prepared, &rp, &camera, (w, h), args.image_spp);
+    let reference = match reference::cache::load_image(&cache, key).filter(|r| (r.width, r.height) == (w, h)) {
+        Some(r) => {
+            eprintln!("reference image read from the cache ({})", cache.display());
+            r
+        }
+        None => {
+            let b = bar(h as usize, "image ref");
+            let r = reference::image::render(prepared, &bvh, &camera, w, h, args.image_spp, &rp, &|| b.inc(1));
+            b.finish_and_clear();
+            if let Err(e) = reference::cache::store_image(&cache, key, &r) {
+                eprintln!("warning: could not cache the reference image in {}: {e}", cache.display());
+            }
+            r
+        }
+    };
     let exposure = auto_exposure(&reference);
     let (a, r) = (args.out.join("image.png"), args.out.join("image_reference.png"));
     write_png(&ours, exposure, &a)?;

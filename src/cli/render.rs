@@ -67,7 +67,7 @@ pub fn run(args: RenderArgs) -> Result<()> {
     let settings = setup.settings;
     let compute = compute(settings.backend, 1)?;
     let t0 = Instant::now();
-    let Refined { desc, solver, solution: sol, .. } = super::setup::solve(setup, &compute, &|_, _| {})?;
+    let Refined { desc, solver, solution: sol, .. } = super::setup::solve_shown(setup, &compute)?;
     let gi_ms = t0.elapsed().as_secs_f64() * 1e3;
     let renderer = Renderer::open(settings.backend);
     let params = RenderParams { width, height, view: args.view, ..Default::default() };

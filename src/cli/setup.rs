@@ -43,6 +43,10 @@ pub struct Overrides {
     /// noise_check, smoothing, sky_smoothing); added to the scene's `off` list.
     #[arg(long, value_name = "TERM[,TERM]", value_parser = parse_off)]
     pub off: Option<Terms>,
+    /// Terms to keep on whatever a sample of their work says (near_emitters, near_sky,
+    /// near_gather are decided per scene otherwise), comma-separated; added to the scene's `on`.
+    #[arg(long, value_name = "TERM[,TERM]", value_parser = parse_on)]
+    pub on: Option<Terms>,
     /// Refinement of coarse meshes: auto (the default: edges split to the target length, then
     /// where the light needs it) or off; overrides the scene's `refine` setting.
     #[arg(long, value_name = "auto|off", value_parser = parse_refine)]
@@ -54,9 +58,9 @@ pub struct Overrides {
     /// this share of their mean (default 0.25).
     #[arg(long, value_name = "SHARE")]
     pub refine_tolerance: Option<f32>,
-    /// Budget of mesh positions refinement may reach (default 250000).
+    /// Most positions refinement may add to the input (default 250000).
     #[arg(long, value_name = "N")]
-    pub refine_max_vertices: Option<u32>,
+    pub refine_max_added: Option<u32>,
     /// Number of bounces (`solve --bounces`).
     #[arg(skip)]
     pub bounces: Option<Bounces>,
@@ -88,6 +92,11 @@ impl Overrides {
                 settings.terms.set(name, false).expect("a name of Terms::NAMES");
             }
         }
+        if let Some(t) = self.on {
+            for name in t.on() {
+                settings.forced.set(name, true).expect("a name of Terms::NAMES");
+            }
+        }
         if let Some(m) = self.refine {
             settings.refine.mode = m;
         }
@@ -97,8 +106,8 @@ impl Overrides {
         if let Some(t) = self.refine_tolerance {
             settings.refine.tolerance = t;
         }
-        if let Some(n) = self.refine_max_vertices {
-            settings.refine.max_vertices = n;
+        if let Some(n) = self.refine_max_added {
+            settings.refine.max_added = n;
         }
         settings
     }
@@ -112,6 +121,11 @@ pub fn parse_refine(s: &str) -> Result<linkgi::scene::refine::RefineMode, String
         "off" => Ok(RefineMode::Off),
         _ => Err(format!("{s}: expected auto or off")),
     }
+}
+
+/// Parses `--on` (clap value parser): term names separated by commas.
+pub fn parse_on(s: &str) -> Result<Terms, String> {
+    Terms::with_on(s.split(',').filter(|n| !n.trim().is_empty()))
 }
 
 /// Parses `--off` (clap value parser): term names separated by commas.
@@ -201,6 +215,40 @@ pub fn solve(
         eprintln!("note: refined where the light needs it: vertices per round {}", list.join(", "));
     }
     Ok(refined)
+}
+
+/// [`solve`] with a progress bar across the refinement rounds: each
+/// round's link rays, by vertices (a round's count falls back when the
+/// next one starts), and the elapsed time while the other parts trace.
+pub fn solve_shown(setup: Setup, compute: &Compute) -> Result<linkgi::solver::adaptive::Refined> {
+    use indicatif::{ProgressBar, ProgressStyle};
+    use std::sync::atomic::{AtomicUsize, Ordering};
+    let rounds = if setup.plan.refining { linkgi::solver::adaptive::MAX_ROUNDS + 1 } else { 1 };
+    let bar = ProgressBar::new(setup.prepared.vertex_count() as u64);
+    bar.set_style(
+        ProgressStyle::with_template("{msg:24} [{bar:40}] {pos}/{len} vertices ({elapsed})")
+            .expect("valid template")
+            .progress_chars("=> "),
+    );
+    bar.enable_steady_tick(std::time::Duration::from_millis(250));
+    let (round, last) = (AtomicUsize::new(1), AtomicUsize::new(0));
+    let say = |r: usize| {
+        if rounds > 1 {
+            format!("round {r} (of up to {rounds})")
+        } else {
+            "shooting rays".to_string()
+        }
+    };
+    bar.set_message(say(1));
+    let refined = solve(setup, compute, &|done, total| {
+        if done < last.swap(done, Ordering::Relaxed) {
+            bar.set_message(say(round.fetch_add(1, Ordering::Relaxed) + 1));
+        }
+        bar.set_length(total as u64);
+        bar.set_position(done as u64)
+    });
+    bar.finish_and_clear();
+    refined
 }
 
 /// The light of a scene that has none (a bare OBJ or glTF of an object):

@@ -3,7 +3,6 @@
 
 use super::setup::{compute, setup, Overrides};
 use anyhow::{Context, Result};
-use indicatif::{ProgressBar, ProgressStyle};
 use linkgi::scene::deform::{deform_scene, has_deformers};
 use linkgi::scene::refine::RefineMode;
 use linkgi::scene::Bounces;
@@ -66,18 +65,8 @@ pub fn run(args: SolveArgs) -> Result<()> {
     }
     let compute = compute(settings.backend, devices)?;
     let prep_ms = t0.elapsed().as_secs_f64() * 1e3;
-    let bar = ProgressBar::new(setup.prepared.vertex_count() as u64).with_message("shooting rays");
-    bar.set_style(
-        ProgressStyle::with_template("{msg:16} [{bar:40}] {pos}/{len} vertices ({eta})")
-            .expect("valid template")
-            .progress_chars("=> "),
-    );
     let t1 = Instant::now();
-    let refined = super::setup::solve(setup, &compute, &|done, total| {
-        bar.set_length(total as u64);
-        bar.set_position(done as u64)
-    })?;
-    bar.finish_and_clear();
+    let refined = super::setup::solve_shown(setup, &compute)?;
     let (solver, solution) = (&refined.solver, &refined.solution);
     let total_ms = t1.elapsed().as_secs_f64() * 1e3;
     let solve_ms = refined.rounds.last().map_or(0.0, |r| r.solve_ms);
@@ -251,6 +240,9 @@ pub fn run(args: SolveArgs) -> Result<()> {
             s.near_gather_ms,
             mb(solver.near().gather.cost.bytes)
         );
+    }
+    for d in solver.term_decisions() {
+        println!("term decided     {}", d.describe());
     }
     println!(
         "bounces ms       {:.1} ({} bounces, tail {:.2e}{})",

@@ -15,9 +15,10 @@
 //! so the links, near hits and sky visibility are a full shoot's.
 //!
 //! A vertex is *kept* ([`Lineage::new`]) when it is an old vertex at the
-//! same position, inside a smooth surface before and after (its ray origin
-//! is its position; crease and border vertices are nudged by their
-//! one-ring's edge lengths, which a split shortens), its normal moved by
+//! same position with the same ray origin to the bit (inside a smooth
+//! surface the origin is the position; crease and border vertices are
+//! nudged by their one-ring, which a split next to them changes, so they
+//! are kept where their ring was not split), its normal moved by
 //! less than [`KEPT_NORMAL`] (the pieces at a vertex span the angles of
 //! its old triangles in the same planes, so its angle-weighted normal is
 //! the same up to rounding), and it does not touch a split triangle of
@@ -42,7 +43,7 @@
 
 use super::merge::{RayHits, HIT_BACK, HIT_MISS};
 use super::selective::recorded;
-use super::shoot::{links_from_records, RaySetup, TraceScratch, TO_TRACE};
+use super::shoot::{links_from_records, ray_origin, RaySetup, TraceScratch, TO_TRACE};
 use super::{HitRecord, LinkParams, Links};
 use crate::csr::Csr;
 use crate::scene::prep::{PreparedScene, NO_VERTEX};
@@ -86,10 +87,11 @@ impl Lineage {
     /// The lineage of `scene`, prepared from the refinement of the scene
     /// `old` was prepared from, with `parents[mesh][j]` the input triangle
     /// of the old mesh that the new input triangle `j` is a piece of
-    /// ([`crate::scene::refine::split_world_edges`]). Kept vertices take
+    /// ([`crate::scene::refine::split_world_edges`]) and `nudge` the links'
+    /// ([`super::LinkParams::nudge`]). Kept vertices take
     /// their old normal and colour in `scene`; the others are coloured
     /// around them (module doc).
-    pub fn new(old: &PreparedScene, scene: &mut PreparedScene, parents: &[Vec<u32>]) -> Lineage {
+    pub fn new(old: &PreparedScene, scene: &mut PreparedScene, parents: &[Vec<u32>], nudge: f32) -> Lineage {
         let n = scene.vertex_count();
         let fresh_normals = scene.normals.clone();
         let mut kept = vec![NO_VERTEX; n];
@@ -103,13 +105,20 @@ impl Lineage {
                 }
                 let (v, w) = (v as usize, w as usize);
                 colour[w] = Some(old.colours[v]);
-                if !old.boundary[v]
-                    && !scene.boundary[w]
+                if old.boundary[v] == scene.boundary[w]
                     && old.positions[v] == scene.positions[w]
                     && (old.normals[v] - scene.normals[w]).length() < KEPT_NORMAL
                 {
-                    kept[w] = v as u32;
                     scene.normals[w] = old.normals[v];
+                    // A crease or border vertex's origin is nudged by its
+                    // one-ring: kept where that ring was not split (the
+                    // same origin to the bit).
+                    let same = !old.boundary[v] || ray_origin(old, v, nudge) == ray_origin(scene, w, nudge);
+                    if same {
+                        kept[w] = v as u32;
+                    } else {
+                        scene.normals[w] = fresh_normals[w];
+                    }
                 }
             }
             // Old solver triangle -> old input triangle -> its pieces -> new solver triangles.

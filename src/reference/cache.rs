@@ -5,6 +5,9 @@
 //! The file holds a magic tag, the vertex count and `E_d`, `E_sky`, `E_i`
 //! and the standard errors of `E_i` and of `E_sky + E_i` per vertex as
 //! little-endian `f32` (W/m^2). A file that does not match (size, magic, count) is ignored.
+//! Reference images (`linkgi error --image`) are kept beside them as
+//! `<key>.img` ([`image_key`]: the scene's key with the camera, size and
+//! paths a pixel): width, height and the linear pixels as `f32`.
 
 use super::{Reference, ReferenceParams};
 use crate::scene::prep::PreparedScene;
@@ -129,4 +132,60 @@ pub fn store(dir: &Path, key: u64, r: &Reference) -> std::io::Result<()> {
     let tmp = dir.join(format!("{key:016x}.ref.tmp{}", std::process::id()));
     std::fs::write(&tmp, bytes)?;
     std::fs::rename(tmp, file(dir, key))
+}
+
+const IMAGE_MAGIC: &[u8; 8] = b"LGIIMG01";
+
+/// The key of a reference image of `scene` (the vertex reference's key
+/// with `params`) seen by `camera` at `width` x `height`, `spp` paths a pixel.
+pub fn image_key(
+    scene: &PreparedScene,
+    params: &ReferenceParams,
+    camera: &crate::scene::Camera,
+    size: (u32, u32),
+    spp: u32,
+) -> u64 {
+    let mut h = Fnv(key(scene, params));
+    h.f32s(&[camera.position.to_array(), camera.target.to_array(), [camera.fov_deg, 0.0, 0.0]].concat());
+    h.u64(u64::from(size.0) << 32 | u64::from(size.1));
+    h.u64(u64::from(spp));
+    h.0
+}
+
+fn image_file(dir: &Path, key: u64) -> PathBuf {
+    dir.join(format!("{key:016x}.img"))
+}
+
+/// The cached reference image for `key`, if a valid one is there.
+pub fn load_image(dir: &Path, key: u64) -> Option<crate::render::HdrImage> {
+    let bytes = std::fs::read(image_file(dir, key)).ok()?;
+    if bytes.len() < 16 || &bytes[..8] != IMAGE_MAGIC {
+        return None;
+    }
+    let (w, h) =
+        (u32::from_le_bytes(bytes[8..12].try_into().ok()?), u32::from_le_bytes(bytes[12..16].try_into().ok()?));
+    if bytes.len() != 16 + 12 * w as usize * h as usize {
+        return None;
+    }
+    let floats: Vec<f32> = bytes[16..].chunks_exact(4).map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]])).collect();
+    Some(crate::render::HdrImage {
+        width: w,
+        height: h,
+        pixels: floats.chunks_exact(3).map(Vec3::from_slice).collect(),
+    })
+}
+
+/// Writes the reference image `img` under `key` (creating `dir`), via a temporary file and a rename.
+pub fn store_image(dir: &Path, key: u64, img: &crate::render::HdrImage) -> std::io::Result<()> {
+    std::fs::create_dir_all(dir)?;
+    let mut bytes = Vec::with_capacity(16 + 12 * img.pixels.len());
+    bytes.extend_from_slice(IMAGE_MAGIC);
+    bytes.extend_from_slice(&img.width.to_le_bytes());
+    bytes.extend_from_slice(&img.height.to_le_bytes());
+    for x in img.pixels.iter().flat_map(|p| p.to_array()) {
+        bytes.extend_from_slice(&x.to_le_bytes());
+    }
+    let tmp = dir.join(format!("{key:016x}.img.tmp{}", std::process::id()));
+    std::fs::write(&tmp, bytes)?;
+    std::fs::rename(tmp, image_file(dir, key))
 }

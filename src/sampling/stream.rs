@@ -76,6 +76,9 @@ impl Stream {
     pub const NEAR_SKY: Stream = Stream(0x3c6e_f372_fe94_f82b);
     /// Final-gather directions from near hits ([`crate::exchange::near::gather`]).
     pub const NEAR_GATHER: Stream = Stream(0x9b05_688c_2b3e_6c1f);
+    /// The vertices whose near hits decide which near-field terms a solve
+    /// keeps (`solver/decide.rs`).
+    pub const TERM_SAMPLE: Stream = Stream(0x510e_527f_ade6_82d1);
 
     /// `seed` with the stream's salt: the seed of this stream.
     #[inline]
@@ -140,6 +143,7 @@ mod tests {
             Stream::NEAR_EMITTERS,
             Stream::NEAR_SKY,
             Stream::NEAR_GATHER,
+            Stream::TERM_SAMPLE,
         ];
         for (i, a) in all.iter().enumerate() {
             for b in &all[i + 1..] {

@@ -104,6 +104,9 @@ pub struct SettingsFile {
     /// Optional terms of the solve to switch off ([`super::terms::Terms::NAMES`]).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub off: Vec<String>,
+    /// Terms forced on, kept whatever a sample of their work says ([`super::terms::Terms::DECIDED`]).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub on: Vec<String>,
     /// "auto" or "off" ([`super::refine::RefineSettings`]).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub refine: Option<String>,
@@ -113,8 +116,11 @@ pub struct SettingsFile {
     /// Error-driven refinement tolerance: the share of the mean irradiance of an edge's ends above which it splits.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub refine_tolerance: Option<f32>,
-    /// Most positions the scene's meshes may reach through refinement.
+    /// Most positions refinement may add to the scene's input (the budget).
     #[serde(skip_serializing_if = "Option::is_none")]
+    pub refine_max_added: Option<u32>,
+    /// The budget's former key (read as `refine_max_added`, with a warning).
+    #[serde(skip_serializing)]
     pub refine_max_vertices: Option<u32>,
 }
 
@@ -333,6 +339,8 @@ fn settings_from(path: &Path, s: &SettingsFile) -> Result<Settings> {
         },
         terms: super::terms::Terms::with_off(s.off.iter().map(String::as_str))
             .map_err(|e| scene_err(path, format!("settings.off: {e}")))?,
+        forced: super::terms::Terms::with_on(s.on.iter().map(String::as_str))
+            .map_err(|e| scene_err(path, format!("settings.on: {e}")))?,
         refine: super::refine::RefineSettings {
             mode: match s.refine.as_deref() {
                 None => d.refine.mode,
@@ -344,7 +352,18 @@ fn settings_from(path: &Path, s: &SettingsFile) -> Result<Settings> {
             },
             max_edge: s.refine_max_edge.unwrap_or(d.refine.max_edge),
             tolerance: s.refine_tolerance.unwrap_or(d.refine.tolerance),
-            max_vertices: s.refine_max_vertices.unwrap_or(d.refine.max_vertices),
+            max_added: match (s.refine_max_added, s.refine_max_vertices) {
+                (Some(n), _) => n,
+                (None, Some(n)) => {
+                    log::warn!(
+                        "{}: settings.refine_max_vertices is now refine_max_added (positions refinement may \
+                         add to the input); read as refine_max_added = {n}",
+                        path.display()
+                    );
+                    n
+                }
+                (None, None) => d.refine.max_added,
+            },
         },
     };
     settings.validate().map_err(|e| scene_err(path, e.to_string()))?;
@@ -565,10 +584,12 @@ pub fn to_toml(scene: &SceneDesc, obj_names: &[String]) -> String {
                 t => Some(t.name().to_string()),
             },
             off: s.terms.off().into_iter().map(String::from).collect(),
+            on: s.forced.on().into_iter().map(String::from).collect(),
             refine: (s.refine.mode == RefineMode::Off).then(|| "off".to_string()),
             refine_max_edge: (s.refine.max_edge != dr.max_edge).then_some(s.refine.max_edge),
             refine_tolerance: (s.refine.tolerance != dr.tolerance).then_some(s.refine.tolerance),
-            refine_max_vertices: (s.refine.max_vertices != dr.max_vertices).then_some(s.refine.max_vertices),
+            refine_max_added: (s.refine.max_added != dr.max_added).then_some(s.refine.max_added),
+            refine_max_vertices: None,
         },
         camera: scene.camera.map(|c| CameraFile {
             position: c.position.into(),

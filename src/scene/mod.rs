@@ -306,6 +306,9 @@ pub struct Settings {
     pub tracer: TracerKind,
     /// Which optional terms of the solve are on (`off = [...]`; all on by default).
     pub terms: terms::Terms,
+    /// Terms forced on (`on = [...]`; none by default): kept whatever a
+    /// sample of their work says ([`terms::Terms::DECIDED`]).
+    pub forced: terms::Terms,
     /// How coarse meshes are refined (`refine = "auto"` by default).
     pub refine: refine::RefineSettings,
 }
@@ -320,6 +323,7 @@ impl Default for Settings {
             backend: Backend::Auto,
             tracer: TracerKind::Auto,
             terms: terms::Terms::ALL,
+            forced: terms::Terms::NONE,
             refine: refine::RefineSettings::default(),
         }
     }

@@ -53,6 +53,8 @@ pub struct RefineStats {
     pub triangles_after: usize,
     /// Split passes made.
     pub passes: u32,
+    /// Whether the budget stopped it with edges still over the target.
+    pub stopped_by_budget: bool,
 }
 
 impl RefineStats {
@@ -63,6 +65,7 @@ impl RefineStats {
             triangles_before: m.triangles.len(),
             triangles_after: m.triangles.len(),
             passes: 0,
+            stopped_by_budget: false,
         }
     }
 }
@@ -109,7 +112,11 @@ pub fn refine_mesh(mesh: &MeshDesc, params: &RefineParams) -> (MeshDesc, RefineS
     for _ in 0..MAX_PASSES {
         let long = |a: u32, b: u32| out.positions[a as usize].distance_squared(out.positions[b as usize]) > limit2;
         let marked = mark_edges(&out, long);
-        if marked.is_empty() || out.positions.len() + marked.len() > params.max_vertices {
+        if marked.is_empty() {
+            break;
+        }
+        if out.positions.len() + marked.len() > params.max_vertices {
+            stats.stopped_by_budget = true;
             break;
         }
         split_edges(&mut out, &marked);
@@ -226,8 +233,8 @@ fn split(t: [u32; 3], m: [Option<u32>; 3], positions: &[Vec3]) -> Vec<[u32; 3]> 
 
 /// How the solver refines coarse meshes: `[settings]` keys `refine`
 /// ("auto" | "off"), `refine_max_edge`, `refine_tolerance` and
-/// `refine_max_vertices`; `--refine`, `--max-edge`, `--refine-tolerance`,
-/// `--refine-max-vertices`.
+/// `refine_max_added`; `--refine`, `--max-edge`, `--refine-tolerance`,
+/// `--refine-max-added`.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct RefineSettings {
     /// `Auto` refines meshes with edges longer than the target (a priori,
@@ -243,9 +250,10 @@ pub struct RefineSettings {
     /// mean (and of 5% of the scene's mean). Lower: more splits, closer to
     /// the noise of the solution (about 5% a vertex at 256 rays).
     pub tolerance: f32,
-    /// Most positions the scene's meshes may reach in all (the budget); a
-    /// pass or round that would pass it is not made.
-    pub max_vertices: u32,
+    /// Most positions refinement may add to the scene's input (the
+    /// budget), so a scene of any size refines where its light needs it; a
+    /// pass or round that would pass it is cut to it, and a note says so.
+    pub max_added: u32,
 }
 
 /// Whether the solver refines coarse meshes.
@@ -267,14 +275,14 @@ pub const AUTO_EDGE_SHARE: f32 = 0.08;
 
 impl Default for RefineSettings {
     fn default() -> Self {
-        Self { mode: RefineMode::Auto, max_edge: 0.0, tolerance: 0.25, max_vertices: 250_000 }
+        Self { mode: RefineMode::Auto, max_edge: 0.0, tolerance: 0.25, max_added: 250_000 }
     }
 }
 
 impl RefineSettings {
     /// Refinement off.
     pub const fn off() -> Self {
-        Self { mode: RefineMode::Off, max_edge: 0.0, tolerance: 0.25, max_vertices: 250_000 }
+        Self { mode: RefineMode::Off, max_edge: 0.0, tolerance: 0.25, max_added: 250_000 }
     }
 
     /// Checks ranges: finite non-negative edge, positive finite tolerance.
@@ -342,14 +350,28 @@ pub fn apriori(scene: &SceneDesc, settings: &RefineSettings) -> (SceneDesc, Vec<
     }
     let max_edge = settings.target_edge(scene);
     let mut out = scene.clone();
-    let mut total: usize = scene.meshes.iter().map(|m| m.positions.len()).sum();
+    let mut added = 0usize;
     let mut stats = Vec::with_capacity(scene.meshes.len());
+    let mut short = Vec::new();
     for (o, m) in out.meshes.iter_mut().zip(&scene.meshes) {
-        let room = (settings.max_vertices as usize).saturating_sub(total);
+        let room = (settings.max_added as usize).saturating_sub(added);
         let (r, s) = refine_mesh(m, &RefineParams { max_edge, max_vertices: m.positions.len() + room });
-        total += r.positions.len() - m.positions.len();
+        added += r.positions.len() - m.positions.len();
+        if s.stopped_by_budget {
+            short.push(m.name.as_str());
+        }
         *o = r;
         stats.push(s);
+    }
+    if !short.is_empty() {
+        log::info!(
+            "the refinement budget (refine_max_added = {}) stopped the a-priori step at {} added positions; \
+             edges longer than {max_edge:.3} m remain in {} mesh(es): {}",
+            settings.max_added,
+            added,
+            short.len(),
+            short.join(", ")
+        );
     }
     (out, stats)
 }

@@ -6,6 +6,12 @@
 //! time; `docs/ACCURACY.md` has what each buys on the built-in scenes.
 //! (Counts such as rays a near hit are parameters of their stage and at
 //! least 1; a term is switched off here, never by a count of 0.)
+//!
+//! The near-field terms of [`Terms::DECIDED`] are decided per scene: a
+//! solve traces each on a sample of its near hits and keeps it only where
+//! it changes the light by enough ([`crate::solver::SolveParams::pay_share`],
+//! `src/solver/decide.rs`). `on = ["near_emitters"]` (`--on`) forces such a
+//! term on; `off` still forces any term off.
 
 /// The optional terms of a solve (module doc); `true`: on.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -65,6 +71,29 @@ impl Terms {
         smoothing: true,
         sky_smoothing: true,
     };
+
+    /// Every term off: as a set of names, none (the terms forced on by
+    /// default, [`crate::scene::Settings::forced`]).
+    pub const NONE: Terms = Terms {
+        emitter_links: false,
+        emitter_cv: false,
+        near: false,
+        near_emitters: false,
+        near_sky: false,
+        near_gather: false,
+        reconstruct: false,
+        hidden: false,
+        sky_refine: false,
+        sky_portals: false,
+        noise_check: false,
+        smoothing: false,
+        sky_smoothing: false,
+    };
+
+    /// The terms a solve may switch off by itself where a sample of their
+    /// work says they change too little ([`crate::solver::SolveParams::pay_share`]);
+    /// `on = [...]` in `[settings]` or `--on` forces one on.
+    pub const DECIDED: [&'static str; 3] = ["near_emitters", "near_sky", "near_gather"];
 
     /// The terms' names, as the scene file and the command line write them.
     pub const NAMES: [&'static str; 13] = [
@@ -126,6 +155,20 @@ impl Terms {
             t.set(name, false)?;
         }
         Ok(t)
+    }
+
+    /// As a set of names: `on` and nothing else (`Terms::NONE` with them set).
+    pub fn with_on<'a>(on: impl IntoIterator<Item = &'a str>) -> Result<Terms, String> {
+        let mut t = Terms::NONE;
+        for name in on {
+            t.set(name, true)?;
+        }
+        Ok(t)
+    }
+
+    /// The names of the terms that are on.
+    pub fn on(&self) -> Vec<&'static str> {
+        Terms::NAMES.into_iter().filter(|n| self.get(n) == Some(true)).collect()
     }
 
     /// The names of the terms that are off.

@@ -26,11 +26,21 @@
 //! smooth surface (same origin, normal and frame), re-assigns those that
 //! hit a split triangle to the piece holding the hit point with one
 //! triangle test, and traces only the new vertices' rays and those of
-//! crease, border and touching vertices. The links equal a fresh shoot of
-//! the refined scene bit for bit (`tests/refine.rs`). The other traced
-//! parts (light and emitter links, sky, near field, final gather) are
-//! traced anew each round, and a GPU solver's rounds shoot every ray (the
-//! GPU records no hits).
+//! crease and border vertices whose one-ring was split, and touching vertices. The links equal a fresh shoot of
+//! the refined scene bit for bit (`tests/refine.rs`). A round that may
+//! still mark edges traces only the parts its marks read, the direct
+//! light's ([`Part::SOURCES`]: light links, emitter links at a quarter
+//! of their samples ([`SolveParams::marking`]), the sky's rays, traced
+//! anew each round), and solves without the near-field
+//! terms and the noise check; the round that marks nothing traces those
+//! ([`Part::NEAR_AND_NOISE`]) on the final mesh and solves again, so the
+//! result is a fresh solve of the final mesh. A GPU solver's rounds shoot
+//! every ray (the GPU records no hits).
+//!
+//! The budget ([`refine::RefineSettings::max_added`]) is room beyond the
+//! input's positions: a round that would pass it splits the edges whose
+//! ends differ most up to it ([`Round::wanted`] against
+//! [`Round::marked`]) and a note says so.
 //!
 //! Deviations from the issue's design: the indicator is the corners'
 //! difference, so a feature wholly inside one triangle of length `L` is
@@ -40,6 +50,7 @@
 //! test box a point light moved corner to corner reads the same block
 //! error, 0.025, as on a mesh refined for its new place).
 
+use super::traced::Part;
 use super::{Compute, SolveParams, Solver};
 use crate::links::{reassign_links, Lineage, ReassignStats};
 use crate::render::exposure::luminance;
@@ -60,8 +71,11 @@ pub struct Round {
     pub vertices: usize,
     /// Triangles of the scene solved in this round.
     pub triangles: usize,
-    /// Edges this round's solution marked for splitting (0 in the last).
+    /// Edges this round's solution marked and split (0 in the last).
     pub marked: usize,
+    /// Edges this round's solution marked; more than [`Round::marked`]
+    /// where the budget cut the round (a note says so).
+    pub wanted: usize,
     /// Link rays traced in this round, and carried over from the round
     /// before without tracing ([`crate::links::reassign`]; 0 in the first).
     pub rays_traced: u64,
@@ -97,6 +111,9 @@ pub struct Plan {
     pub target: f32,
     /// Whether any refinement runs (`refine = "auto"` and a coarse mesh).
     pub refining: bool,
+    /// Most positions the refined scene may hold: the input's positions
+    /// plus the budget ([`refine::RefineSettings::max_added`]).
+    pub max_positions: usize,
 }
 
 impl Plan {
@@ -106,7 +123,8 @@ impl Plan {
         let target = settings.target_edge(desc);
         let coarse = refine::coarse_meshes(desc, target);
         let refining = settings.mode == RefineMode::Auto && coarse.contains(&true);
-        Plan { coarse, target, refining }
+        let max_positions = positions(desc) + settings.max_added as usize;
+        Plan { coarse, target, refining, max_positions }
     }
 }
 
@@ -137,16 +155,20 @@ pub fn solve_planned(
     // On the CPU the rounds record every ray's hit, so the next round carries them over.
     let carry = plan.refining && matches!(compute, Compute::Cpu);
     let mut t = Instant::now();
+    // A round that may mark edges traces only what its marks read; the
+    // near field and the noise check are traced once, on the final mesh.
+    let (parts, round_params): (&[Part], _) =
+        if plan.refining { (&Part::SOURCES, params.marking()) } else { (&Part::ALL, params) };
     let mut solver = if carry {
-        Solver::recording(prepared, params, progress)
+        Solver::recording(prepared, round_params, progress, parts)
     } else {
-        Solver::new_on(prepared, params, compute, progress)?
+        Solver::new_tracing(prepared, round_params, compute, progress, parts)?
     };
     let mut carried = all_traced(&solver);
     loop {
         let ts = Instant::now();
-        let solution = solver.solve();
-        let solve_ms = ts.elapsed().as_secs_f64() * 1e3;
+        let mut solution = solver.solve();
+        let mut solve_ms = ts.elapsed().as_secs_f64() * 1e3;
         let s = solver.scene();
         let mut round = Round {
             vertices: s.vertex_count(),
@@ -164,7 +186,7 @@ pub fn solve_planned(
         };
         // Within the budget: the edges whose ends differ most first (an
         // edge indexed twice, as in two OBJ groups, adds two positions).
-        let budget = settings.max_vertices as usize;
+        let budget = plan.max_positions;
         let mut take = budget.saturating_sub(positions(&current)).min(marks.len());
         let mut next = None;
         while take > 0 {
@@ -177,15 +199,42 @@ pub fn solve_planned(
             }
             take = take.saturating_sub(over);
         }
-        round.marked = take;
-        round.ms = t.elapsed().as_secs_f64() * 1e3;
-        rounds.push(round);
+        (round.marked, round.wanted) = (take, marks.len());
+        if take < marks.len() {
+            log::info!(
+                "the refinement budget (refine_max_added = {}) cut round {}'s splits to {take} of {} marked \
+                 edges at {} positions; the light is interpolated across the rest",
+                settings.max_added,
+                rounds.len() + 1,
+                marks.len(),
+                positions(&current)
+            );
+        }
         let Some((next, parents)) = next else {
+            if plan.refining {
+                // The final mesh: the parts the rounds left out (and the
+                // emitter links at full samples), and its solve.
+                let full = params.staged();
+                let mut parts = Part::NEAR_AND_NOISE.to_vec();
+                if full.emitter != solver.params.emitter {
+                    parts.insert(0, Part::Emitters);
+                }
+                solver.params = full;
+                solver.retrace(&parts);
+                let ts = Instant::now();
+                solution = solver.solve();
+                solve_ms += ts.elapsed().as_secs_f64() * 1e3;
+                round.solve_ms = solve_ms;
+            }
+            round.ms = t.elapsed().as_secs_f64() * 1e3;
+            rounds.push(round);
             if !solver.scene.meshes.iter().any(|m| m.dynamic) {
                 solver.ray_hits = None;
             }
             return Ok(Refined { desc: current, solver, solution, rounds });
         };
+        round.ms = t.elapsed().as_secs_f64() * 1e3;
+        rounds.push(round);
         t = Instant::now();
         let mut prepared = prep::prepare(&next)?;
         prepared.sky = s.sky.clone();
@@ -193,7 +242,7 @@ pub fn solve_planned(
         (solver, carried) = if carry {
             solver.refined(prepared, &parents, progress)
         } else {
-            let solver = Solver::new_on(prepared, params, compute, progress)?;
+            let solver = Solver::new_tracing(prepared, round_params, compute, progress, &Part::SOURCES)?;
             let traced = all_traced(&solver);
             (solver, traced)
         };
@@ -209,17 +258,23 @@ fn all_traced(solver: &Solver) -> ReassignStats {
 impl Solver {
     /// [`Solver::new`] recording every link ray's hit id, which the next
     /// round's [`Solver::refined`] carries over.
-    fn recording(scene: prep::PreparedScene, params: SolveParams, progress: &(dyn Fn(usize, usize) + Sync)) -> Solver {
+    fn recording(
+        scene: prep::PreparedScene,
+        params: SolveParams,
+        progress: &(dyn Fn(usize, usize) + Sync),
+        parts: &[Part],
+    ) -> Solver {
         let params = params.staged();
         let accel = Accel::build(params.tracer, &scene.positions, &scene.triangles, &params.bvh, &params.kd);
-        Solver::on_cpu(scene, params, accel, true, progress)
+        Solver::on_cpu(scene, params, accel, true, progress, parts)
     }
 
     /// The solver of `scene`, prepared from a refinement of this solver's
     /// scene (`parents` from [`refine::split_world_edges`]): kept vertices
     /// carry their rays' hits over, the others trace
-    /// ([`crate::links::reassign`]); then every traced part is traced.
-    /// Needs this solver's ray state (a recording CPU solver).
+    /// ([`crate::links::reassign`]); then the parts a round's marks read
+    /// are traced ([`Part::SOURCES`]). Needs this solver's ray state (a
+    /// recording CPU solver).
     fn refined(
         &self,
         mut scene: prep::PreparedScene,
@@ -227,11 +282,11 @@ impl Solver {
         progress: &(dyn Fn(usize, usize) + Sync),
     ) -> (Solver, ReassignStats) {
         let hits = self.ray_hits.as_ref().expect("a recording solver");
-        let lineage = Lineage::new(&self.scene, &mut scene, parents);
+        let lineage = Lineage::new(&self.scene, &mut scene, parents, self.params.links.nudge);
         let params = self.params.clone();
         let accel = Accel::build(params.tracer, &scene.positions, &scene.triangles, &params.bvh, &params.kd);
         let (links, hits, stats) = reassign_links(&self.scene, hits, &scene, &lineage, &accel, &params.links, progress);
-        (Solver::assemble(scene, params, accel, links, None, Compute::Cpu, Some(hits)), stats)
+        (Solver::assemble(scene, params, accel, links, None, Compute::Cpu, Some(hits), &Part::SOURCES), stats)
     }
 }
 

@@ -79,7 +79,7 @@ impl Solver {
         if !uncovered || e.fallback.is_some() || self.params.emitter.samples == 0 {
             return false;
         }
-        self.retrace(&[Part::Emitters]);
+        self.retrace(&[Part::Emitters, Part::NearEmitters]);
         true
     }
 
@@ -95,7 +95,7 @@ impl Solver {
         if same_portals && !untraced {
             return false;
         }
-        self.retrace(&[Part::Sky]);
+        self.retrace(&[Part::Sky, Part::NearSky]);
         true
     }
 
@@ -111,7 +111,13 @@ impl Solver {
     /// solve; a change to what was traced (links, tracer, structures,
     /// lights, emitters, sky, near field, noise check) rebuilds the solver
     /// on its compute. Returns whether it rebuilt.
-    pub fn set_params(&mut self, params: SolveParams) -> crate::Result<bool> {
+    pub fn set_params(&mut self, mut params: SolveParams) -> crate::Result<bool> {
+        // The terms this solve decided off stay off (`decide.rs`) unless forced on.
+        for d in self.term_decisions().iter().filter(|d| !d.on) {
+            if params.forced.get(d.term) != Some(true) && params.pay_share > 0.0 {
+                params.terms.set(d.term, false).expect("a term name");
+            }
+        }
         let params = params.staged();
         let traced_same = {
             let (a, b) = (&self.params, &params);

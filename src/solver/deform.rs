@@ -161,7 +161,7 @@ impl Solver {
         // what shades it; the sky's refined cells follow the new links'
         // misses, the portals' rays the new positions, the near hits' sky
         // rays the new hits; the noise check is a few hundred vertices.
-        self.retrace(&[Part::Emitters, Part::Sky, Part::NoiseCheck]);
+        self.retrace(&[Part::Emitters, Part::NearEmitters, Part::Sky, Part::NearSky, Part::NoiseCheck]);
         stats.emitter_links_ms = self.traced.emitter_links.ms;
         stats.ray_state_bytes = self.ray_state_bytes();
         stats.ms = start.elapsed().as_secs_f64() * 1e3;
@@ -196,17 +196,17 @@ impl Solver {
         let refitted = self.update_accel(&scene, &params);
         let record = scene.meshes.iter().any(|m| m.dynamic);
         let (Some(g), Compute::Gpu(gc)) = (self.gpu.take(), &compute) else {
-            return (Solver::on_cpu(scene, params, self.accel, record, progress), refitted);
+            return (Solver::on_cpu(scene, params, self.accel, record, progress, &Part::ALL), refitted);
         };
         let label = g.tracer.dev.info.name.clone();
         let logical = vec![LogicalDevice { label, tracer: g.tracer, delay_per_vertex: Default::default() }];
         match Solver::shoot_on_gpu(&scene, &params, logical, gc, progress) {
             Ok((links, hits, gpu)) => {
-                (Solver::assemble(scene, params, self.accel, links, Some(gpu), compute, hits), refitted)
+                (Solver::assemble(scene, params, self.accel, links, Some(gpu), compute, hits, &Part::ALL), refitted)
             }
             Err(e) => {
                 log::warn!("{e}; the deformed scene is solved on the CPU");
-                (Solver::on_cpu(scene, params, self.accel, record, progress), refitted)
+                (Solver::on_cpu(scene, params, self.accel, record, progress, &Part::ALL), refitted)
             }
         }
     }

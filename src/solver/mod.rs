@@ -40,6 +40,7 @@ use traced::{Part, Traced};
 pub mod adaptive;
 mod change;
 mod compute;
+mod decide;
 mod deform;
 mod derived;
 mod params;
@@ -48,6 +49,7 @@ mod stats;
 mod traced;
 
 pub use compute::{Compute, GpuCompute, GpuState};
+pub use decide::TermDecision;
 pub use deform::{DeformStats, Preview, PREVIEW_RAYS};
 pub use params::SolveParams;
 pub use solve::Sources;
@@ -71,6 +73,10 @@ pub struct Solver {
     /// dynamic meshes only (selective updates, [`Solver::deform`]).
     ray_hits: Option<RayHits>,
     caches: Caches,
+    /// What the solve decided about the terms of
+    /// [`crate::scene::terms::Terms::DECIDED`] (`decide.rs`); `None` until
+    /// the near-field parts are first traced.
+    decisions: Option<Vec<TermDecision>>,
 }
 
 /// What the solve derives from the links and emitter links, computed on
@@ -95,24 +101,27 @@ impl Solver {
         let params = params.staged();
         let accel = Accel::build(params.tracer, &scene.positions, &scene.triangles, &params.bvh, &params.kd);
         let record = scene.meshes.iter().any(|m| m.dynamic);
-        Solver::on_cpu(scene, params, accel, record, progress)
+        Solver::on_cpu(scene, params, accel, record, progress, &Part::ALL)
     }
 
     /// The CPU solver with `accel` built over `scene`: links (with per-ray
     /// state when `record` is set: scenes with dynamic meshes, refinement
-    /// rounds) and every traced part.
+    /// rounds) and the traced `parts`.
     fn on_cpu(
         scene: PreparedScene,
         params: SolveParams,
         accel: Accel,
         record: bool,
         progress: &(dyn Fn(usize, usize) + Sync),
+        parts: &[Part],
     ) -> Solver {
         let (links, ray_hits) = links::shoot_links_recording(&scene, &accel, &params.links, record, progress);
-        Solver::assemble(scene, params, accel, links, None, Compute::Cpu, ray_hits)
+        Solver::assemble(scene, params, accel, links, None, Compute::Cpu, ray_hits, parts)
     }
 
-    /// A solver of `links` over `scene` with every traced part traced.
+    /// A solver of `links` over `scene` with the traced `parts` traced (the
+    /// others empty until [`Solver::retrace`] traces them).
+    #[allow(clippy::too_many_arguments)]
     fn assemble(
         scene: PreparedScene,
         params: SolveParams,
@@ -121,6 +130,7 @@ impl Solver {
         gpu: Option<GpuState>,
         compute: Compute,
         ray_hits: Option<RayHits>,
+        parts: &[Part],
     ) -> Solver {
         let mut s = Solver {
             scene,
@@ -132,8 +142,9 @@ impl Solver {
             compute,
             ray_hits,
             caches: Caches::default(),
+            decisions: None,
         };
-        s.retrace(&Part::ALL);
+        s.retrace(parts);
         s
     }
 
@@ -147,9 +158,24 @@ impl Solver {
         compute: &Compute,
         progress: &(dyn Fn(usize, usize) + Sync),
     ) -> crate::Result<Solver> {
+        Solver::new_tracing(scene, params, compute, progress, &Part::ALL)
+    }
+
+    /// [`Solver::new_on`] with only the traced `parts` traced.
+    fn new_tracing(
+        scene: PreparedScene,
+        params: SolveParams,
+        compute: &Compute,
+        progress: &(dyn Fn(usize, usize) + Sync),
+        parts: &[Part],
+    ) -> crate::Result<Solver> {
         let params = params.staged();
         let g = match compute {
-            Compute::Cpu => return Ok(Solver::new(scene, params, progress)),
+            Compute::Cpu => {
+                let accel = Accel::build(params.tracer, &scene.positions, &scene.triangles, &params.bvh, &params.kd);
+                let record = scene.meshes.iter().any(|m| m.dynamic);
+                return Ok(Solver::on_cpu(scene, params, accel, record, progress, parts));
+            }
             Compute::Gpu(g) => g,
         };
         let first = g.devices.first().ok_or_else(|| crate::Error::Gpu("no GPU device to solve on".into()))?;
@@ -181,7 +207,7 @@ impl Solver {
             }
         }
         let (links, ray_hits, gpu) = Solver::shoot_on_gpu(&scene, &params, logical, g, progress)?;
-        Ok(Solver::assemble(scene, params, accel, links, Some(gpu), compute.clone(), ray_hits))
+        Ok(Solver::assemble(scene, params, accel, links, Some(gpu), compute.clone(), ray_hits, parts))
     }
 
     /// The links of `scene` shot on `logical` (their tracers walking the
@@ -203,13 +229,29 @@ impl Solver {
         Ok((links, ray_hits, GpuState { tracer, links: gpu_links, shares }))
     }
 
-    /// Traces `parts` again for the current scene and links.
+    /// Traces `parts` again for the current scene and links. The first
+    /// time near-field parts are traced, the terms of
+    /// [`crate::scene::terms::Terms::DECIDED`] are decided first (after
+    /// the sources among `parts`; `decide.rs`).
     fn retrace(&mut self, parts: &[Part]) {
+        let decided = [Part::NearEmitters, Part::NearSky, Part::NearGather];
+        if self.decisions.is_none() && parts.iter().any(|p| decided.contains(p)) {
+            let (sources, rest): (Vec<Part>, Vec<Part>) = parts.iter().partition(|p| Part::SOURCES.contains(p));
+            self.retrace(&sources);
+            self.decisions = Some(self.decide_terms());
+            return self.retrace(&rest);
+        }
         let t = Tracers::of(&self.gpu, &self.accel);
         self.traced.trace(parts, &self.scene, &self.links, &self.params, t);
         if parts.contains(&Part::Emitters) {
             self.emitters_changed();
         }
+    }
+
+    /// What the solve decided about the near-field terms it may leave out
+    /// (empty: none decided: no near hits, every such term off or forced, or `pay_share` 0).
+    pub fn term_decisions(&self) -> &[TermDecision] {
+        self.decisions.as_deref().unwrap_or(&[])
     }
 
     /// Drops what was derived from the links (the hidden vertices'

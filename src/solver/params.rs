@@ -26,6 +26,14 @@ pub struct SolveParams {
     /// every optional stage ([`Terms`]); [`SolveParams::staged`] applies it
     /// to the stages' parameters.
     pub terms: Terms,
+    /// Terms kept on whatever a sample of their work says (none by default).
+    pub forced: Terms,
+    /// The least RMS share by which a term of [`Terms::DECIDED`] must move
+    /// the light of a sample of the vertices with near hits to be traced
+    /// for all of them (`solver/decide.rs`); 0 keeps every term. Higher:
+    /// faster solves of scenes whose near field changes little, and small
+    /// local errors left where a term would have corrected them.
+    pub pay_share: f32,
     /// The CPU structure rays go through (the GPU path always walks its kd-tree).
     pub tracer: TracerKind,
     /// The wide BVH of `tracer = bvh`.
@@ -65,6 +73,8 @@ impl Default for SolveParams {
     fn default() -> Self {
         SolveParams {
             terms: Terms::ALL,
+            forced: Terms::NONE,
+            pay_share: 0.0,
             tracer: TracerKind::default(),
             bvh: BvhBuildParams::default(),
             kd: KdBuildParams::default(),
@@ -91,6 +101,7 @@ impl SolveParams {
         p.links.rays_per_vertex = s.rays_per_vertex;
         p.links.seed = s.seed;
         p.terms = s.terms;
+        p.forced = s.forced;
         // Emitters' direct light as many rays as the links (at least 64): its noise falls with theirs.
         p.emitter.samples = s.rays_per_vertex.max(64);
         // Sky portals' rays likewise scale with the links'.
@@ -147,6 +158,17 @@ impl SolveParams {
         self.links.seed
     }
 
+    /// What a refinement round that may still mark edges traces its
+    /// sources with ([`crate::solver::adaptive`]): these parameters with a
+    /// quarter of the emitter links' samples (at least 16). A round's marks
+    /// compare an edge's ends to a tolerance of 25%, far above the
+    /// visibility noise of 64 samples; the final mesh is traced with these
+    /// parameters unchanged.
+    pub fn marking(mut self) -> SolveParams {
+        self.emitter.samples = (self.emitter.samples / 4).max(16).min(self.emitter.samples);
+        self
+    }
+
     /// A quick preview: 16 rays a vertex, no near-field terms, no noise
     /// check, emitter links at 16 samples; for a first picture in well
     /// under a second on scenes of 100k vertices.
@@ -161,11 +183,12 @@ impl SolveParams {
     }
 
     /// Reference quality: 1024 rays a vertex, auto bounces, every
-    /// correction on, emitter links with as many samples as link rays.
+    /// correction on (none decided off), emitter links with as many samples as link rays.
     pub fn reference() -> SolveParams {
         let mut p = SolveParams::default();
         p.links.rays_per_vertex = 1024;
         p.emitter.samples = 1024;
+        p.pay_share = 0.0;
         p.gather.bounces = crate::scene::Bounces::Auto;
         p.sky.portal = crate::sky::PortalParams::for_link_rays(1024);
         p

@@ -218,7 +218,7 @@ impl Solver {
     /// for the gathered `E_i` `gathered` (control variate included) of the
     /// sources `src`, with the hidden vertices' `stand_ins`; empty without
     /// near hits.
-    fn near_later(&self, src: &Sources, gathered: &[Vec3], stand_ins: &[StandIn]) -> Vec<Vec3> {
+    pub(super) fn near_later(&self, src: &Sources, gathered: &[Vec3], stand_ins: &[StandIn]) -> Vec<Vec3> {
         use exchange::near::NearTerm;
         if self.traced.near.gather.is_empty() {
             return Vec::new();

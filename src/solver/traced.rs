@@ -1,10 +1,12 @@
 //! Everything a solve reads that is traced beside the links, in one list
-//! ([`Part`]): the light links, the emitter links (with the emitters' near
-//! field, which reads them), the sky's rays (with the sky's near field),
-//! the lights' near field, the final gather at near hits, and the noise
-//! check. Building a solver traces every part ([`Part::ALL`]); a
-//! deformation retraces the parts it does not update selectively; an
-//! emission or sky edit retraces only its own part. Each part runs on the
+//! ([`Part`]): the light links, the emitter links, the sky's rays, the
+//! four near-hit terms (lights, emitters, sky, final gather) and the noise
+//! check. Building a solver traces every part ([`Part::ALL`]); the
+//! refinement rounds before the last trace only what marking edges reads
+//! ([`Part::SOURCES`], `adaptive.rs`) and the last one the rest
+//! ([`Part::NEAR_AND_NOISE`]); a deformation retraces the parts it does
+//! not update selectively; an emission or sky edit retraces only its own
+//! parts (a near term after the source it reads). Each part runs on the
 //! GPU tracer when the solver has one, else (or when it fails) on the CPU
 //! structure ([`super::compute::Tracers::any`]). Which parts the CPU structure traced is kept
 //! ([`Traced::on_cpu`]), so a solve can say how many of its rays ran on
@@ -13,7 +15,7 @@
 use super::compute::Tracers;
 use super::SolveParams;
 use crate::exchange::{EmitterLinks, LightLinks, NearEmitters, NearField, NearGather, NearLight, NearSky, NoiseCheck};
-use crate::links::Links;
+use crate::links::{Links, NearHits};
 use crate::scene::prep::PreparedScene;
 use crate::sky::rays::portals_of;
 use crate::sky::SkyRays;
@@ -33,7 +35,7 @@ pub struct Traced {
     pub noise_check: NoiseCheck,
     /// Per part (in [`Part::ALL`] order): whether the CPU structure traced
     /// some of its current rays ([`Traced::cpu_rays`]).
-    pub on_cpu: [bool; 6],
+    pub on_cpu: [bool; 8],
 }
 
 /// One traced part.
@@ -41,12 +43,16 @@ pub struct Traced {
 pub enum Part {
     /// The light links.
     LightLinks,
-    /// The emitter links and the emitters' near field.
+    /// The emitter links.
     Emitters,
-    /// The sky's rays and the sky's near field.
+    /// The sky's rays (refined cells and portal samples).
     Sky,
     /// The lights' near field.
     NearLight,
+    /// The emitters' near field (reads the emitter links: traced after them).
+    NearEmitters,
+    /// The sky's near field.
+    NearSky,
     /// The final gather at near hits.
     NearGather,
     /// The noise check.
@@ -55,8 +61,25 @@ pub enum Part {
 
 impl Part {
     /// Every part, in the order they are traced.
-    pub const ALL: [Part; 6] =
-        [Part::LightLinks, Part::Emitters, Part::Sky, Part::NearLight, Part::NearGather, Part::NoiseCheck];
+    pub const ALL: [Part; 8] = [
+        Part::LightLinks,
+        Part::Emitters,
+        Part::Sky,
+        Part::NearLight,
+        Part::NearEmitters,
+        Part::NearSky,
+        Part::NearGather,
+        Part::NoiseCheck,
+    ];
+
+    /// The direct light's parts: what a solve needs for every vertex's
+    /// irradiance without the near-field corrections and the noise
+    /// check's calibration (a refinement round's marks read this).
+    pub const SOURCES: [Part; 3] = [Part::LightLinks, Part::Emitters, Part::Sky];
+
+    /// The parts [`Part::SOURCES`] leaves out.
+    pub const NEAR_AND_NOISE: [Part; 5] =
+        [Part::NearLight, Part::NearEmitters, Part::NearSky, Part::NearGather, Part::NoiseCheck];
 
     /// The part's place in [`Part::ALL`].
     pub fn index(self) -> usize {
@@ -67,7 +90,21 @@ impl Part {
 impl Traced {
     /// Traces `parts` of `scene` with `links` into `self`.
     pub fn trace(&mut self, parts: &[Part], scene: &PreparedScene, links: &Links, params: &SolveParams, t: Tracers) {
-        let (near, rays, seed) = (&links.near, params.links.rays_per_vertex, params.seed());
+        self.trace_from(parts, scene, links, &links.near, params, t)
+    }
+
+    /// [`Traced::trace`] with the near-field parts traced from the near
+    /// hits `near` (the links' own, or a sample of them: `decide.rs`).
+    pub fn trace_from(
+        &mut self,
+        parts: &[Part],
+        scene: &PreparedScene,
+        links: &Links,
+        near: &NearHits,
+        params: &SolveParams,
+        t: Tracers,
+    ) {
+        let (rays, seed) = (params.links.rays_per_vertex, params.seed());
         for part in parts {
             t.take_cpu_used();
             match part {
@@ -78,6 +115,8 @@ impl Traced {
                 Part::Emitters => {
                     self.emitter_links =
                         t.any("tracing emitter links", |tr| EmitterLinks::compute(scene, tr, &params.emitter, seed));
+                }
+                Part::NearEmitters => {
                     let e = &self.emitter_links;
                     self.near.emitters = t.any("tracing near-hit emitter light", |tr| {
                         NearEmitters::compute(scene, near, e, tr, &params.near_emitter, seed, rays)
@@ -87,6 +126,8 @@ impl Traced {
                     self.sky = t.any("tracing sky rays", |tr| {
                         SkyRays::trace(scene, tr, &links.sky, &params.links, &params.sky)
                     });
+                }
+                Part::NearSky => {
                     self.near.sky = if scene.sky.is_none() {
                         NearSky::default()
                     } else {
@@ -122,9 +163,11 @@ impl Traced {
         let n = &self.near;
         let rays = |part: Part| match part {
             Part::LightLinks => self.light_links.shadow_rays,
-            Part::Emitters => self.emitter_links.shadow_rays + n.emitters.cost().rays,
-            Part::Sky => self.sky.refine.rays + self.sky.portals.rays + n.sky.cost().rays,
+            Part::Emitters => self.emitter_links.shadow_rays,
+            Part::Sky => self.sky.refine.rays + self.sky.portals.rays,
             Part::NearLight => n.light.cost().rays,
+            Part::NearEmitters => n.emitters.cost().rays,
+            Part::NearSky => n.sky.cost().rays,
             Part::NearGather => n.gather.cost().rays,
             Part::NoiseCheck => self.noise_check.rays,
         };
