@@ -26,6 +26,7 @@
 //! selective updates ([`selective`]).
 
 pub mod assemble;
+pub mod buried;
 pub mod merge;
 pub mod near;
 pub mod packed;

@@ -15,7 +15,8 @@
 //! so the links, near hits and sky visibility are a full shoot's.
 //!
 //! A vertex is *kept* ([`Lineage::new`]) when it is an old vertex at the
-//! same position with the same ray origin to the bit (inside a smooth
+//! same position, not buried ([`super::buried`]: its origin moved by a
+//! probe of its faces), with the same ray origin to the bit (inside a smooth
 //! surface the origin is the position; crease and border vertices are
 //! nudged by their one-ring, which a split next to them changes, so they
 //! are kept where their ring was not split), its normal moved by
@@ -105,7 +106,11 @@ impl Lineage {
                 }
                 let (v, w) = (v as usize, w as usize);
                 colour[w] = Some(old.colours[v]);
+                let buried =
+                    |s: &PreparedScene, x: usize| s.moved_origins.binary_search_by_key(&(x as u32), |e| e.0).is_ok();
                 if old.boundary[v] == scene.boundary[w]
+                    && !buried(old, v)
+                    && !buried(scene, w)
                     && old.positions[v] == scene.positions[w]
                     && (old.normals[v] - scene.normals[w]).length() < KEPT_NORMAL
                 {

@@ -7,7 +7,9 @@
 //! shoots from a point moved `nudge * l` (l: mean incident edge length)
 //! toward its own one-ring along the surface and the same distance off it
 //! along the normal, so rays aimed at the face group on the other side of
-//! the crease land on it instead of slipping through at `t = 0`.
+//! the crease land on it instead of slipping through at `t = 0`. A buried
+//! vertex (inside another part of the model) shoots from a point of its
+//! own faces out in the open ([`super::buried`]).
 //!
 //! Rays under the surface: the vertex normal is an average, so on a concave
 //! (or saddle) vertex a grazing direction can lie above the tangent plane
@@ -318,8 +320,18 @@ pub fn dive_share(scene: &PreparedScene, v: usize) -> f32 {
     scene.vertex_triangles.row(v).iter().map(|&t| Wedge::of(scene, v, t).dive_share(n)).sum()
 }
 
-/// The ray origin of vertex `v` (see the module doc).
+/// The ray origin of vertex `v` (see the module doc): a buried vertex's
+/// point in the open ([`super::buried`]), else [`plain_origin`].
 pub fn ray_origin(scene: &PreparedScene, v: usize, nudge: f32) -> Vec3 {
+    match scene.moved_origins.binary_search_by_key(&(v as u32), |e| e.0) {
+        Ok(i) => scene.moved_origins[i].1,
+        Err(_) => plain_origin(scene, v, nudge),
+    }
+}
+
+/// The ray origin of vertex `v` at its position: the position itself, or
+/// nudged into its faces and off them at a crease or border (module doc).
+pub fn plain_origin(scene: &PreparedScene, v: usize, nudge: f32) -> Vec3 {
     let p = scene.positions[v];
     if !scene.boundary[v] {
         return p;

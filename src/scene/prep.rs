@@ -92,6 +92,10 @@ pub struct PreparedScene {
     pub position_id: Vec<u32>,
     /// Crease or border vertex (its ray origin is nudged).
     pub boundary: Vec<bool>,
+    /// Buried vertices' ray origins, by vertex ascending: a point of their
+    /// own faces out in the open ([`crate::links::buried`]); set by the
+    /// solver when it builds (empty until then).
+    pub moved_origins: Vec<(u32, Vec3)>,
     /// One-ring: neighbouring solver vertices, sorted.
     pub rings: Csr,
     /// Triangles incident to each solver vertex.
@@ -443,6 +447,7 @@ pub fn prepare(scene: &SceneDesc) -> Result<PreparedScene> {
         triangles: vec![],
         position_id: vec![],
         boundary: vec![],
+        moved_origins: vec![],
         rings: Csr::default(),
         vertex_triangles: Csr::default(),
         colours: vec![],

@@ -282,9 +282,10 @@ impl Solver {
         progress: &(dyn Fn(usize, usize) + Sync),
     ) -> (Solver, ReassignStats) {
         let hits = self.ray_hits.as_ref().expect("a recording solver");
-        let lineage = Lineage::new(&self.scene, &mut scene, parents, self.params.links.nudge);
         let params = self.params.clone();
         let accel = Accel::build(params.tracer, &scene.positions, &scene.triangles, &params.bvh, &params.kd);
+        scene.moved_origins = crate::links::buried::find(&scene, &accel, params.links.nudge);
+        let lineage = Lineage::new(&self.scene, &mut scene, parents, self.params.links.nudge);
         let (links, hits, stats) = reassign_links(&self.scene, hits, &scene, &lineage, &accel, &params.links, progress);
         (Solver::assemble(scene, params, accel, links, None, Compute::Cpu, Some(hits), &Part::SOURCES), stats)
     }

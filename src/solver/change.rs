@@ -111,14 +111,8 @@ impl Solver {
     /// solve; a change to what was traced (links, tracer, structures,
     /// lights, emitters, sky, near field, noise check) rebuilds the solver
     /// on its compute. Returns whether it rebuilt.
-    pub fn set_params(&mut self, mut params: SolveParams) -> crate::Result<bool> {
-        // The terms this solve decided off stay off (`decide.rs`) unless forced on.
-        for d in self.term_decisions().iter().filter(|d| !d.on) {
-            if params.forced.get(d.term) != Some(true) && params.pay_share > 0.0 {
-                params.terms.set(d.term, false).expect("a term name");
-            }
-        }
-        let params = params.staged();
+    pub fn set_params(&mut self, params: SolveParams) -> crate::Result<bool> {
+        let params = self.with_decisions(params).staged();
         let traced_same = {
             let (a, b) = (&self.params, &params);
             a.tracer == b.tracer

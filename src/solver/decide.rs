@@ -170,6 +170,18 @@ impl Solver {
         out
     }
 
+    /// `params` with the terms this solver decided off turned off (unless
+    /// `params` force them on or decide nothing): what a change of
+    /// parameters or a deformation keeps, so they trace none of it.
+    pub(super) fn with_decisions(&self, mut params: super::SolveParams) -> super::SolveParams {
+        for d in self.term_decisions().iter().filter(|d| !d.on) {
+            if params.forced.get(d.term) != Some(true) && params.pay_share > 0.0 {
+                params.terms.set(d.term, false).expect("a term name");
+            }
+        }
+        params
+    }
+
     /// The correction at every vertex (W/m^2; empty: none) of the near
     /// terms in `near` alone, for the sources and bounces of the solution
     /// `s0` (solved without near-field terms): what they would add to

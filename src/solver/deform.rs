@@ -80,7 +80,8 @@ impl Solver {
         progress: &(dyn Fn(usize, usize) + Sync),
     ) -> (Solver, DeformStats) {
         let start = Instant::now();
-        let params = params.staged();
+        let params = self.with_decisions(params).staged();
+        let scene = self.keeping_moved_origins(scene);
         let same = self.ray_hits.is_some()
             && params.links == self.params.links
             && params.tracer == self.params.tracer
@@ -168,6 +169,16 @@ impl Solver {
         (self, stats)
     }
 
+    /// `scene` (this solver's deformed) with the buried vertices' ray
+    /// origins of this solver's scene: the probe reads static meshes only
+    /// ([`crate::links::buried`]), which a deformation does not move.
+    fn keeping_moved_origins(&self, mut scene: PreparedScene) -> PreparedScene {
+        if scene.triangles == self.scene.triangles {
+            scene.moved_origins = self.scene.moved_origins.clone();
+        }
+        scene
+    }
+
     /// The solver of `scene`, a deformation of this solver's scene (same
     /// vertices and triangles, new positions), with `params`, rebuilt in
     /// full: with an unchanged tracer and triangles the structure is
@@ -183,7 +194,8 @@ impl Solver {
         params: SolveParams,
         progress: &(dyn Fn(usize, usize) + Sync),
     ) -> (Solver, bool) {
-        let params = params.staged();
+        let params = self.with_decisions(params).staged();
+        let scene = self.keeping_moved_origins(scene);
         let same_mesh = self.scene.triangles == scene.triangles
             && params.tracer == self.params.tracer
             && params.bvh == self.params.bvh

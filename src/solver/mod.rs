@@ -108,13 +108,14 @@ impl Solver {
     /// state when `record` is set: scenes with dynamic meshes, refinement
     /// rounds) and the traced `parts`.
     fn on_cpu(
-        scene: PreparedScene,
+        mut scene: PreparedScene,
         params: SolveParams,
         accel: Accel,
         record: bool,
         progress: &(dyn Fn(usize, usize) + Sync),
         parts: &[Part],
     ) -> Solver {
+        scene.moved_origins = links::buried::find(&scene, &accel, params.links.nudge);
         let (links, ray_hits) = links::shoot_links_recording(&scene, &accel, &params.links, record, progress);
         Solver::assemble(scene, params, accel, links, None, Compute::Cpu, ray_hits, parts)
     }
@@ -186,6 +187,8 @@ impl Solver {
                 Accel::build(TracerKind::Bvh, &scene.positions, &scene.triangles, &params.bvh, &params.kd)
             }
         };
+        let mut scene = scene;
+        scene.moved_origins = links::buried::find(&scene, &accel, params.links.nudge);
         let mut logical = Vec::new();
         for dev in &g.devices {
             for i in 0..g.logical_per_device {
