@@ -296,12 +296,15 @@ fn a_sky_on_a_scene_without_one_traces_its_rays_once() {
     let mut sky0 = desc.sky.take().expect("window has a sky");
     sky0.portals.clear();
     let scene = prep::prepare(&desc).unwrap();
-    let params = SolveParams::from_settings(&scene.settings);
+    // Every near term kept (`pay_share` 0): a solver decides its terms when
+    // it is built, by the light it has then (no sky here), and a fresh
+    // solve of the edited scene decides by its own.
+    let params = SolveParams { pay_share: 0.0, ..SolveParams::from_settings(&scene.settings) };
     let mut e = Engine::start(scene.clone(), params, Compute::Cpu, EngineParams::default()).expect("the worker starts");
     assert!(e.wait_idle(WAIT));
     let c0 = e.counters();
     let fresh = |scene: &prep::PreparedScene| {
-        let s = Solver::new(scene.clone(), SolveParams::from_settings(&scene.settings), &|_, _| {});
+        let s = Solver::new(scene.clone(), params, &|_, _| {});
         s.validate().expect("every structure valid");
         assert!(s.near().sky.traced && s.near().sky.cost.rays > 0);
         s.solve()

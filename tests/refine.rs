@@ -216,7 +216,10 @@ fn refinement_finds_the_shadows_of_a_coarse_box() {
 /// kept vertices' normals within rounding, their colours carried).
 #[test]
 fn carried_hits_equal_a_fresh_solve_of_the_refined_mesh() {
-    let (desc, _) = coarse_cornell(RefineSettings::default());
+    let (mut desc, _) = coarse_cornell(RefineSettings::default());
+    // Every decided term forced on, so every part is traced and compared
+    // (on this box the emitters' near field moves the light by under 2%).
+    desc.settings.forced = linkgi::scene::terms::Terms::with_on(linkgi::scene::terms::Terms::DECIDED).unwrap();
     let r = solve(&desc);
     assert!(r.rounds.len() >= 2, "the error-driven rounds split something");
     for (i, round) in r.rounds.iter().enumerate() {
@@ -266,6 +269,7 @@ fn carried_hits_equal_a_fresh_solve_of_the_refined_mesh() {
     assert_eq!(na.light.columns, nb.light.columns, "near light");
     assert_eq!(r.solver.noise_check().rays, fresh.noise_check().rays, "noise check");
     assert_eq!(r.solver.term_decisions(), fresh.term_decisions(), "the same terms decided");
+    assert!(r.solver.term_decisions().iter().all(|d| d.on && d.forced), "forced terms stay on");
     let (sa, sb) = (&r.solution, fresh.solve());
     assert_eq!(sa.e_indirect, sb.e_indirect, "the solutions");
     // The same mesh as a fresh preparation of the refined scene.
@@ -439,4 +443,41 @@ fn the_cli_refines_and_its_flags_hold() {
     let (off, note) = solve(&["--refine", "off"]);
     assert_eq!(off, 24, "8 corners, each split three ways at the creases");
     assert!(!note.contains("refined"), "{note}");
+}
+
+/// Term decisions (`solver/decide.rs`): deterministic for a scene and
+/// seed, a term that changes the sampled light by less than `pay_share`
+/// is left out (not traced), `on = [...]` keeps it, `pay_share` 0 keeps all.
+#[test]
+fn terms_that_do_not_pay_are_left_out_and_forced_ones_stay() {
+    use linkgi::exchange::near::NearTerm;
+    let (desc, _) = coarse_cornell(RefineSettings::off());
+    let scene = linkgi::scene::prep::prepare(&desc).unwrap();
+    let build = |params: linkgi::solver::SolveParams| linkgi::solver::Solver::new(scene.clone(), params, &|_, _| {});
+    let base = linkgi::solver::SolveParams::from_settings(&scene.settings);
+    let (a, b) = (build(base), build(base));
+    assert_eq!(a.term_decisions(), b.term_decisions(), "deterministic");
+    let d = a.term_decisions();
+    assert!(!d.is_empty(), "the lamp's box has near terms to decide");
+    for x in d {
+        eprintln!("{}", x.describe());
+        assert_eq!(x.on, x.change >= base.pay_share, "{x:?}");
+        let traced = match x.term {
+            "near_emitters" => !a.near().emitters.is_empty(),
+            "near_gather" => !a.near().gather.is_empty(),
+            _ => !a.near().sky.is_empty(),
+        };
+        assert_eq!(traced, x.on, "{}: traced only when kept", x.term);
+    }
+    // A threshold above every change: all left out; forced: kept.
+    let high = linkgi::solver::SolveParams { pay_share: 10.0, ..base };
+    assert!(build(high).term_decisions().iter().all(|x| !x.on));
+    let mut forced = high;
+    forced.forced.set("near_gather", true).unwrap();
+    let f = build(forced);
+    let g = f.term_decisions().iter().find(|x| x.term == "near_gather").expect("decided");
+    assert!(g.on && g.forced && !f.near().gather.is_empty(), "{g:?}");
+    // pay_share 0: nothing decided, every term traced.
+    let all = build(linkgi::solver::SolveParams { pay_share: 0.0, ..base });
+    assert!(all.term_decisions().is_empty() && !all.near().gather.is_empty());
 }

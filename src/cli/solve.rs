@@ -196,6 +196,21 @@ pub fn run(args: SolveArgs) -> Result<()> {
             refined.rounds.len(),
             list.join(" -> ")
         );
+        for (i, r) in refined.rounds.iter().enumerate() {
+            println!(
+                "  round {}        {} vertices, {} edges split{}: links {:.0} ms ({} rays traced, {} carried), \
+                 solve {:.0} ms, round {:.0} ms",
+                i + 1,
+                r.vertices,
+                r.marked,
+                if r.wanted > r.marked { format!(" of {} marked (budget)", r.wanted) } else { String::new() },
+                r.links_ms,
+                r.rays_traced,
+                r.rays_carried,
+                r.solve_ms,
+                r.ms
+            );
+        }
         let carried: u64 = refined.rounds.iter().map(|r| r.rays_carried).sum();
         let traced: u64 = refined.rounds.iter().map(|r| r.rays_traced).sum();
         if carried > 0 {

@@ -136,7 +136,11 @@ impl Solver {
                 Part::NearSky => probe.near.sky.cost().rays,
                 _ => probe.near.gather.cost().rays,
             };
-            let d = self.correction_of(std::mem::take(&mut probe.near), &s0);
+            if rays == 0 {
+                // Nothing to trace (no emitters, no sky): nothing to decide.
+                continue;
+            }
+            let d = self.correction_of(std::mem::take(&mut probe.near), &sample, &s0);
             let change = if d.is_empty() {
                 0.0
             } else {
@@ -183,11 +187,13 @@ impl Solver {
     }
 
     /// The correction at every vertex (W/m^2; empty: none) of the near
-    /// terms in `near` alone, for the sources and bounces of the solution
+    /// terms in `near` alone, traced from the near hits `hits`, for the sources and bounces of the solution
     /// `s0` (solved without near-field terms): what they would add to
     /// `E_i` in the first bounce or after the bounces.
-    fn correction_of(&mut self, near: NearField, s0: &super::Solution) -> Vec<Vec3> {
+    fn correction_of(&mut self, near: NearField, hits: &NearHits, s0: &super::Solution) -> Vec<Vec3> {
         let saved = std::mem::replace(&mut self.traced.near, near);
+        // The terms read their hits in the order of the hits they were traced from.
+        let all_hits = std::mem::replace(&mut self.links.near, hits.clone());
         let src = self.sources();
         let first = src.e_near.iter().any(|d| *d != Vec3::ZERO);
         let d = if first {
@@ -197,6 +203,7 @@ impl Solver {
             self.near_later(&src, &s0.e_gathered, &stand_ins)
         };
         self.traced.near = saved;
+        self.links.near = all_hits;
         d
     }
 }

@@ -74,7 +74,7 @@ impl Default for SolveParams {
         SolveParams {
             terms: Terms::ALL,
             forced: Terms::NONE,
-            pay_share: 0.0,
+            pay_share: 0.02,
             tracer: TracerKind::default(),
             bvh: BvhBuildParams::default(),
             kd: KdBuildParams::default(),
