@@ -317,7 +317,7 @@ impl Default for Settings {
     fn default() -> Self {
         Self {
             rays_per_vertex: 256,
-            bounces: Bounces::Fixed(3),
+            bounces: Bounces::Auto,
             smoothing_angle_deg: 30.0,
             seed: 1,
             backend: Backend::Auto,

@@ -38,7 +38,7 @@ pub struct GatherParams {
 
 impl Default for GatherParams {
     fn default() -> Self {
-        Self { bounces: Bounces::Fixed(3), tolerance: 1e-4, max_bounces: 100_000 }
+        Self { bounces: Bounces::Auto, tolerance: 1e-4, max_bounces: 100_000 }
     }
 }
 
