@@ -30,11 +30,11 @@
 //! crease and border vertices whose one-ring was split, and touching vertices. The links equal a fresh shoot of
 //! the refined scene bit for bit (`tests/refine.rs`). A round that may
 //! still mark edges traces only the parts its marks read, the direct
-//! light's ([`Part::SOURCES`]: light links, emitter links at a quarter
+//! light's (`Part::SOURCES`: light links, emitter links at a quarter
 //! of their samples ([`SolveParams::marking`]), the sky's rays, traced
 //! anew each round), and solves without the near-field
 //! terms and the noise check; the round that marks nothing traces those
-//! ([`Part::NEAR_AND_NOISE`]) on the final mesh and solves again, so the
+//! (`Part::NEAR_AND_NOISE`) on the final mesh and solves again, so the
 //! result is a fresh solve of the final mesh. A GPU solver's rounds shoot
 //! every ray (the GPU records no hits).
 //!

@@ -47,7 +47,7 @@ use std::time::Instant;
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct NearEmitterParams {
     /// Shadow rays per near hit, spread over the emitter groups by a
-    /// many-light choice ([`group_choice`]; 0: off). A scene's cost no
+    /// many-light choice (`group_choice`; 0: off). A scene's cost no
     /// longer grows with its count of emitters (it was this many per hit
     /// and group: 13 small emitters cost 8.7 rays a hit). `window`, 1024
     /// rays, total relative RMSE against 16384 paths: 1.545% without,
