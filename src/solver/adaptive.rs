@@ -27,8 +27,9 @@
 //! smooth surface (same origin, normal and frame), re-assigns those that
 //! hit a split triangle to the piece holding the hit point with one
 //! triangle test, and traces only the new vertices' rays and those of
-//! crease and border vertices whose one-ring was split, and touching vertices. The links equal a fresh shoot of
-//! the refined scene bit for bit (`tests/refine.rs`). A round that may
+//! crease and border vertices whose one-ring was split, buried and
+//! touching vertices. The links equal a fresh shoot of the refined scene
+//! bit for bit (`tests/refine.rs`). A round that may
 //! still mark edges traces only the parts its marks read, the direct
 //! light's (`Part::SOURCES`: light links, emitter links at a quarter
 //! of their samples ([`SolveParams::marking`]), the sky's rays, traced
@@ -276,9 +277,7 @@ impl Solver {
         progress: &(dyn Fn(usize, usize) + Sync),
         parts: &[Part],
     ) -> Solver {
-        let params = params.staged();
-        let accel = Accel::build(params.tracer, &scene.positions, &scene.triangles, &params.bvh, &params.kd);
-        Solver::on_cpu(scene, params, accel, true, progress, parts)
+        Solver::cpu(scene, params.staged(), true, progress, parts)
     }
 
     /// The solver of `scene`, prepared from a refinement of this solver's
@@ -294,7 +293,7 @@ impl Solver {
         progress: &(dyn Fn(usize, usize) + Sync),
     ) -> (Solver, ReassignStats) {
         let hits = self.ray_hits.as_ref().expect("a recording solver");
-        let params = self.params.clone();
+        let params = self.params;
         let accel = Accel::build(params.tracer, &scene.positions, &scene.triangles, &params.bvh, &params.kd);
         scene.moved_origins = crate::links::buried::find(&scene, &accel, params.links.nudge);
         let lineage = Lineage::new(&self.scene, &mut scene, parents, self.params.links.nudge);

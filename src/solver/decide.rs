@@ -25,14 +25,14 @@
 //!
 //! Deviation from the wording: the rule compares the term's change
 //! with a fixed share rather than with what its time would buy as more
-//! rays or refinement; the figures per term (sampled change, rays
-//! estimated for the full trace) are reported in `solve`'s output so the
-//! choice can be checked.
+//! rays or refinement; the figures per term (the sampled change and the
+//! sample's rays) are reported in `solve`'s output so the choice can be
+//! checked.
 
-use super::traced::{Part, Traced};
+use super::traced::Part;
 use super::{compute::Tracers, Solver};
 use crate::csr::RowBuilder;
-use crate::exchange::near::{NearField, NearTerm};
+use crate::exchange::near::{Bounce, NearField};
 use crate::links::NearHits;
 use crate::render::exposure::luminance;
 use crate::sampling::stream::{splitmix64, unit, Stream};
@@ -87,19 +87,10 @@ impl TermDecision {
     }
 }
 
-/// The part that traces term `name`.
-fn part_of(name: &str) -> Part {
-    match name {
-        "near_emitters" => Part::NearEmitters,
-        "near_sky" => Part::NearSky,
-        _ => Part::NearGather,
-    }
-}
-
 impl Solver {
-    /// Decides the terms of [`Terms::DECIDED`] that are on and not forced
-    /// (module doc), turning off those that do not pay; returns the
-    /// decisions. Needs the sources traced ([`Part::SOURCES`]) and the
+    /// Decides the terms of [`Terms::DECIDED`] that are on and have work
+    /// to trace (module doc), turning off those that do not pay unless
+    /// forced; returns the decisions. Needs the sources traced ([`Part::SOURCES`]) and the
     /// near-field parts not yet traced.
     pub(super) fn decide_terms(&mut self) -> Vec<TermDecision> {
         let p = self.params;
@@ -123,24 +114,17 @@ impl Solver {
         let mut out = Vec::new();
         for name in candidates {
             let forced = p.forced.get(name) == Some(true);
-            let part = part_of(name);
-            let mut probe = Traced {
-                emitter_links: self.traced.emitter_links.clone(),
-                sky: self.traced.sky.clone(),
-                ..Default::default()
-            };
+            let part = Part::of_decided(name).expect("a decided term");
+            // Traced into the solver's own (still empty) near field, then taken out.
             let t = Tracers::of(&self.gpu, &self.accel);
-            probe.trace_from(&[part], &self.scene, &self.links, &sample, &p, t);
-            let rays = match part {
-                Part::NearEmitters => probe.near.emitters.cost().rays,
-                Part::NearSky => probe.near.sky.cost().rays,
-                _ => probe.near.gather.cost().rays,
-            };
+            self.traced.trace_from(&[part], &self.scene, &self.links, &sample, &p, t);
+            let rays = self.traced.rays(part);
+            let probe = std::mem::take(&mut self.traced.near);
             if rays == 0 {
                 // Nothing to trace (no emitters, no sky): nothing to decide.
                 continue;
             }
-            let d = self.correction_of(std::mem::take(&mut probe.near), &sample, &s0);
+            let d = self.correction_of(probe, &sample, &s0);
             let change = if d.is_empty() {
                 0.0
             } else {
@@ -191,16 +175,16 @@ impl Solver {
     /// `s0` (solved without near-field terms): what they would add to
     /// `E_i` in the first bounce or after the bounces.
     fn correction_of(&mut self, near: NearField, hits: &NearHits, s0: &super::Solution) -> Vec<Vec3> {
+        let later = near.terms().iter().any(|t| !t.is_empty() && t.bounce() == Bounce::Later);
         let saved = std::mem::replace(&mut self.traced.near, near);
         // The terms read their hits in the order of the hits they were traced from.
         let all_hits = std::mem::replace(&mut self.links.near, hits.clone());
         let src = self.sources();
-        let first = src.e_near.iter().any(|d| *d != Vec3::ZERO);
-        let d = if first {
-            src.e_near.clone()
-        } else {
+        let d = if later {
             let stand_ins = self.stand_ins();
             self.near_later(&src, &s0.e_gathered, &stand_ins)
+        } else {
+            src.e_near
         };
         self.traced.near = saved;
         self.links.near = all_hits;

@@ -98,10 +98,21 @@ impl Solver {
     /// links (reporting `progress(done, total)` vertices) and every traced
     /// part, on the CPU.
     pub fn new(scene: PreparedScene, params: SolveParams, progress: &(dyn Fn(usize, usize) + Sync)) -> Solver {
-        let params = params.staged();
-        let accel = Accel::build(params.tracer, &scene.positions, &scene.triangles, &params.bvh, &params.kd);
         let record = scene.meshes.iter().any(|m| m.dynamic);
-        Solver::on_cpu(scene, params, accel, record, progress, &Part::ALL)
+        Solver::cpu(scene, params.staged(), record, progress, &Part::ALL)
+    }
+
+    /// The CPU solver of `scene` with staged `params`: its structure
+    /// (`params.tracer`) built, then [`Solver::on_cpu`].
+    fn cpu(
+        scene: PreparedScene,
+        params: SolveParams,
+        record: bool,
+        progress: &(dyn Fn(usize, usize) + Sync),
+        parts: &[Part],
+    ) -> Solver {
+        let accel = Accel::build(params.tracer, &scene.positions, &scene.triangles, &params.bvh, &params.kd);
+        Solver::on_cpu(scene, params, accel, record, progress, parts)
     }
 
     /// The CPU solver with `accel` built over `scene`: links (with per-ray
@@ -164,7 +175,7 @@ impl Solver {
 
     /// [`Solver::new_on`] with only the traced `parts` traced.
     fn new_tracing(
-        scene: PreparedScene,
+        mut scene: PreparedScene,
         params: SolveParams,
         compute: &Compute,
         progress: &(dyn Fn(usize, usize) + Sync),
@@ -173,9 +184,8 @@ impl Solver {
         let params = params.staged();
         let g = match compute {
             Compute::Cpu => {
-                let accel = Accel::build(params.tracer, &scene.positions, &scene.triangles, &params.bvh, &params.kd);
                 let record = scene.meshes.iter().any(|m| m.dynamic);
-                return Ok(Solver::on_cpu(scene, params, accel, record, progress, parts));
+                return Ok(Solver::cpu(scene, params, record, progress, parts));
             }
             Compute::Gpu(g) => g,
         };
@@ -187,7 +197,6 @@ impl Solver {
                 Accel::build(TracerKind::Bvh, &scene.positions, &scene.triangles, &params.bvh, &params.kd)
             }
         };
-        let mut scene = scene;
         scene.moved_origins = links::buried::find(&scene, &accel, params.links.nudge);
         let mut logical = Vec::new();
         for dev in &g.devices {
@@ -237,8 +246,8 @@ impl Solver {
     /// [`crate::scene::terms::Terms::DECIDED`] are decided first (after
     /// the sources among `parts`; `decide.rs`).
     fn retrace(&mut self, parts: &[Part]) {
-        let decided = [Part::NearEmitters, Part::NearSky, Part::NearGather];
-        if self.decisions.is_none() && parts.iter().any(|p| decided.contains(p)) {
+        let decided = |p: &Part| crate::scene::terms::Terms::DECIDED.iter().any(|&n| Part::of_decided(n) == Some(*p));
+        if self.decisions.is_none() && parts.iter().any(decided) {
             let (sources, rest): (Vec<Part>, Vec<Part>) = parts.iter().partition(|p| Part::SOURCES.contains(p));
             self.retrace(&sources);
             self.decisions = Some(self.decide_terms());

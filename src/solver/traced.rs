@@ -81,6 +81,17 @@ impl Part {
     pub const NEAR_AND_NOISE: [Part; 5] =
         [Part::NearLight, Part::NearEmitters, Part::NearSky, Part::NearGather, Part::NoiseCheck];
 
+    /// The near-field part that traces term `name` of
+    /// [`crate::scene::terms::Terms::DECIDED`] (`None` for another name).
+    pub fn of_decided(name: &str) -> Option<Part> {
+        match name {
+            "near_emitters" => Some(Part::NearEmitters),
+            "near_sky" => Some(Part::NearSky),
+            "near_gather" => Some(Part::NearGather),
+            _ => None,
+        }
+    }
+
     /// The part's place in [`Part::ALL`].
     pub fn index(self) -> usize {
         self as usize
@@ -159,9 +170,14 @@ impl Traced {
     /// Rays of the parts the CPU structure traced (all of a part's rays
     /// where it traced some of them): 0 when the GPU tracer served them all.
     pub fn cpu_rays(&self) -> u64 {
+        Part::ALL.iter().filter(|p| self.on_cpu[p.index()]).map(|&p| self.rays(p)).sum()
+    }
+
+    /// Rays `part` traced when it was last traced.
+    pub fn rays(&self, part: Part) -> u64 {
         use crate::exchange::near::NearTerm;
         let n = &self.near;
-        let rays = |part: Part| match part {
+        match part {
             Part::LightLinks => self.light_links.shadow_rays,
             Part::Emitters => self.emitter_links.shadow_rays,
             Part::Sky => self.sky.refine.rays + self.sky.portals.rays,
@@ -170,7 +186,6 @@ impl Traced {
             Part::NearSky => n.sky.cost().rays,
             Part::NearGather => n.gather.cost().rays,
             Part::NoiseCheck => self.noise_check.rays,
-        };
-        Part::ALL.iter().filter(|p| self.on_cpu[p.index()]).map(|&p| rays(p)).sum()
+        }
     }
 }
