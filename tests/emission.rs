@@ -72,7 +72,13 @@ fn emission_adds_linearly_to_light() {
     let scale = common::mean(&both.e_indirect_raw).max_element();
     for v in 0..a.e_indirect_raw.len() {
         let sum = a.e_indirect_raw[v] + b.e_indirect_raw[v];
-        assert!((both.e_indirect_raw[v] - sum).abs().max_element() <= 1e-4 * scale, "vertex {v}");
+        assert!(
+            (both.e_indirect_raw[v] - sum).abs().max_element() <= 1e-4 * scale,
+            "vertex {v}: both {} against lights {} + emission {} (scale {scale})",
+            both.e_indirect_raw[v],
+            a.e_indirect_raw[v],
+            b.e_indirect_raw[v]
+        );
         assert!((b2.e_indirect_raw[v] - 2.0 * b.e_indirect_raw[v]).abs().max_element() <= 1e-4 * scale, "vertex {v}");
     }
     assert!(common::mean(&b.e_indirect_raw).min_element() > 0.0, "the glow lights the room");

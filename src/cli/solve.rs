@@ -171,10 +171,12 @@ pub fn run(args: SolveArgs) -> Result<()> {
         match &e.fallback {
             None if e.is_active() => {
                 println!(
-                    "emitters         {emitters} vertices emit, {} groups: mean direct E {mean:.3} W/m^2, {} shadow rays in {:.1} ms",
+                    "emitters         {emitters} vertices emit, {} groups: mean direct E {mean:.3} W/m^2, {} shadow rays in {:.1} ms ({} of {} vertices in penumbra traced past the pilot)",
                     e.group_vertex.len(),
                     e.shadow_rays,
-                    e.ms
+                    e.ms,
+                    e.penumbra.0,
+                    e.penumbra.1
                 );
                 if !solution.e_cv.is_empty() {
                     let mean_abs = solution.e_cv.iter().map(|d| d.abs().element_sum() / 3.0).sum::<f32>()

@@ -71,7 +71,7 @@ pub fn ray_vertices(setup: &RaySetup) -> Vec<RayVertex> {
 fn merge_batch(
     setup: &RaySetup,
     triangles: &[[u32; 3]],
-    near: &Option<std::sync::Arc<[f32]>>,
+    near: &Option<crate::links::near::NearRule>,
     first: usize,
     record: bool,
     hits: &mut [HitRecord],
@@ -121,7 +121,7 @@ pub fn shoot_links_gpu(
         d.tracer.set_directions(&setup.directions);
     }
     let verts = ray_vertices(&setup);
-    let near = crate::links::near::near_limits(scene, setup.directions.len() as u32, &params.near);
+    let near = crate::links::near::NearRule::new(scene, setup.directions.len() as u32, params);
     let n = verts.len();
     let rays = setup.directions.len();
     let cursor = Mutex::new(0usize);

@@ -9,13 +9,12 @@
 //! merged links as the gathers read them ([`Links::gather_bytes`]).
 
 use super::merge::{merge_vertex_sums, HitRecord, MergeScratch, HIT_MISS};
-use super::near::{NearHit, NearHits};
+use super::near::{NearHit, NearHits, NearRule};
 use super::packed::PackedTargets;
 use super::{LinkStats, Links};
 use crate::sky::visibility::miss_mask;
 use crate::sky::SkyVisibility;
 use half::f16;
-use std::sync::Arc;
 
 /// Bytes of one raw link (u32 target + f32 weight).
 pub const RAW_LINK_BYTES: u64 = 8;
@@ -44,8 +43,8 @@ pub struct GroupRun {
     /// Counters of the run's rays and links.
     pub stats: LinkStats,
     record_sums: bool,
-    /// Per triangle, the distance under which a hit on it is near.
-    near_limits: Option<Arc<[f32]>>,
+    /// Which hits are near and which of them a vertex keeps.
+    near_rule: Option<NearRule>,
     scratch: MergeScratch,
     /// The group being merged.
     targets: Vec<u32>,
@@ -62,10 +61,9 @@ impl GroupRun {
         GroupRun { first, record_sums: true, ..Default::default() }
     }
 
-    /// The run recording near hits under `limits` (per triangle, metres;
-    /// [`super::near::near_limits`]); `None` records none.
-    pub fn with_near(mut self, limits: Option<Arc<[f32]>>) -> GroupRun {
-        self.near_limits = limits;
+    /// The run recording near hits under `rule`; `None` records none.
+    pub fn with_near(mut self, rule: Option<NearRule>) -> GroupRun {
+        self.near_rule = rule;
         self
     }
 
@@ -75,9 +73,9 @@ impl GroupRun {
     /// near (when recording them).
     pub fn push_vertex(&mut self, hits: &[HitRecord], triangles: &[[u32; 3]], weight_per_ray: f64) {
         let v = self.first + self.counts.len();
-        if let Some(limits) = &self.near_limits {
+        if let Some(rule) = &self.near_rule {
             let before = self.near.len();
-            super::near::push_near(v, hits, triangles, limits, &mut self.near);
+            super::near::push_near(v, hits, triangles, rule, &mut self.near);
             self.near_counts.push((self.near.len() - before) as u32);
         }
         self.targets.clear();

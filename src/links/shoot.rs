@@ -393,7 +393,7 @@ pub(super) fn links_from_records(
     let weight_per_ray = std::f64::consts::PI / rays as f64;
     let mut csr = CsrBuilder::new(n);
     let mut ids = Vec::with_capacity(if record { n * rays } else { 0 });
-    let near = super::near::near_limits(scene, rays as u32, &params.near);
+    let near = super::near::NearRule::new(scene, rays as u32, params);
     const CHUNK: usize = 32;
     for batch_start in (0..n).step_by(params.batch_vertices.max(1)) {
         let batch_end = (batch_start + params.batch_vertices.max(1)).min(n);

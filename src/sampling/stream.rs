@@ -79,6 +79,9 @@ impl Stream {
     /// The vertices whose near hits decide which near-field terms a solve
     /// keeps (`solver/decide.rs`).
     pub const TERM_SAMPLE: Stream = Stream(0x510e_527f_ade6_82d1);
+    /// Which near hits a vertex with more than its share keeps
+    /// ([`crate::links::near::NearRule`]).
+    pub const NEAR_KEEP: Stream = Stream(0x1f83_d9ab_fb41_bd6b);
 
     /// `seed` with the stream's salt: the seed of this stream.
     #[inline]
@@ -144,6 +147,7 @@ mod tests {
             Stream::NEAR_SKY,
             Stream::NEAR_GATHER,
             Stream::TERM_SAMPLE,
+            Stream::NEAR_KEEP,
         ];
         for (i, a) in all.iter().enumerate() {
             for b in &all[i + 1..] {

@@ -122,6 +122,9 @@ pub struct SettingsFile {
     /// The budget's former key (read as `refine_max_added`, with a warning).
     #[serde(skip_serializing)]
     pub refine_max_vertices: Option<u32>,
+    /// The near hits a vertex keeps, as a share of its link rays, in (0, 1].
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub near_share: Option<f32>,
 }
 
 /// `bounces = 3` or `bounces = "auto"`.
@@ -365,6 +368,7 @@ fn settings_from(path: &Path, s: &SettingsFile) -> Result<Settings> {
                 (None, None) => d.refine.max_added,
             },
         },
+        near_share: s.near_share.unwrap_or(d.near_share),
     };
     settings.validate().map_err(|e| scene_err(path, e.to_string()))?;
     Ok(settings)
@@ -590,6 +594,7 @@ pub fn to_toml(scene: &SceneDesc, obj_names: &[String]) -> String {
             refine_tolerance: (s.refine.tolerance != dr.tolerance).then_some(s.refine.tolerance),
             refine_max_added: (s.refine.max_added != dr.max_added).then_some(s.refine.max_added),
             refine_max_vertices: None,
+            near_share: (s.near_share != Settings::default().near_share).then_some(s.near_share),
         },
         camera: scene.camera.map(|c| CameraFile {
             position: c.position.into(),

@@ -311,6 +311,11 @@ pub struct Settings {
     pub forced: terms::Terms,
     /// How coarse meshes are refined (`refine = "auto"` by default).
     pub refine: refine::RefineSettings,
+    /// The near hits a vertex keeps, as a share of its link rays, in
+    /// `(0, 1]` ([`crate::links::NearParams::max_share`]): lower traces
+    /// fewer near-field rays where most rays land close by, with more
+    /// noise in the near-field terms; 1 keeps every near hit.
+    pub near_share: f32,
 }
 
 impl Default for Settings {
@@ -325,6 +330,7 @@ impl Default for Settings {
             terms: terms::Terms::ALL,
             forced: terms::Terms::NONE,
             refine: refine::RefineSettings::default(),
+            near_share: crate::links::NearParams::default().max_share,
         }
     }
 }
@@ -344,6 +350,9 @@ impl Settings {
                 "smoothing_angle_deg = {} is not in [0, 180]",
                 self.smoothing_angle_deg
             )));
+        }
+        if !(self.near_share > 0.0 && self.near_share <= 1.0) {
+            return Err(crate::Error::Setting(format!("near_share = {} is not in (0, 1]", self.near_share)));
         }
         if self.bounces == Bounces::Fixed(0) {
             return Err(crate::Error::Setting("bounces must be at least 1 (or \"auto\")".into()));

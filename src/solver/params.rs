@@ -109,6 +109,7 @@ impl SolveParams {
         p.tracer = s.tracer;
         p.gather.bounces = s.bounces;
         p.smoothing_angle_deg = s.smoothing_angle_deg;
+        p.links.near.max_share = s.near_share;
         p
     }
 

@@ -200,7 +200,7 @@ impl NearEmitters {
             for (h, s) in near.of(v).iter().zip(&per_hit) {
                 let tri = scene.triangles[h.tri as usize];
                 let beta = [1.0 - h.u - h.v, h.u, h.v];
-                let rho = hit_albedo(scene, h);
+                let rho = hit_albedo(scene, h) * h.weight;
                 for (g, scale, weights) in &s.parts {
                     let seen: f32 =
                         weights.iter().zip(&visible[at..at + weights.len()]).filter(|(_, &v)| v).map(|(w, _)| *w).sum();
@@ -211,7 +211,7 @@ impl NearEmitters {
                 for c in 0..3 {
                     let cv = tri[c] as usize;
                     for (g, f) in links.of(cv) {
-                        add(g, -scene.albedo[cv] * (beta[c] * f * inv));
+                        add(g, -scene.albedo[cv] * (beta[c] * f * inv * h.weight));
                     }
                 }
             }

@@ -309,7 +309,7 @@ impl NearTerm for NearGather {
                             .sum::<Vec3>()
                             * per_ray;
                         let (rho, interpolated) = albedo_and_interpolated(scene, h, g_h);
-                        d += rho * gathered - interpolated;
+                        d += (rho * gathered - interpolated) * h.weight;
                     }
                     d * inv
                 })

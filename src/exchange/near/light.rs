@@ -145,7 +145,7 @@ impl NearTerm for NearLight {
                     for (i, h) in near.of(v).iter().enumerate() {
                         let (rho, interpolated) = albedo_and_interpolated(scene, h, f.e_lights);
                         let e_d: Vec3 = powers.iter().zip(&self.columns).map(|(p, col)| *p * col[first + i]).sum();
-                        d += rho * e_d - interpolated;
+                        d += (rho * e_d - interpolated) * h.weight;
                     }
                     d * inv
                 })

@@ -4,12 +4,14 @@
 //! radiance at the hit itself. Every term has one formula,
 //!
 //! ```text
-//! D(x) = 1/n * sum over near hits k of [ rho(h_k) X^(h_k) - sum_c beta_c rho_c X(c) ]
+//! D(x) = 1/n * sum over kept near hits k of w_k [ rho(h_k) X^(h_k) - sum_c beta_c rho_c X(c) ]
 //! ```
 //!
 //! with `X^(h)` the field estimated at the hit (traced when the term is
 //! built), `X(c)` the corners' field as the links read it, `beta_c` the
-//! hit's barycentrics, `rho` albedo and `n` the link rays of vertex `x`.
+//! hit's barycentrics, `rho` albedo, `n` the link rays of vertex `x` and
+//! `w_k` the near hits the kept one stands for (1, or more where the
+//! vertex kept a sample of its near hits: [`crate::links::near::NearRule`]).
 //! `D` is irradiance at `x`, W/m^2, of either sign. Four terms implement
 //! [`NearTerm`]:
 //!

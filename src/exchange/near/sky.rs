@@ -140,7 +140,7 @@ impl NearSky {
             hits.iter()
                 .enumerate()
                 .flat_map(|(i, h)| {
-                    let rho = hit_albedo(scene, h) * inv;
+                    let rho = hit_albedo(scene, h) * (inv * h.weight);
                     candidates(scene, h, portals, params, seed, v, rank_on_triangle(hits, i))
                         .into_iter()
                         .map(move |c| ((c.ray.dir, rho * c.weight), c.ray))
@@ -187,7 +187,7 @@ impl NearTerm for NearSky {
                 .map(|v| {
                     let exact: Vec3 = self.rows.row(v).iter().map(|(d, w)| radiance(*d) * *w).sum();
                     let interpolated: Vec3 =
-                        f.near.of(v).iter().map(|h| albedo_and_interpolated(f.scene, h, f.e_sky).1).sum();
+                        f.near.of(v).iter().map(|h| albedo_and_interpolated(f.scene, h, f.e_sky).1 * h.weight).sum();
                     exact - interpolated * inv
                 })
                 .collect(),

@@ -34,6 +34,14 @@
 //! for an emitter in full view or fully hidden, and consistent (its bias
 //! falls like `1/N`).
 //!
+//! Adaptive: every vertex first traces a pilot, a quarter of its samples
+//! ([`EmitterLinkParams::pilot_share`]); where all the pilot's rays agree
+//! (every point reached, or none) the ratio estimate above is already 1 or
+//! 0 for every group and more rays would only confirm it, so the vertex
+//! keeps it; a vertex in penumbra traces its full `samples` anew. The
+//! pilot is the first of the vertex's own sample sequence at a quarter of
+//! the count, so the answer is deterministic and independent of batches.
+//!
 //! Stored per vertex: `F_vg` for each emitter group `g` (the triangles of one mesh with one emission
 //! when the links were built), so `E_em(v) = sum_g F_vg M_g` with the
 //! groups' current exitance: changing an emitter's exitance needs no rays.
@@ -94,11 +102,36 @@ pub struct EmitterLinkParams {
     pub max_pairs: u64,
     /// Origin nudge of crease and border vertices (as in [`crate::links::LinkParams`]).
     pub nudge: f32,
+    /// The share of `samples` every vertex traces first (the pilot, at
+    /// least [`MIN_PILOT`] rays): a vertex whose pilot rays all agree (all
+    /// reach their emitter points, or none does) keeps the pilot's answer
+    /// (every group in full view, or hidden); the others, in penumbra,
+    /// trace all `samples`. 1 traces all `samples` at every vertex. The
+    /// pilot misses an occluder that hides a share `s` of the emitters with
+    /// probability about `(1 - s)^pilot` (16 rays: 19% for `s` = 10%, then
+    /// 10% of that vertex's light is lost), so penumbra narrower than that
+    /// may be read as full view or full shadow; in rooms most vertices see
+    /// their emitters whole (Šibenik: 58% of them, McGuire's box 80%;
+    /// docs/REAL_SCENES.md) and trace a quarter of the rays.
+    pub pilot_share: f32,
 }
 
 impl Default for EmitterLinkParams {
     fn default() -> Self {
-        Self { samples: 64, max_pairs: 400_000_000, nudge: 1e-3 }
+        Self { samples: 64, max_pairs: 400_000_000, nudge: 1e-3, pilot_share: 0.25 }
+    }
+}
+
+/// Fewest pilot rays a vertex decides on (fewer: every vertex traces all
+/// its samples).
+pub const MIN_PILOT: u32 = 16;
+
+impl EmitterLinkParams {
+    /// The pilot's rays a vertex, or `None` when every vertex traces all
+    /// `samples` at once.
+    pub fn pilot(&self) -> Option<u32> {
+        let pilot = (self.samples as f64 * self.pilot_share.clamp(0.0, 1.0) as f64).ceil() as u32;
+        (pilot >= MIN_PILOT && pilot < self.samples).then_some(pilot)
     }
 }
 
@@ -118,6 +151,10 @@ pub struct EmitterLinks {
     pub rows: Csr<(u32, f32)>,
     /// Shadow rays traced toward the emitters.
     pub shadow_rays: u64,
+    /// Vertices that traced all their samples after a pilot that did not
+    /// agree ([`EmitterLinkParams::pilot_share`]), and vertices that had
+    /// emitters above their horizon.
+    pub penumbra: (u64, u64),
     /// Time of the computation, ms, and the part of it the tracer took
     /// to answer the shadow rays (the rest: form factors and sampling).
     pub ms: f64,
@@ -198,20 +235,47 @@ impl EmitterLinks {
         for first in (0..n).step_by(CHUNK_VERTICES) {
             let end = (first + CHUNK_VERTICES).min(n);
             let groups = out.group_vertex.len();
-            let per_vertex: Vec<VertexRays> = (first..end)
-                .into_par_iter()
-                .map_init(Scratch::default, |s, v| vertex_rays(scene, &emitters, &mesh, groups, v, params, seed, s))
-                .collect();
-            let rays: Vec<Ray> = per_vertex.iter().flat_map(|r| r.rays.iter().copied()).collect();
-            out.shadow_rays += rays.len() as u64;
-            let traced = Instant::now();
-            let visible = tracer.visible(&rays)?;
-            out.trace_ms += traced.elapsed().as_secs_f64() * 1e3;
+            let pass = |vertices: &[usize], samples: u32| -> crate::Result<(Vec<VertexRays>, Vec<bool>, f64)> {
+                let per_vertex: Vec<VertexRays> = vertices
+                    .par_iter()
+                    .map_init(Scratch::default, |s, &v| {
+                        vertex_rays(scene, &emitters, &mesh, groups, v, params, samples, seed, s)
+                    })
+                    .collect();
+                let rays: Vec<Ray> = per_vertex.iter().flat_map(|r| r.rays.iter().copied()).collect();
+                let traced = Instant::now();
+                let visible = tracer.visible(&rays)?;
+                Ok((per_vertex, visible, traced.elapsed().as_secs_f64() * 1e3))
+            };
+            let all: Vec<usize> = (first..end).collect();
+            let (per_vertex, visible, ms) = pass(&all, params.pilot().unwrap_or(params.samples))?;
+            out.trace_ms += ms;
+            out.shadow_rays += visible.len() as u64;
+            // Per vertex its factors, or `None` while its pilot disagrees.
+            let mut found: Vec<Option<Vec<(u32, f32)>>> = Vec::with_capacity(all.len());
             let mut at = 0usize;
             for r in &per_vertex {
                 let vis = &visible[at..at + r.rays.len()];
                 at += r.rays.len();
-                rows.extend(finish_vertex(vis, r));
+                let agree = vis.iter().all(|&x| x == vis[0]);
+                out.penumbra.1 += u64::from(!vis.is_empty());
+                found.push((params.pilot().is_none() || agree).then(|| finish_vertex(vis, r)));
+            }
+            let penumbra: Vec<usize> = all.iter().copied().filter(|&v| found[v - first].is_none()).collect();
+            out.penumbra.0 += penumbra.len() as u64;
+            if !penumbra.is_empty() {
+                let (per_vertex, visible, ms) = pass(&penumbra, params.samples)?;
+                out.trace_ms += ms;
+                out.shadow_rays += visible.len() as u64;
+                let mut at = 0usize;
+                for (r, &v) in per_vertex.iter().zip(&penumbra) {
+                    let vis = &visible[at..at + r.rays.len()];
+                    at += r.rays.len();
+                    found[v - first] = Some(finish_vertex(vis, r));
+                }
+            }
+            for row in found {
+                rows.extend(row.expect("every vertex decided"));
                 rows.end_row();
             }
         }
@@ -319,8 +383,8 @@ struct Scratch {
     f: Vec<f64>,
 }
 
-/// Vertex `v`'s shadow rays toward the emitters (of `groups` groups;
-/// `mesh` is made of `emitters`).
+/// Vertex `v`'s `samples` shadow rays toward the emitters (of `groups`
+/// groups; `mesh` is made of `emitters`).
 #[allow(clippy::too_many_arguments)]
 fn vertex_rays(
     scene: &PreparedScene,
@@ -329,6 +393,7 @@ fn vertex_rays(
     groups: usize,
     v: usize,
     params: &EmitterLinkParams,
+    samples: u32,
     seed: u64,
     scratch: &mut Scratch,
 ) -> VertexRays {
@@ -374,7 +439,7 @@ fn vertex_rays(
     let mut rng = rand_pcg::Pcg32::seed_from_u64(Stream::EMITTER_LINKS.vertex_seed(seed, v));
     let xi: f64 = rng.random();
     let offset = Vec2::new(rng.random(), rng.random());
-    let total = params.samples as f64;
+    let total = samples as f64;
     let origin = ray_origin(scene, v, params.nudge);
     let eps = RAY_OFFSET * scene.mean_edge_length(v).max(f32::MIN_POSITIVE);
     // Triangle t covers [lo, hi) of the `total` samples; its `lo` is the

@@ -45,7 +45,7 @@
 use super::merge::{
     corner_weights, fixed_scale, merge_vertex_sums, requantize, HitRecord, MergeScratch, RayHits, HIT_BACK, HIT_MISS,
 };
-use super::near::{near_limits, push_near, NearHit, NearHits};
+use super::near::{push_near, NearHit, NearHits, NearRule};
 use super::shoot::{RaySetup, TraceScratch};
 use super::{LinkParams, Links};
 use crate::bvh::{Bvh, BvhBuildParams};
@@ -154,8 +154,8 @@ struct Context<'a> {
     tracer: &'a dyn CpuTracer,
     setup: RaySetup,
     probe: Option<Bvh>,
-    /// Distances under which a hit is near (None: no near hits recorded).
-    near_limits: Option<std::sync::Arc<[f32]>>,
+    /// Which hits are near and which a vertex keeps (None: no near hits recorded).
+    near_rule: Option<NearRule>,
     union_box: crate::scene::motion::Aabb,
     weight_per_ray: f64,
     /// With a batch tracer: the vertices it re-shot, all their rays.
@@ -429,9 +429,9 @@ impl Context<'_> {
             &mut weights,
             Some(&mut sums),
         );
-        let near = self.near_limits.as_ref().map(|limits| {
+        let near = self.near_rule.as_ref().map(|rule| {
             let mut out = Vec::new();
-            push_near(v, &scratch.records, &self.scene.triangles, limits, &mut out);
+            push_near(v, &scratch.records, &self.scene.triangles, rule, &mut out);
             out
         });
         let new = [c.front as u64, c.back as u64, c.miss as u64];
@@ -497,9 +497,7 @@ pub fn reshoot(
         tracer,
         setup,
         probe,
-        near_limits: (!links.near.rows.offsets.is_empty())
-            .then(|| near_limits(scene, rays as u32, &params.near))
-            .flatten(),
+        near_rule: (!links.near.rows.offsets.is_empty()).then(|| NearRule::new(scene, rays as u32, params)).flatten(),
         union_box: motion.union_box(),
         weight_per_ray: std::f64::consts::PI / rays as f64,
         batch: None,
@@ -612,7 +610,7 @@ fn near_hits(
 ) -> (NearHits, Vec<bool>) {
     let scene = ctx.scene;
     let rays = ctx.setup.directions.len();
-    let Some(limits) = &ctx.near_limits else {
+    let Some(rule) = &ctx.near_rule else {
         return (NearHits::default(), Vec::new());
     };
     let moved = &ctx.motion.moved_triangle;
@@ -628,7 +626,7 @@ fn near_hits(
             }
             ctx.records(v, &ids[v * rays..(v + 1) * rays], records);
             let mut out = Vec::new();
-            push_near(v, records, &scene.triangles, &limits, &mut out);
+            push_near(v, records, &scene.triangles, rule, &mut out);
             Some(out)
         })
         .collect();
