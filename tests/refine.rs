@@ -213,17 +213,24 @@ fn refinement_finds_the_shadows_of_a_coarse_box() {
 /// links (targets, f16 weights, near hits, sky visibility), bit for bit,
 /// and the same solution. The refined scene is the mesh a fresh
 /// preparation of the refined file gives (same positions and triangles;
-/// kept vertices' normals within rounding, their colours carried).
+/// kept vertices' normals within rounding, their colours carried). At 16
+/// rays a vertex the rounds mark with the full rays
+/// (`SolveParams::marking` keeps at least 16), so the final solver is the
+/// rounds' own, its links carried and its other parts retraced.
 #[test]
 fn carried_hits_equal_a_fresh_solve_of_the_refined_mesh() {
     let (mut desc, _) = coarse_cornell(RefineSettings::default());
+    desc.settings.rays_per_vertex = 16;
     // Every decided term forced on, so every part is traced and compared
     // (on this box the emitters' near field moves the light by under 2%).
     desc.settings.forced = linkgi::scene::terms::Terms::with_on(linkgi::scene::terms::Terms::DECIDED).unwrap();
     let r = solve(&desc);
     assert!(r.rounds.len() >= 2, "the error-driven rounds split something");
+    let marking = linkgi::solver::SolveParams::from_settings(&desc.settings).marking().links.rays_per_vertex;
+    assert_eq!(marking, 16, "the rounds mark at the full rays");
+    assert_eq!(r.rounds.last().unwrap().final_rays, 0, "the final solver is the rounds' own");
     for (i, round) in r.rounds.iter().enumerate() {
-        let total = round.vertices as u64 * 256;
+        let total = round.vertices as u64 * marking as u64;
         eprintln!(
             "round {i}: {} vertices, {} rays traced, {} carried, links {:.1} ms",
             round.vertices, round.rays_traced, round.rays_carried, round.links_ms
@@ -283,6 +290,27 @@ fn carried_hits_equal_a_fresh_solve_of_the_refined_mesh() {
             assert_ne!(scene.colours[v], scene.colours[u as usize], "neighbours {v} and {u} share a colour");
         }
     }
+}
+
+/// At 256 rays the rounds mark at a quarter of them (64: a round's
+/// marks read edges against a 25% tolerance) and the final mesh gets a
+/// fresh solver at 256: the same solution as a fresh solve of that mesh.
+#[test]
+fn marking_rounds_trace_a_quarter_of_the_rays() {
+    let (desc, _) = coarse_cornell(RefineSettings::default());
+    let r = solve(&desc);
+    assert!(r.rounds.len() >= 2, "the error-driven rounds split something");
+    let marking = linkgi::solver::SolveParams::from_settings(&desc.settings).marking().links.rays_per_vertex;
+    assert_eq!((desc.settings.rays_per_vertex, marking), (256, 64));
+    for round in &r.rounds {
+        assert_eq!(round.rays_traced + round.rays_carried, round.vertices as u64 * 64);
+    }
+    let last = r.rounds.last().unwrap();
+    assert_eq!(last.final_rays, last.vertices as u64 * 256, "the final mesh traced at full rays");
+    let scene = r.solver.scene().clone();
+    let fresh =
+        linkgi::solver::Solver::new(scene, linkgi::solver::SolveParams::from_settings(&desc.settings), &|_, _| {});
+    assert_eq!(r.solution.e_indirect, fresh.solve().e_indirect, "a fresh solve of the final mesh");
 }
 
 /// A budget below what the rounds want: the round splits the edges whose

@@ -212,6 +212,12 @@ pub fn run(args: SolveArgs) -> Result<()> {
                 r.solve_ms,
                 r.ms
             );
+            if r.final_rays > 0 {
+                println!(
+                    "                 then the final mesh at full rays: {} link rays and every other part in {:.0} ms",
+                    r.final_rays, r.final_ms
+                );
+            }
         }
         let carried: u64 = refined.rounds.iter().map(|r| r.rays_carried).sum();
         let traced: u64 = refined.rounds.iter().map(|r| r.rays_traced).sum();

@@ -29,15 +29,24 @@
 //! triangle test, and traces only the new vertices' rays and those of
 //! crease and border vertices whose one-ring was split, buried and
 //! touching vertices. The links equal a fresh shoot of the refined scene
-//! bit for bit (`tests/refine.rs`). A round that may
-//! still mark edges traces only the parts its marks read, the direct
-//! light's (`Part::SOURCES`: light links, emitter links at a quarter
-//! of their samples ([`SolveParams::marking`]), the sky's rays, traced
-//! anew each round), and solves without the near-field
-//! terms and the noise check; the round that marks nothing traces those
-//! (`Part::NEAR_AND_NOISE`) on the final mesh and solves again, so the
-//! result is a fresh solve of the final mesh. A GPU solver's rounds shoot
-//! every ray (the GPU records no hits).
+//! bit for bit (`tests/refine.rs`). A round that may still mark edges
+//! traces with [`SolveParams::marking`]: a quarter of the link rays (64
+//! of 256; its marks compare an edge's ends against a 25% tolerance) and
+//! only the parts its marks read, the direct light's (`Part::SOURCES`:
+//! light links, emitter links at a quarter of their samples, the sky's
+//! rays, traced anew each round), and solves without the near-field terms
+//! and the noise check. The round that marks nothing builds a fresh solver
+//! of the final mesh at the full parameters (every part), so the result is
+//! a fresh solve of the final mesh; where the marking rounds' links were
+//! the full ones (fewer than 64 rays a vertex), it keeps them and traces
+//! only the parts they left out (`Part::NEAR_AND_NOISE`, the emitter links
+//! at full samples). A GPU solver's rounds shoot every ray (the GPU records
+//! no hits).
+//!
+//! Cost, measured on Šibenik (docs/REAL_SCENES.md): marking rounds at 256
+//! rays carried 27% of their rays from round to round and cost 0.8x the
+//! final solve; at 64 rays they cost 0.45x, carry 12%, and the final solve
+//! traces every link ray (1.45x a solve of the final mesh in all).
 //!
 //! The budget ([`refine::RefineSettings::max_added`]) is room beyond the
 //! input's positions: a round that would pass it splits the edges whose
@@ -95,6 +104,11 @@ pub struct Round {
     pub links_ms: f64,
     /// The solve alone ([`Solver::solve`]: bounces, corrections, smoothing), milliseconds.
     pub solve_ms: f64,
+    /// The last round: the link rays of the fresh solver of the final mesh
+    /// at full parameters (0 where the rounds' links were already those).
+    pub final_rays: u64,
+    /// The last round: building that solver (every part traced), milliseconds.
+    pub final_ms: f64,
 }
 
 /// The solved, refined scene.
@@ -225,15 +239,23 @@ pub fn solve_planned(
         }
         let Some((next, parents)) = next else {
             if plan.refining {
-                // The final mesh: the parts the rounds left out (and the
-                // emitter links at full samples), and its solve.
                 let full = params.staged();
-                let mut parts = Part::NEAR_AND_NOISE.to_vec();
-                if full.emitter != solver.params.emitter {
-                    parts.insert(0, Part::Emitters);
+                if full.links != solver.params.links {
+                    // The rounds' links were coarser: a fresh solver of the final mesh.
+                    let tl = Instant::now();
+                    solver = Solver::new_tracing(solver.scene.clone(), params, compute, progress, &Part::ALL)?;
+                    round.final_rays = all_traced(&solver).rays_traced;
+                    round.final_ms = tl.elapsed().as_secs_f64() * 1e3;
+                } else {
+                    // The final mesh: the parts the rounds left out (and the
+                    // emitter links at full samples), and its solve.
+                    let mut parts = Part::NEAR_AND_NOISE.to_vec();
+                    if full.emitter != solver.params.emitter {
+                        parts.insert(0, Part::Emitters);
+                    }
+                    solver.params = full;
+                    solver.retrace(&parts);
                 }
-                solver.params = full;
-                solver.retrace(&parts);
                 let ts = Instant::now();
                 solution = solver.solve();
                 solve_ms += ts.elapsed().as_secs_f64() * 1e3;
