@@ -188,7 +188,7 @@ fn refine_round(c: &mut Criterion) {
     }
     let (desc1, parents) = split_world_edges(&desc0, &marks);
     let mut scene1 = prep::prepare(&desc1).unwrap();
-    let lineage = Lineage::new(&scene0, &mut scene1, &parents);
+    let lineage = Lineage::new(&scene0, &mut scene1, &parents, params.nudge);
     let bvh1 = linkgi::bvh::Bvh::build(&scene1.positions, &scene1.triangles, &Default::default());
     let carried = reassign_links(&scene0, &hits0, &scene1, &lineage, &bvh1, &params, &|_, _| {});
     let traced = shoot_links_recording(&scene1, &bvh1, &params, true, &|_, _| {});
