@@ -332,3 +332,42 @@ fn an_emitter_lights_its_front_only() {
     let mean = |r: std::ops::Range<u32>| r.clone().map(|v| sol.e_indirect[v as usize].x).sum::<f32>() / r.len() as f32;
     assert!(mean(ceiling.vertices.clone()) < 0.5 * mean(floor.vertices.clone()));
 }
+
+/// Emitter links trace a pilot of a quarter of their samples first
+/// ([`linkgi::exchange::sources::emitter_links::EmitterLinkParams::pilot_share`]):
+/// in the Cornell box with a glowing short box, a vertex whose pilot rays
+/// all agree keeps the pilot's answer, which is exact (the unshaded factor,
+/// or nothing) as all samples give it, so most vertices read bit for bit
+/// what tracing every sample reads; only penumbra vertices trace all
+/// samples, and the direct light agrees with tracing every sample.
+#[test]
+fn the_emitter_pilot_is_exact_where_it_decides() {
+    let mut glowing = common::with_settings(builtin::builtin("cornell").unwrap(), 256, Bounces::Fixed(2), 0.0);
+    glowing.meshes[1].materials.iter_mut().for_each(|m| m.emission = Vec3::new(3.0, 2.0, 1.0));
+    let scene = prep::prepare(&glowing).unwrap();
+    let params = linkgi::solver::SolveParams::from_settings(&scene.settings);
+    assert_eq!(params.emitter.pilot(), Some(64));
+    let mut every = params;
+    every.emitter.pilot_share = 1.0;
+    assert_eq!(every.emitter.pilot(), None);
+    let (a, _) = common::solve_with(scene.clone(), params);
+    let (b, _) = common::solve_with(scene.clone(), every);
+    let (ea, eb) = (a.emitter_links(), b.emitter_links());
+    let (penumbra, seen) = ea.penumbra;
+    assert!(penumbra > 0 && penumbra < seen / 2, "{penumbra} of {seen} vertices in penumbra");
+    assert!(
+        ea.shadow_rays < eb.shadow_rays * 3 / 4,
+        "{} rays with the pilot, {} without",
+        ea.shadow_rays,
+        eb.shadow_rays
+    );
+    let n = scene.vertex_count();
+    let same = (0..n).filter(|&v| ea.rows.row(v) == eb.rows.row(v)).count();
+    // Decided vertices read as all samples read them, but where the full
+    // samples find an occluder the pilot missed.
+    let decided = n as u64 - penumbra;
+    assert!(same as u64 >= decided * 95 / 100, "{same} of {decided} decided vertices read as without the pilot");
+    let (ia, ib) = (ea.irradiance(&scene.emission, n), eb.irradiance(&scene.emission, n));
+    let (ma, mb) = (common::mean(&ia), common::mean(&ib));
+    assert!(((ma - mb).abs() / mb).max_element() < 0.01, "mean E_em {ma} with the pilot, {mb} without");
+}

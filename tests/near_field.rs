@@ -329,3 +329,40 @@ fn many_emitters_near_field_is_unbiased_and_budgeted() {
         assert!((few[c] - many[c]).abs() < 0.1 * many.abs().max_element(), "channel {c}: {few} vs {many}");
     }
 }
+
+/// A vertex keeps a weighted sample of its near hits
+/// ([`linkgi::links::NearParams::max_share`]): the plate's underside,
+/// whose 256 rays all land near on the floor 5 mm below, keeps about 32
+/// of them, each weighted `near / 32`, and its near-field correction (the
+/// floor in the plate's shadow) and its light read as with every near
+/// hit, within the sample's noise.
+#[test]
+fn a_kept_sample_of_near_hits_keeps_the_correction() {
+    let desc = plate_scene(256);
+    let every = {
+        let scene = prep::prepare(&desc).unwrap();
+        let mut params = SolveParams::from_settings(&scene.settings);
+        params.links.near.max_share = 1.0;
+        Solver::new(scene, params, &|_, _| {})
+    };
+    let kept = solver(&desc, 1.0);
+    let under = plate_underside(&kept);
+    let (mut near, mut weighted) = (0f64, 0f64);
+    for &v in &under {
+        let (all, some) = (every.links().near.of(v).len(), kept.links().near.of(v));
+        assert!(all > 128, "vertex {v}: {all} near hits");
+        assert!(some.len() < all / 3, "vertex {v}: kept {} of {all}", some.len());
+        for h in some {
+            assert_eq!(h.weight, (all as f64 / 32.0) as f32, "vertex {v}");
+        }
+        near += all as f64;
+        weighted += some.iter().map(|h| h.weight as f64).sum::<f64>();
+    }
+    assert!((weighted / near - 1.0).abs() < 0.1, "weights {weighted} for {near} near hits");
+    let (a, b) = (every.solve(), kept.solve());
+    let mean = |x: &[Vec3]| under.iter().map(|&v| x[v].x as f64).sum::<f64>() / under.len() as f64;
+    let (na, nb) = (mean(&a.e_near), mean(&b.e_near));
+    assert!(na.abs() > 1e-3 && (nb / na - 1.0).abs() < 0.05, "near field {nb} kept against {na} every");
+    let (ia, ib) = (mean(&a.e_indirect), mean(&b.e_indirect));
+    assert!((ib / ia - 1.0).abs() < 0.03, "E_i {ib} kept against {ia} every");
+}
