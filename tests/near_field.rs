@@ -371,14 +371,7 @@ fn a_kept_sample_of_near_hits_keeps_the_correction() {
 /// back, and a share outside (0, 1] is an error naming the file and key.
 #[test]
 fn near_share_loads_checks_and_saves() {
-    let dir = std::env::temp_dir().join(format!("linkgi-near-share-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    std::fs::write(dir.join("q.obj"), "v 0 0 0\nv 4 0 0\nv 4 0 4\nv 0 0 4\nf 1 3 2\nf 1 4 3\n").unwrap();
-    let toml = |settings: &str| {
-        let p = dir.join("n.toml");
-        std::fs::write(&p, format!("[settings]\n{settings}\n[[mesh]]\nobj = \"q.obj\"\n")).unwrap();
-        linkgi::scene::load(p.to_str().unwrap())
-    };
+    let toml = |settings: &str| common::load_with_settings("linkgi-near-share", settings);
     let d = toml("near_share = 0.5").unwrap();
     assert_eq!(d.settings.near_share, 0.5);
     assert_eq!(SolveParams::from_settings(&d.settings).links.near.max_share, 0.5);
@@ -389,6 +382,6 @@ fn near_share_loads_checks_and_saves() {
     assert!(!linkgi::scene::file::to_toml(&plain, &["q.obj".to_string()]).contains("near_share"));
     for bad in ["0", "1.5", "-0.1", "nan"] {
         let e = toml(&format!("near_share = {bad}")).unwrap_err().to_string();
-        assert!(e.contains("n.toml") && e.contains("near_share"), "{bad}: {e}");
+        assert!(e.contains("s.toml") && e.contains("near_share"), "{bad}: {e}");
     }
 }

@@ -369,14 +369,7 @@ fn a_scene_bigger_than_the_budget_still_refines() {
 /// `refine_max_added` in `[settings]`: read, checked, written back.
 #[test]
 fn refine_settings_load_check_and_save() {
-    let dir = std::env::temp_dir().join(format!("linkgi-refine-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    std::fs::write(dir.join("q.obj"), "v 0 0 0\nv 4 0 0\nv 4 0 4\nv 0 0 4\nf 1 3 2\nf 1 4 3\n").unwrap();
-    let toml = |settings: &str| {
-        let p = dir.join("s.toml");
-        std::fs::write(&p, format!("[settings]\n{settings}\n[[mesh]]\nobj = \"q.obj\"\n")).unwrap();
-        linkgi::scene::load(p.to_str().unwrap())
-    };
+    let toml = |settings: &str| common::load_with_settings("linkgi-refine", settings);
     let d = toml("refine = \"off\"\nrefine_max_edge = 0.3\nrefine_tolerance = 0.1\nrefine_max_added = 5000").unwrap();
     let r = d.settings.refine;
     assert_eq!((r.mode, r.max_edge, r.tolerance, r.max_added), (RefineMode::Off, 0.3, 0.1, 5000));

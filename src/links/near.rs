@@ -191,17 +191,7 @@ pub fn push_near(v: usize, hits: &[HitRecord], triangles: &[[u32; 3]], rule: &Ne
     }
     let p = rule.keep as f64 / near as f64;
     let weight = (1.0 / p) as f32;
-    // Each hit's rank among the vertex's hits on its triangle (a stable
-    // sort by triangle numbers them in ray order).
-    let mut order: Vec<u32> = (0..near as u32).collect();
-    order.sort_by_key(|&i| out[first + i as usize].tri);
-    let mut rank = vec![0u32; near];
-    for w in 1..near {
-        let (a, b) = (order[w - 1] as usize, order[w] as usize);
-        if out[first + a].tri == out[first + b].tri {
-            rank[b] = rank[a] + 1;
-        }
-    }
+    let rank = triangle_ranks(&out[first..]);
     let mut kept = first;
     for i in 0..near {
         let h = out[first + i];
@@ -212,6 +202,25 @@ pub fn push_near(v: usize, hits: &[HitRecord], triangles: &[[u32; 3]], rule: &Ne
         }
     }
     out.truncate(kept);
+}
+
+/// Each of one vertex's near hits' rank among its hits on the same
+/// triangle, in ray order: with the vertex and the triangle, what a near
+/// hit's samples hash from (its keeping here, the near-field terms'
+/// samples), so a vertex's hits on other triangles keep their samples
+/// where the CPU and GPU tracers give it one near hit more or less.
+pub fn triangle_ranks(hits: &[NearHit]) -> Vec<u32> {
+    // A stable sort by triangle numbers each triangle's hits in ray order.
+    let mut order: Vec<u32> = (0..hits.len() as u32).collect();
+    order.sort_by_key(|&i| hits[i as usize].tri);
+    let mut rank = vec![0u32; hits.len()];
+    for w in 1..order.len() {
+        let (a, b) = (order[w - 1] as usize, order[w] as usize);
+        if hits[a].tri == hits[b].tri {
+            rank[b] = rank[a] + 1;
+        }
+    }
+    rank
 }
 
 /// The distance under which a hit on each triangle is near, or `None`

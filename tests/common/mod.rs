@@ -143,3 +143,14 @@ pub fn random_rays(rng: &mut rand_pcg::Pcg32, count: usize, skip_max: u32) -> Ve
         })
         .collect()
 }
+
+/// Loads a scene file with `settings` as its `[settings]` table over a
+/// 4 m square (`q.obj`), written to the temporary folder `dir`.
+pub fn load_with_settings(dir: &str, settings: &str) -> linkgi::Result<SceneDesc> {
+    let dir = std::env::temp_dir().join(format!("{dir}-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    std::fs::write(dir.join("q.obj"), "v 0 0 0\nv 4 0 0\nv 4 0 4\nv 0 0 4\nf 1 3 2\nf 1 4 3\n").unwrap();
+    let p = dir.join("s.toml");
+    std::fs::write(&p, format!("[settings]\n{settings}\n[[mesh]]\nobj = \"q.obj\"\n")).unwrap();
+    linkgi::scene::load(p.to_str().unwrap())
+}

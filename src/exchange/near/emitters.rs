@@ -30,11 +30,12 @@
 //! `window` (16384-path reference, total relative RMSE): see
 //! [`NearEmitterParams::samples`].
 
-use super::{hit_albedo, hit_frame, rank_on_triangle, trace_by_vertex, Bounce, Cost, Fields, NearTerm, Shape};
+use super::{hit_albedo, hit_frame, trace_by_vertex, Bounce, Cost, Fields, NearTerm, Shape};
 use crate::csr::{Csr, RowBuilder};
 use crate::exchange::sources::emitter_geometry::Emitter;
 use crate::exchange::sources::emitter_links::{emitters, EmitterLinks};
 use crate::kdtree::traverse::{Ray, NO_SKIP};
+use crate::links::near::triangle_ranks;
 use crate::links::{NearHit, NearHits};
 use crate::sampling::stream::{splitmix64, unit, Stream};
 use crate::scene::prep::PreparedScene;
@@ -184,8 +185,9 @@ impl NearEmitters {
         let inv = 1.0 / rays_per_vertex.max(1) as f32;
         let mut rows = RowBuilder::new();
         let samples = |v: usize, hits: &[NearHit]| {
+            let ranks = triangle_ranks(hits);
             let per_hit: Vec<HitSamples> = (0..hits.len())
-                .map(|i| hit_samples(scene, &hits[i], &groups, params, seed, v, rank_on_triangle(hits, i)))
+                .map(|i| hit_samples(scene, &hits[i], &groups, params, seed, v, ranks[i] as usize))
                 .collect();
             let rays = per_hit.iter().flat_map(|s| s.rays.iter().copied()).collect();
             (per_hit, rays)

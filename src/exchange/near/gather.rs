@@ -38,12 +38,10 @@
 //! renderers do at the hit points of their first rays, here only where
 //! the links' interpolation is known to fail (near hits).
 
-use super::{
-    albedo_and_interpolated, hit_origin, rank_on_triangle, trace_by_vertex, Bounce, Cost, Fields, NearChange, NearTerm,
-    Shape,
-};
+use super::{albedo_and_interpolated, hit_origin, trace_by_vertex, Bounce, Cost, Fields, NearChange, NearTerm, Shape};
 use crate::kdtree::traverse::{Ray, NO_SKIP};
 use crate::kdtree::Hit;
+use crate::links::near::triangle_ranks;
 use crate::links::{NearHit, NearHits};
 use crate::sampling::stream::{cosine_direction, splitmix64, Stream};
 use crate::scene::prep::PreparedScene;
@@ -201,8 +199,9 @@ impl NearGather {
         // Per ray of the vertex's near hits in order, what becomes of it, and the rays to trace.
         let samples = |v: usize, hits: &[NearHit]| -> (Vec<Slot>, Vec<Ray>) {
             let (mut slots, mut rays) = (Vec::new(), Vec::new());
+            let ranks = triangle_ranks(hits);
             for (i, h) in hits.iter().enumerate() {
-                let mine = gather_rays(scene, h, params, seed, v, rank_on_triangle(hits, i));
+                let mine = gather_rays(scene, h, params, seed, v, ranks[i] as usize);
                 match keep(v, i, h, &mine) {
                     Some(landed) => slots.extend(landed.into_iter().map(Slot::Keep)),
                     None => {

@@ -32,7 +32,7 @@
 //! This module also holds what the four share: the batches their rays are
 //! traced in ([`trace_by_vertex`]), a hit's frame ([`hit_frame`]), where
 //! its rays start ([`hit_origin`]), the rank its samples hash from
-//! ([`rank_on_triangle`], [`crate::sampling::Stream::hit_key`]) and the
+//! ([`crate::links::near::triangle_ranks`], [`crate::sampling::Stream::hit_key`]) and the
 //! interpolated term ([`albedo_and_interpolated`]). Lengths in metres.
 
 use crate::kdtree::{Hit, Ray};
@@ -279,14 +279,6 @@ pub fn hit_origin(scene: &PreparedScene, h: &NearHit, eps: f32) -> (Vec3, Vec3) 
     let (p, normal, l) = hit_frame(scene, h);
     let centroid = scene.triangles[h.tri as usize].map(|i| scene.positions[i as usize]).iter().sum::<Vec3>() / 3.0;
     (p + (normal + (centroid - p).normalize_or_zero()) * (eps * l), normal)
-}
-
-/// The rank of near hit `i` of `hits` (one vertex's) among those on its
-/// triangle: with the vertex and the triangle, what the near hits' samples
-/// hash from, so a vertex's hits on other triangles keep their samples
-/// where the CPU and GPU tracers give it one near hit more or less.
-pub fn rank_on_triangle(hits: &[NearHit], i: usize) -> usize {
-    hits[..i].iter().filter(|o| o.tri == hits[i].tri).count()
 }
 
 /// The near hits before and after a deformation, as the near terms'

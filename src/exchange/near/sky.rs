@@ -51,10 +51,11 @@
 //! default: 604k rays, 70-90 ms for 331k near hits at 1024 rays (2.4M
 //! rays, 254 ms at (4, 4)).
 
-use super::{albedo_and_interpolated, hit_albedo, hit_origin, rank_on_triangle, trace_by_vertex};
+use super::{albedo_and_interpolated, hit_albedo, hit_origin, trace_by_vertex};
 use super::{Bounce, Cost, Fields, NearTerm, Shape};
 use crate::csr::{Csr, RowBuilder};
 use crate::kdtree::traverse::{Ray, NO_SKIP};
+use crate::links::near::triangle_ranks;
 use crate::links::{NearHit, NearHits};
 use crate::sampling::stream::{cosine_direction, splitmix64, Stream};
 use crate::scene::prep::PreparedScene;
@@ -137,11 +138,12 @@ impl NearSky {
         let mut rows = RowBuilder::new();
         // Per vertex: per sample, its direction and its weight with the hit's albedo, and its ray.
         let samples = |v: usize, hits: &[NearHit]| -> (Vec<(Vec3, Vec3)>, Vec<Ray>) {
+            let ranks = triangle_ranks(hits);
             hits.iter()
-                .enumerate()
-                .flat_map(|(i, h)| {
+                .zip(ranks)
+                .flat_map(|(h, rank)| {
                     let rho = hit_albedo(scene, h) * (inv * h.weight);
-                    candidates(scene, h, portals, params, seed, v, rank_on_triangle(hits, i))
+                    candidates(scene, h, portals, params, seed, v, rank as usize)
                         .into_iter()
                         .map(move |c| ((c.ray.dir, rho * c.weight), c.ray))
                 })

@@ -249,7 +249,8 @@ impl EmitterLinks {
                 Ok((per_vertex, visible, traced.elapsed().as_secs_f64() * 1e3))
             };
             let all: Vec<usize> = (first..end).collect();
-            let (per_vertex, visible, ms) = pass(&all, params.pilot().unwrap_or(params.samples))?;
+            let pilot = params.pilot();
+            let (per_vertex, visible, ms) = pass(&all, pilot.unwrap_or(params.samples))?;
             out.trace_ms += ms;
             out.shadow_rays += visible.len() as u64;
             // Per vertex its factors, or `None` while its pilot disagrees.
@@ -260,7 +261,7 @@ impl EmitterLinks {
                 at += r.rays.len();
                 let agree = vis.iter().all(|&x| x == vis[0]);
                 out.penumbra.1 += u64::from(!vis.is_empty());
-                found.push((params.pilot().is_none() || agree).then(|| finish_vertex(vis, r)));
+                found.push((pilot.is_none() || agree).then(|| finish_vertex(vis, r)));
             }
             let penumbra: Vec<usize> = all.iter().copied().filter(|&v| found[v - first].is_none()).collect();
             out.penumbra.0 += penumbra.len() as u64;
