@@ -210,3 +210,44 @@ fn build_does_not_depend_on_threads() {
     assert_eq!(a.blocks.len(), b.blocks.len());
     assert!(a.blocks.iter().zip(&b.blocks).all(|(x, y)| x.tri == y.tri));
 }
+
+/// Box queries name exactly the triangles whose boxes overlap the query box
+/// (brute force over every triangle), each once: random boxes over a soup,
+/// and boxes that only touch a flat grid's (zero-thickness) boxes.
+#[test]
+fn box_queries_match_brute_force() {
+    let mut rng = Pcg32::seed_from_u64(14);
+    let (mut flat_pos, mut flat_tris) = (Vec::new(), Vec::new());
+    grid(30, 1, 0.0, &mut flat_pos, &mut flat_tris);
+    for (pos, tris) in [soup(&mut rng, 4000, 0.05), (flat_pos, flat_tris)] {
+        let bvh = Bvh::build(&pos, &tris, &BvhBuildParams::default());
+        bvh.validate().expect("bvh valid");
+        let boxes = |t: &[u32; 3]| {
+            let [a, b, c] = t.map(|i| pos[i as usize]);
+            (a.min(b).min(c), a.max(b).max(c))
+        };
+        let mut found_some = 0;
+        for q in 0..300 {
+            let c = rvec(&mut rng, -0.1, 1.1);
+            let h = rvec(&mut rng, 0.0, 0.15);
+            // Every third box is flat on the grid's plane (touching only).
+            let (min, max) = if q % 3 == 0 {
+                (Vec3::new(c.x - h.x, 0.0, c.z - h.z), Vec3::new(c.x + h.x, 0.0, c.z + h.z))
+            } else {
+                (c - h, c + h)
+            };
+            let mut got = Vec::new();
+            bvh.overlapping(min, max, |t| got.push(t));
+            got.sort_unstable();
+            let want: Vec<u32> = (0..tris.len() as u32)
+                .filter(|&t| {
+                    let (lo, hi) = boxes(&tris[t as usize]);
+                    lo.cmple(max).all() && hi.cmpge(min).all()
+                })
+                .collect();
+            assert_eq!(got, want, "query {q}: {min} .. {max}");
+            found_some += usize::from(!want.is_empty());
+        }
+        assert!(found_some > 100, "{found_some} of 300 queries found triangles");
+    }
+}

@@ -35,6 +35,7 @@
 pub mod build;
 pub mod leaf;
 pub mod packet;
+pub mod query;
 pub mod refit;
 pub mod stream;
 pub mod traverse;

@@ -11,6 +11,7 @@
 
 pub mod builder;
 pub mod builtin;
+pub mod contact;
 pub mod deform;
 pub mod deformer;
 pub mod emission;

@@ -342,7 +342,9 @@ pub fn coarse_meshes(scene: &SceneDesc, max_edge: f32) -> Vec<bool> {
 }
 
 /// The a-priori step of `settings` on `scene` (nothing when off): every
-/// mesh's edges split to the target length, within the budget.
+/// mesh's edges split to the target length, then the coarse meshes'
+/// triangles in which geometry stands split to half its height
+/// ([`super::contact`]), within the budget.
 pub fn apriori(scene: &SceneDesc, settings: &RefineSettings) -> (SceneDesc, Vec<RefineStats>) {
     if settings.mode == RefineMode::Off {
         let stats = scene.meshes.iter().map(|m| RefineStats::unchanged(m)).collect();
@@ -362,6 +364,26 @@ pub fn apriori(scene: &SceneDesc, settings: &RefineSettings) -> (SceneDesc, Vec<
         }
         *o = r;
         stats.push(s);
+    }
+    // The second half: triangles in which geometry stands (module contact).
+    let coarse = coarse_meshes(scene, max_edge);
+    let room = (settings.max_added as usize).saturating_sub(added);
+    let t = std::time::Instant::now();
+    let (cut, contact) = super::contact::split(scene, &out, &coarse, max_edge, room);
+    if contact.edges > 0 {
+        log::info!(
+            "a-priori contact splits: {} edges in {} passes ({:.2} s) where geometry stands in a coarse triangle",
+            contact.edges,
+            contact.passes,
+            t.elapsed().as_secs_f64()
+        );
+        for (s, m) in stats.iter_mut().zip(&cut.meshes) {
+            (s.positions_after, s.triangles_after) = (m.positions.len(), m.triangles.len());
+        }
+        out = cut;
+    }
+    if contact.stopped_by_budget {
+        short.push("(contact splits)");
     }
     if !short.is_empty() {
         log::info!(
