@@ -398,3 +398,65 @@ fn emission_and_sky_edits_are_gather_only() {
     assert!(e.counters().errors >= 1);
     assert_eq!(e.latest().unwrap().version, dark.version);
 }
+
+/// The viewer's refinement hands each new mesh's solver to the engine
+/// (`Change::Adopt`): the result has the refined mesh's vertices, keeps a
+/// light moved meanwhile (its light links redone, nothing rebuilt), and
+/// equals, bit for bit, a fresh solver of the refined mesh with the moved
+/// light.
+#[test]
+fn an_adopted_refined_solver_keeps_the_edits_and_equals_a_fresh_one() {
+    use linkgi::engine::Adopted;
+    use linkgi::scene::refine::apriori;
+    use linkgi::scene::shapes::MeshBuilder;
+    use linkgi::solver::{adaptive, Solver};
+    let mut b = MeshBuilder::new();
+    let white = b.add_material("white", Vec3::splat(0.7));
+    let red = b.add_material("red", Vec3::new(0.7, 0.1, 0.1));
+    b.cuboid_open(
+        Vec3::splat(-1.0),
+        Vec3::splat(1.0),
+        [1; 3],
+        [Some(red), Some(white), Some(white), Some(white), Some(white), Some(white)],
+        true,
+    );
+    let room = b.finish("room", 30.0);
+    let mut desc = builtin::builtin("cornell").unwrap();
+    desc.meshes = vec![room];
+    desc.sky = None;
+    desc.settings.rays_per_vertex = 16;
+    let light = |x: f32| Light::Point { position: Vec3::new(x, 0.8, 0.3), intensity: Vec3::splat(2.0) };
+    desc.lights = vec![light(-0.6)];
+    let plan = adaptive::Plan::of(&desc);
+    assert!(plan.refining, "the box is coarse");
+    let coarse = prep::prepare(&apriori(&desc, &desc.settings.refine).0).unwrap();
+    let params = SolveParams::from_settings(&coarse.settings);
+    let mut e = Engine::start(coarse.clone(), params, Compute::Cpu, EngineParams::default()).unwrap();
+    assert!(e.wait_idle(WAIT));
+    e.send(Change::MoveLight { index: 0, light: light(0.6) });
+    assert!(e.wait_idle(WAIT));
+    let before = e.counters();
+    // Refined for the light where it was, adopted after the move.
+    let refined = adaptive::solve(&desc, &Compute::Cpu, &|_, _| {}).unwrap();
+    let n = refined.solver.scene().vertex_count();
+    assert!(n > coarse.vertex_count(), "refinement added vertices");
+    let mut oracle_scene = refined.solver.scene().clone();
+    let adopted = Adopted::new(refined.solver);
+    e.send(Change::Adopt(adopted.clone()));
+    assert!(e.wait_idle(WAIT));
+    let c = e.counters();
+    assert_eq!((c.kd_builds, c.link_builds), (before.kd_builds, before.link_builds), "nothing rebuilt");
+    assert_eq!(c.light_link_updates, before.light_link_updates + 1, "the moved light's links redone");
+    let got = e.latest().unwrap();
+    assert_eq!(got.e_indirect.len(), n);
+    assert_eq!(got.lights, vec![light(0.6)]);
+    oracle_scene.lights = vec![light(0.6)];
+    let want = Solver::new(oracle_scene, params, &|_, _| {}).solve();
+    assert!(got.e_direct == want.e_direct, "direct light differs from a fresh solver's");
+    assert!(got.e_indirect == want.e_indirect, "indirect light differs from a fresh solver's");
+    // A solver is adopted once.
+    e.send(Change::Adopt(adopted));
+    assert!(e.wait_idle(WAIT));
+    assert!(e.last_error().is_some_and(|m| m.contains("adopted already")), "{:?}", e.last_error());
+    assert_eq!(e.latest().unwrap().version, got.version, "the last good result stays");
+}

@@ -497,3 +497,114 @@ fn wait_gi_catches_up_while_deforming() {
     let diff = mean_abs_diff(&a, &b);
     assert!(diff > 1.0, "the deforming torso did not change between the shots (mean difference {diff})");
 }
+
+/// A coarse box room (one quad a wall, a block on the floor), as OBJ
+/// text: every face turned towards the room's inside or the block's outside.
+fn coarse_room_obj() -> String {
+    let mut v: Vec<[f32; 3]> = Vec::new();
+    let mut f = String::new();
+    let mut quad = |c: [[f32; 3]; 4], towards: [f32; 3], away: bool| {
+        let sub = |a: [f32; 3], b: [f32; 3]| [a[0] - b[0], a[1] - b[1], a[2] - b[2]];
+        let (e1, e2) = (sub(c[1], c[0]), sub(c[2], c[0]));
+        let n = [e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2], e1[0] * e2[1] - e1[1] * e2[0]];
+        let t = sub(towards, c[0]);
+        let facing = n[0] * t[0] + n[1] * t[1] + n[2] * t[2] > 0.0;
+        let base = v.len() + 1;
+        v.extend(c);
+        let (a, b, cc, d) = (base, base + 1, base + 2, base + 3);
+        if facing != away {
+            f += &format!("f {a} {b} {cc}\nf {a} {cc} {d}\n");
+        } else {
+            f += &format!("f {a} {cc} {b}\nf {a} {d} {cc}\n");
+        }
+    };
+    let boxed = |lo: [f32; 3],
+                 hi: [f32; 3],
+                 quad: &mut dyn FnMut([[f32; 3]; 4], [f32; 3], bool),
+                 inside: bool,
+                 bottom: bool| {
+        let mid = [(lo[0] + hi[0]) / 2.0, (lo[1] + hi[1]) / 2.0, (lo[2] + hi[2]) / 2.0];
+        for axis in 0..3 {
+            for side in [lo[axis], hi[axis]] {
+                if axis == 1 && side == lo[1] && !bottom {
+                    continue;
+                }
+                let (u, w) = ((axis + 1) % 3, (axis + 2) % 3);
+                let corner = |a: f32, b: f32| {
+                    let mut p = [0.0; 3];
+                    p[axis] = side;
+                    p[u] = a;
+                    p[w] = b;
+                    p
+                };
+                let c = [corner(lo[u], lo[w]), corner(hi[u], lo[w]), corner(hi[u], hi[w]), corner(lo[u], hi[w])];
+                quad(c, mid, !inside);
+            }
+        }
+    };
+    boxed([-1.0, 0.0, -1.0], [1.0, 2.0, 1.0], &mut quad, true, true);
+    boxed([-0.5, 0.0, -0.4], [0.1, 0.7, 0.2], &mut quad, false, false);
+    let mut out = String::new();
+    for p in &v {
+        out += &format!("v {} {} {}\n", p[0], p[1], p[2]);
+    }
+    out + &f
+}
+
+/// A scene with coarse meshes refines in the viewer's background: the
+/// a-priori mesh's GI is shown first, each round as it lands, and after
+/// `wait_gi` the window shows the refined mesh's solution, the same picture
+/// `linkgi render` makes of the scene (same rasterizer and exposure).
+#[test]
+fn the_viewer_refines_in_the_background_to_what_render_shows() {
+    if !tools_present("the_viewer_refines_in_the_background_to_what_render_shows", &["xvfb-run"]) {
+        return;
+    }
+    let dir = fresh_dir("view_refine");
+    std::fs::write(dir.join("room.obj"), coarse_room_obj()).unwrap();
+    std::fs::write(
+        dir.join("room.toml"),
+        "[camera]\nposition = [0, 1, 3.4]\ntarget = [0, 1, 0]\nfov_deg = 45\n\
+         [settings]\nrays_per_vertex = 64\n\
+         [[mesh]]\nobj = \"room.obj\"\n\
+         [[light]]\nkind = \"point\"\nposition = [0.3, 1.7, 0.2]\nintensity = [3, 3, 3]\n",
+    )
+    .unwrap();
+    let script = dir.join("script.txt");
+    std::fs::write(&script, "0 wait_gi\n0 screenshot v.png\n0 quit\n").unwrap();
+    let size = format!("{W}x{H}");
+    let out = Command::new("timeout")
+        .arg("400")
+        .args(["xvfb-run", "-a", env!("CARGO_BIN_EXE_linkgi"), "view"])
+        .arg(dir.join("room.toml"))
+        .args(["--exposure", "0.6", "--size", &size, "--script"])
+        .arg(&script)
+        .arg("--screenshot-dir")
+        .arg(&dir)
+        .output()
+        .expect("run xvfb-run");
+    let (stdout, stderr) = (String::from_utf8_lossy(&out.stdout), String::from_utf8_lossy(&out.stderr));
+    eprintln!("stdout:\n{stdout}\nstderr:\n{stderr}");
+    assert!(out.status.success(), "linkgi view failed: {}", out.status);
+    assert!(stderr.contains("refined: "), "no refinement landed");
+    let version: u64 = stdout
+        .lines()
+        .find_map(|l| l.strip_prefix("gi: version "))
+        .and_then(|l| l.split(',').next())
+        .and_then(|v| v.parse().ok())
+        .expect("a gi line");
+    assert!(version >= 2, "the a-priori mesh's result, then the refined one's: version {version}");
+    let rendered = dir.join("r.png");
+    let r = Command::new(env!("CARGO_BIN_EXE_linkgi"))
+        .arg("render")
+        .arg(dir.join("room.toml"))
+        .args(["--exposure", "0.6", "--size", &size, "--out"])
+        .arg(&rendered)
+        .output()
+        .expect("run linkgi render");
+    assert!(r.status.success(), "render failed: {}", String::from_utf8_lossy(&r.stderr));
+    let (v, rr) = (load(&dir.join("v.png")), load(&rendered));
+    let diff = mean_abs_diff(&v, &rr);
+    eprintln!("view against render: mean abs diff {diff:.3}");
+    assert!(diff < 1.0, "the refined view differs from render's picture by {diff:.2} a channel");
+}

@@ -16,6 +16,7 @@
 //! | mesh deformed (new positions; static meshes must not move) | CPU: BVH refit + selective re-shooting of links and light links ([`Solver::deform`]) + gather; GPU: everything |
 //! | settings: rays or seed | kd-tree + links + light links + gather |
 //! | settings: bounces or smoothing | gather |
+//! | a solver built elsewhere ([`Change::Adopt`]: a refined mesh) | light links where the lights were edited meanwhile + gather |
 //! | deform to the current positions, or nothing | nothing (the worker sleeps on the channel) |
 //!
 //! With [`EngineParams::light_preview`] (the viewer's choice), a light edit
@@ -82,11 +83,41 @@ pub enum Change {
     },
     /// Replace the sky (None: no sky).
     SetSky(Option<Sky>),
+    /// Replace the solver, and with it the mesh, by one built elsewhere
+    /// (the viewer's refinement: each new lighting mesh as it lands). The
+    /// current lights, sky and settings carry over (light links are redone
+    /// where the lights differ from the adopted solver's; everything is
+    /// rebuilt where rays, seed or tracer do); per-vertex emission comes
+    /// with the new mesh, so emission edits are sent again after it.
+    Adopt(Adopted),
     /// Test hook (feature `test-hooks`, the tests' only): the worker
     /// panics while handling this change.
     #[cfg(feature = "test-hooks")]
     #[doc(hidden)]
     Panic,
+}
+
+/// A solver handed to the worker once ([`Change::Adopt`]); cloning shares
+/// it, and the first batch that takes it leaves the others empty.
+#[derive(Clone)]
+pub struct Adopted(Arc<Mutex<Option<Solver>>>);
+
+impl Adopted {
+    /// Wraps `solver` for [`Change::Adopt`].
+    pub fn new(solver: Solver) -> Adopted {
+        Adopted(Arc::new(Mutex::new(Some(solver))))
+    }
+
+    fn take(&self) -> Option<Solver> {
+        lock(&self.0).take()
+    }
+}
+
+impl std::fmt::Debug for Adopted {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let n = lock(&self.0).as_ref().map(|s| s.scene().vertex_count());
+        write!(f, "Adopted({n:?} vertices)")
+    }
 }
 
 /// One published GI state.

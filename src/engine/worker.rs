@@ -159,6 +159,26 @@ impl Worker {
                     scene.sky = sky;
                     dirty.gather = true;
                 }
+                Change::Adopt(adopted) => {
+                    let s = adopted.take().ok_or("adopt: that solver was adopted already")?;
+                    let mut next = s.scene().clone();
+                    let (old, new) = (next.settings, scene.settings);
+                    dirty.lights |= scene.lights != next.lights;
+                    next.lights = std::mem::take(&mut scene.lights);
+                    next.sky = scene.sky.take();
+                    next.settings = new;
+                    // A deformation queued for the old mesh is void.
+                    positions = None;
+                    scene = next;
+                    dirty.gather = true;
+                    if (old.rays_per_vertex, old.seed, old.tracer) == (new.rays_per_vertex, new.seed, new.tracer) {
+                        self.solver = Some(s);
+                    } else {
+                        // Other rays than the solver's: a fresh one of its mesh.
+                        self.solver = None;
+                        dirty.geometry = true;
+                    }
+                }
                 #[cfg(feature = "test-hooks")]
                 Change::Panic => dirty.panic = true,
             }

@@ -169,11 +169,27 @@ pub fn solve(desc: &SceneDesc, compute: &Compute, progress: &(dyn Fn(usize, usiz
 /// the CLI adds a default sky to scenes without any), by `plan` (made on
 /// the scene as loaded).
 pub fn solve_planned(
+    current: SceneDesc,
+    prepared: prep::PreparedScene,
+    plan: &Plan,
+    compute: &Compute,
+    progress: &(dyn Fn(usize, usize) + Sync),
+) -> crate::Result<Refined> {
+    solve_planned_with(current, prepared, plan, compute, progress, &mut |_, _| {})
+}
+
+/// [`solve_planned`], calling `on_round` with the solver and solution of
+/// every round that is refined further (a marking round: its mesh, at the
+/// marking parameters, without the near field), as it lands; the final
+/// round is the result. The viewer shows them
+/// (`linkgi view`: the a-priori mesh at once, then each round).
+pub fn solve_planned_with(
     mut current: SceneDesc,
     prepared: prep::PreparedScene,
     plan: &Plan,
     compute: &Compute,
     progress: &(dyn Fn(usize, usize) + Sync),
+    on_round: &mut dyn FnMut(&Solver, &Solution),
 ) -> crate::Result<Refined> {
     let settings = current.settings.refine;
     let params = SolveParams::from_settings(&current.settings);
@@ -274,6 +290,7 @@ pub fn solve_planned(
         };
         round.ms = t.elapsed().as_secs_f64() * 1e3;
         rounds.push(round);
+        on_round(&solver, &solution);
         t = Instant::now();
         let mut prepared = prep::prepare(&next)?;
         prepared.sky = s.sky.clone();

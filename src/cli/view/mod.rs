@@ -35,6 +35,7 @@ mod edit;
 mod input;
 mod orbit;
 mod panel;
+mod refining;
 mod script;
 mod window;
 
@@ -150,6 +151,14 @@ struct Viewer {
     window: Option<Arc<Window>>,
     error: Option<anyhow::Error>,
     quit: bool,
+    /// The error-driven rounds running in the background ([`refining`]), until the final one lands.
+    refining: Option<crossbeam_channel::Receiver<refining::Landed>>,
+    /// The light of the newest landed round, drawn until the engine has a result for its mesh.
+    round_gi: Option<Arc<linkgi::engine::GiResult>>,
+    /// Rounds drawn so far.
+    rounds_landed: usize,
+    /// Each mesh's emission as loaded (edits differ from it and are sent again after a new mesh).
+    loaded_emission: Vec<(String, Vec3)>,
 }
 
 pub fn run(args: ViewArgs) -> Result<()> {
@@ -167,7 +176,7 @@ pub fn run(args: ViewArgs) -> Result<()> {
     // Before the scene and the engine: no display fails fast.
     let event_loop = EventLoop::new().context("opening the window system (is DISPLAY or WAYLAND_DISPLAY set?)")?;
     event_loop.set_control_flow(ControlFlow::Poll);
-    let Setup { desc, prepared, settings, .. } = setup(&args.scene, &args.overrides)?;
+    let Setup { desc, prepared, settings, plan } = setup(&args.scene, &args.overrides)?;
     let backend = settings.backend;
     for step in &script {
         let at = || format!("{}:{}", script_file.display(), step.line);
@@ -191,6 +200,9 @@ pub fn run(args: ViewArgs) -> Result<()> {
     }
     let compute = compute(backend, 1)?;
     let gi_device = compute.describe();
+    // The a-priori mesh at once (the engine), the error-driven rounds behind it.
+    let refining = (plan.refining && !has_deformers(&prepared))
+        .then(|| refining::start(desc.clone(), prepared.clone(), plan.clone(), compute.clone()));
     let camera = super::setup::camera(&desc, &prepared, None);
     let extent = Frame::of(&prepared, &prepared.positions, camera).extent();
     let engine = Engine::start(
@@ -209,7 +221,7 @@ pub fn run(args: ViewArgs) -> Result<()> {
             (base * 1e-2, base * 1e2)
         })
         .collect();
-    let mesh_emission = prepared
+    let mesh_emission: Vec<(String, Vec3)> = prepared
         .meshes
         .iter()
         .map(|m| {
@@ -222,6 +234,10 @@ pub fn run(args: ViewArgs) -> Result<()> {
         })
         .collect();
     let mut viewer = Viewer {
+        refining,
+        round_gi: None,
+        rounds_landed: 0,
+        loaded_emission: mesh_emission.clone(),
         mesh_emission,
         selected_mesh: 0,
         sky: prepared.sky.clone(),

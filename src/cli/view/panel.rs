@@ -55,6 +55,8 @@ pub struct PanelModel<'a> {
     pub selected_mesh: usize,
     /// The sky's intensity and rotation (degrees), if the scene has one.
     pub sky: Option<(f32, f32)>,
+    /// The background refinement's state (empty when done or off).
+    pub refining: String,
 }
 
 /// A control the user changed.
@@ -117,6 +119,9 @@ pub fn panel(ctx: &egui::Context, m: &PanelModel) -> Vec<UiAction> {
         .default_open(true)
         .show(ctx, |ui| {
             ui.label(format!("{} · drawn on {}", m.scene, m.renderer)).on_hover_text(format!("GI on {}", m.gi_device));
+            if !m.refining.is_empty() {
+                ui.label(&m.refining).on_hover_text("the error-driven rounds run in the background; each lands here");
+            }
             ui.label(format!(
                 "{:.1} fps · GI {:.2} updates/s{}",
                 m.fps,

@@ -18,7 +18,9 @@
 //! - `remove_light <i>`;
 //! - `deform on|off`; `view combined|direct|indirect`;
 //! - `wait_gi`: until every change sent before it is in a published result
-//!   and that result has been drawn (also while deformation plays); prints
+//!   and that result has been drawn (also while deformation plays), and,
+//!   where the scene refines in the background, until the final mesh's
+//!   result is (`refining`); prints
 //!   `gi: version .., links .., bounces .., rays ..` and light 0
 //!   (`light0 point x y z intensity I`, the result's own lights); fails after 300 s;
 //! - `screenshot <name.png>`: the next frame's scene, without the panel;
@@ -274,8 +276,14 @@ impl Viewer {
     fn wait_gi(&mut self, here: &str) -> Result<bool> {
         let sent = self.engine.sent();
         let w = self.wait.get_or_insert_with(|| GiWait { since: Instant::now(), target: sent, need: None });
+        // A scene refining in the background: its final mesh's result too
+        // (handed to the engine when it lands, a change sent then).
+        let refining = self.refining.is_some();
+        if w.need.is_none() {
+            w.target = w.target.max(sent);
+        }
         let c = self.engine.counters();
-        if w.need.is_none() && c.changes >= w.target && (c.published > 0 || c.errors > 0) {
+        if !refining && w.need.is_none() && c.changes >= w.target && (c.published > 0 || c.errors > 0) {
             if c.published == 0 {
                 bail!(
                     "{here}: wait_gi: the GI engine published no result: {}",

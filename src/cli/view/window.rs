@@ -79,7 +79,7 @@ impl Viewer {
         let intensity = self.lights.get(self.selected).map_or(0.0, Light::strength);
         window.set_title(&format!(
             "linkgi {} | {:.1} fps | GI {:.1} upd/s, age {age} | {links} links, {bounces} bounces | {} | \
-             light {}/{} I={intensity:.3} | {} rays/vertex{}",
+             light {}/{} I={intensity:.3} | {} rays/vertex{}{}",
             self.prepared.name,
             self.fps,
             self.gi_ups,
@@ -87,7 +87,8 @@ impl Viewer {
             self.selected,
             self.lights.len(),
             self.settings.rays_per_vertex,
-            if self.playing { " | playing" } else { "" }
+            if self.playing { " | playing" } else { "" },
+            Some(self.refine_status()).filter(|r| !r.is_empty()).map_or(String::new(), |r| format!(" | {r}"))
         ));
         self.hud_at = Instant::now();
         self.hud_frames = self.frames;
@@ -118,7 +119,11 @@ impl Viewer {
             return Ok(());
         }
         let Some(mut display) = self.display.take() else { return Ok(()) };
-        let gi = self.engine.latest();
+        self.poll_refinement();
+        // The engine's newest result for the mesh shown, else the newest landed round's.
+        let n = self.positions.len();
+        let gi = (self.engine.latest().filter(|g| g.e_indirect.len() == n))
+            .or_else(|| self.round_gi.clone().filter(|g| g.e_indirect.len() == n));
         let light_pixels = self.light_pixels(size);
         let counters = self.engine.counters();
         let last_error = self.engine.last_error();
@@ -181,6 +186,7 @@ impl Viewer {
                 meshes: &self.mesh_emission,
                 selected_mesh: self.selected_mesh,
                 sky: self.sky.as_ref().map(|s| (s.intensity, s.rotate_deg)),
+                refining: self.refine_status(),
             };
             display.draw(&window, &frame, &params, &mut |ctx| actions = panel::panel(ctx, &model), capture)
         };
