@@ -214,7 +214,8 @@ pub fn split(
     let floor = CONTACT_FLOOR * target;
     let count = |s: &SceneDesc| s.meshes.iter().map(|m| m.positions.len()).sum::<usize>();
     let start = count(scene);
-    if !(floor > 0.0 && floor.is_finite()) || !coarse.contains(&true) {
+    let usable = floor.is_finite() && floor > 0.0 && coarse.contains(&true);
+    if !usable {
         return (out, stats);
     }
     // Per mesh and triangle: a piece of a triangle split here (it goes on
