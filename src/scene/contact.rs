@@ -45,7 +45,7 @@
 //! edge midpoints, so a wall still crosses a triangle of up to half its
 //! height.
 
-use super::refine::{split_world_edges, world_edge, WorldEdge};
+use super::edges::{world_edge, WorldEdge};
 use super::SceneDesc;
 use crate::bvh::{Bvh, BvhBuildParams};
 use glam::Vec3;
@@ -199,15 +199,21 @@ fn longest_edge([a, b, c]: [Vec3; 3]) -> (f32, WorldEdge) {
         .fold((-1.0, world_edge(a, b)), |m, e| if e.0 > m.0 { e } else { m })
 }
 
+/// The conforming split pass of world-keyed edges: the scene and, per
+/// mesh, each new triangle's parent ([`super::refine::split_world_edges`]).
+pub type SplitPass = dyn Fn(&SceneDesc, &HashSet<WorldEdge>) -> (SceneDesc, Vec<Vec<u32>>);
+
 /// `scene` (`input` after the uniform a-priori step to `target` metres)
 /// with the triangles of its `coarse` meshes in which geometry of `input`
-/// stands split (see the module doc), adding at most `room` positions.
+/// stands split by `split_world_edges` (see the module doc), adding at
+/// most `room` positions.
 pub fn split(
     input: &SceneDesc,
     scene: &SceneDesc,
     coarse: &[bool],
     target: f32,
     room: usize,
+    split_world_edges: &SplitPass,
 ) -> (SceneDesc, ContactStats) {
     let mut out = scene.clone();
     let mut stats = ContactStats::default();

@@ -369,7 +369,7 @@ pub fn apriori(scene: &SceneDesc, settings: &RefineSettings) -> (SceneDesc, Vec<
     let coarse = coarse_meshes(scene, max_edge);
     let room = (settings.max_added as usize).saturating_sub(added);
     let t = std::time::Instant::now();
-    let (cut, contact) = super::contact::split(scene, &out, &coarse, max_edge, room);
+    let (cut, contact) = super::contact::split(scene, &out, &coarse, max_edge, room, &split_world_edges);
     if contact.edges > 0 {
         log::info!(
             "a-priori contact splits: {} edges in {} passes ({:.2} s) where geometry stands in a coarse triangle",
@@ -398,15 +398,7 @@ pub fn apriori(scene: &SceneDesc, settings: &RefineSettings) -> (SceneDesc, Vec<
     (out, stats)
 }
 
-/// A world-space edge: its two ends' world positions as bits, sorted (how
-/// preparation welds, so edges indexed twice match).
-pub type WorldEdge = ([u32; 3], [u32; 3]);
-
-/// The world-space key of the edge from `a` to `b`.
-pub fn world_edge(a: Vec3, b: Vec3) -> WorldEdge {
-    let (a, b) = (a.to_array().map(f32::to_bits), b.to_array().map(f32::to_bits));
-    (a.min(b), a.max(b))
-}
+pub use super::edges::{world_edge, WorldEdge};
 
 /// One conforming pass over every mesh: the edges whose world key is in
 /// `marks` split at their midpoints (the error-driven step). Also returns,
