@@ -213,6 +213,9 @@ pub(super) struct GiWait {
     target: u64,
     /// The result version that then had to be drawn.
     need: Option<u64>,
+    /// The wait began while the scene refined in the background: once the
+    /// final mesh is handed to the engine, the changes sent by then count.
+    refining: bool,
 }
 
 impl Viewer {
@@ -275,12 +278,15 @@ impl Viewer {
     /// is in a published result and that result has been drawn.
     fn wait_gi(&mut self, here: &str) -> Result<bool> {
         let sent = self.engine.sent();
-        let w = self.wait.get_or_insert_with(|| GiWait { since: Instant::now(), target: sent, need: None });
-        // A scene refining in the background: its final mesh's result too
-        // (handed to the engine when it lands, a change sent then).
         let refining = self.refining.is_some();
-        if w.need.is_none() {
-            w.target = w.target.max(sent);
+        let w = self.wait.get_or_insert_with(|| GiWait { since: Instant::now(), target: sent, need: None, refining });
+        // A scene refining in the background: its final mesh's result too
+        // (handed to the engine when it lands, a change sent then). Only
+        // then is the target raised: a deforming scene sends a change every
+        // frame, and a target that followed them would never be reached.
+        if w.refining && !refining {
+            w.target = sent;
+            w.refining = false;
         }
         let c = self.engine.counters();
         if !refining && w.need.is_none() && c.changes >= w.target && (c.published > 0 || c.errors > 0) {
