@@ -96,6 +96,21 @@ impl Stream {
         self.seed(seed) ^ (v as u64).wrapping_mul(0x9e37_79b9_7f4a_7c15)
     }
 
+    /// The seed of the generator of a vertex at position `p` with normal
+    /// `n` in this stream: keyed by the vertex's geometry, not its index,
+    /// so a vertex that a refinement round keeps (same position and
+    /// normal, another index) draws the same samples as before
+    /// (the emitter links of a refinement round). Two vertices with
+    /// the same position and normal share their samples.
+    #[inline]
+    pub fn point_seed(self, seed: u64, p: glam::Vec3, n: glam::Vec3) -> u64 {
+        let [a, b, c] = p.to_array().map(f32::to_bits);
+        let [d, e, f] = n.to_array().map(f32::to_bits);
+        let h = splitmix64(self.key(seed) ^ (u64::from(a) | u64::from(b) << 32));
+        let h = splitmix64(h ^ (u64::from(c) | u64::from(d) << 32));
+        splitmix64(h ^ (u64::from(e) | u64::from(f) << 32))
+    }
+
     /// The stream's key for `seed`, hashed on its own first (seeds that
     /// differ in low bits must not share samples).
     #[inline]

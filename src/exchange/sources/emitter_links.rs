@@ -39,8 +39,10 @@
 //! (every point reached, or none) the ratio estimate above is already 1 or
 //! 0 for every group and more rays would only confirm it, so the vertex
 //! keeps it; a vertex in penumbra traces its full `samples` anew. Both
-//! passes draw from the vertex's own seed, so the answer is deterministic
-//! and independent of batches and threads.
+//! passes draw from the vertex's own seed (keyed by its position and
+//! normal, [`Stream::point_seed`], so a vertex a refinement round keeps
+//! draws what it drew before), so the answer is deterministic and
+//! independent of batches and threads.
 //!
 //! Stored per vertex: `F_vg` for each emitter group `g` (the triangles of one mesh with one emission
 //! when the links were built), so `E_em(v) = sum_g F_vg M_g` with the
@@ -438,7 +440,7 @@ fn vertex_rays(
     }
     out.unshaded = f_group.iter().enumerate().filter(|(_, &x)| x > 0.0).map(|(g, &x)| (g as u32, x)).collect();
     let VertexRays { rays, weights, picks, .. } = &mut out;
-    let mut rng = rand_pcg::Pcg32::seed_from_u64(Stream::EMITTER_LINKS.vertex_seed(seed, v));
+    let mut rng = rand_pcg::Pcg32::seed_from_u64(Stream::EMITTER_LINKS.point_seed(seed, p, n));
     let xi: f64 = rng.random();
     let offset = Vec2::new(rng.random(), rng.random());
     let total = samples as f64;
