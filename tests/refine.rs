@@ -224,7 +224,30 @@ fn carried_hits_equal_a_fresh_solve_of_the_refined_mesh() {
     // Every decided term forced on, so every part is traced and compared
     // (on this box the emitters' near field moves the light by under 2%).
     desc.settings.forced = linkgi::scene::terms::Terms::with_on(linkgi::scene::terms::Terms::DECIDED).unwrap();
-    let r = solve(&desc);
+    // After every round, each traced part equals a fresh trace of it on
+    // that round's mesh; after the first, the emitter links were updated
+    // (kept vertices kept their rows), not traced anew.
+    let plan = Plan::of(&desc);
+    let current = refine::apriori(&desc, &desc.settings.refine).0;
+    let prepared = linkgi::scene::prep::prepare(&current).unwrap();
+    let mut rounds = 0;
+    let mut on_round = |s: &linkgi::solver::Solver, _: &linkgi::solver::Solution| {
+        let parts = s.check_traced().unwrap_or_else(|e| panic!("round {rounds}: {e}"));
+        assert!(parts >= 3, "round {rounds}: the sources traced ({parts} parts)");
+        let (name, emitters) = s.part_costs()[1];
+        assert_eq!(name, "emitter links");
+        eprintln!("round {rounds}: emitter links {emitters:?}");
+        if rounds > 0 {
+            assert!(emitters.selective, "round {rounds}: the emitter links updated after the split");
+            let n = s.scene().vertex_count() as u64;
+            assert!(emitters.redone > 0 && emitters.redone < n, "round {rounds}: {} of {n} redone", emitters.redone);
+        }
+        rounds += 1;
+    };
+    let r = adaptive::solve_planned_with(current, prepared, &plan, &Compute::Cpu, &|_, _| {}, &mut on_round)
+        .expect("solves");
+    assert!(rounds >= 2, "two marking rounds checked ({rounds})");
+    assert_eq!(r.solver.check_traced(), Ok(8), "the final solver's parts");
     assert!(r.rounds.len() >= 2, "the error-driven rounds split something");
     let marking = linkgi::solver::SolveParams::from_settings(&desc.settings).marking().links.rays_per_vertex;
     assert_eq!(marking, 16, "the rounds mark at the full rays");
@@ -300,7 +323,30 @@ fn carried_hits_equal_a_fresh_solve_of_the_refined_mesh() {
 #[test]
 fn marking_rounds_trace_a_quarter_of_the_rays() {
     let (desc, _) = coarse_cornell(RefineSettings::default());
-    let r = solve(&desc);
+    // After every round, each traced part equals a fresh trace of it on
+    // that round's mesh; after the first, the emitter links were updated
+    // (kept vertices kept their rows), not traced anew.
+    let plan = Plan::of(&desc);
+    let current = refine::apriori(&desc, &desc.settings.refine).0;
+    let prepared = linkgi::scene::prep::prepare(&current).unwrap();
+    let mut rounds = 0;
+    let mut on_round = |s: &linkgi::solver::Solver, _: &linkgi::solver::Solution| {
+        let parts = s.check_traced().unwrap_or_else(|e| panic!("round {rounds}: {e}"));
+        assert!(parts >= 3, "round {rounds}: the sources traced ({parts} parts)");
+        let (name, emitters) = s.part_costs()[1];
+        assert_eq!(name, "emitter links");
+        eprintln!("round {rounds}: emitter links {emitters:?}");
+        if rounds > 0 {
+            assert!(emitters.selective, "round {rounds}: the emitter links updated after the split");
+            let n = s.scene().vertex_count() as u64;
+            assert!(emitters.redone > 0 && emitters.redone < n, "round {rounds}: {} of {n} redone", emitters.redone);
+        }
+        rounds += 1;
+    };
+    let r = adaptive::solve_planned_with(current, prepared, &plan, &Compute::Cpu, &|_, _| {}, &mut on_round)
+        .expect("solves");
+    assert!(rounds >= 2, "two marking rounds checked ({rounds})");
+    assert_eq!(r.solver.check_traced(), Ok(8), "the final solver's parts");
     assert!(r.rounds.len() >= 2, "the error-driven rounds split something");
     let marking = linkgi::solver::SolveParams::from_settings(&desc.settings).marking().links.rays_per_vertex;
     assert_eq!((desc.settings.rays_per_vertex, marking), (256, 64));

@@ -71,6 +71,9 @@ fn assert_equals_fresh(updated: &Solver, what: &str) {
     assert_eq!(updated.near().light.columns, fresh.near().light.columns, "{what}: near hits' light columns");
     assert_eq!(updated.near().gather.per_hit, fresh.near().gather.per_hit, "{what}: gather rays a near hit");
     assert_eq!(updated.near().gather.hits, fresh.near().gather.hits, "{what}: near hits' gather rays");
+    // Every traced part (the sky's, the noise check's, each near term's)
+    // against a fresh trace from the updated links.
+    assert_eq!(updated.check_traced(), Ok(8), "{what}: the traced parts");
     let (ea, eb) = (&updated.emitter_links(), &fresh.emitter_links());
     ea.validate(updated.scene().vertex_count()).expect("emitter links valid");
     assert_eq!(ea.rows, eb.rows, "{what}: emitter links");

@@ -100,7 +100,7 @@ impl Stream {
     /// `n` in this stream: keyed by the vertex's geometry, not its index,
     /// so a vertex that a refinement round keeps (same position and
     /// normal, another index) draws the same samples as before
-    /// (the emitter links of a refinement round). Two vertices with
+    /// ([`crate::exchange::EmitterLinks::after_split`]). Two vertices with
     /// the same position and normal share their samples.
     #[inline]
     pub fn point_seed(self, seed: u64, p: glam::Vec3, n: glam::Vec3) -> u64 {

@@ -29,7 +29,7 @@
 //! sample's rays) are reported in `solve`'s output so the choice can be
 //! checked.
 
-use super::traced::Part;
+use super::traced::{Change, Inputs, Part};
 use super::{compute::Tracers, Solver};
 use crate::csr::RowBuilder;
 use crate::exchange::near::{Bounce, NearField};
@@ -117,7 +117,8 @@ impl Solver {
             let part = Part::of_decided(name).expect("a decided term");
             // Traced into the solver's own (still empty) near field, then taken out.
             let t = Tracers::of(&self.gpu, &self.accel);
-            self.traced.trace_from(&[part], &self.scene, &self.links, &sample, &p, t);
+            let inputs = Inputs { scene: &self.scene, links: &self.links, near: &sample, params: &p };
+            self.traced.update(&[part], &Change::Fresh, inputs, t);
             let rays = self.traced.rays(part);
             let probe = std::mem::take(&mut self.traced.near);
             if rays == 0 {

@@ -13,7 +13,7 @@
 //! full solve of the deformed scene with the same seed. Times in ms.
 
 use super::compute::{gpu_else_cpu, Tracers};
-use super::traced::Part;
+use super::traced::{Change, Inputs, Part};
 use super::{Compute, SolveParams, Solver};
 use crate::exchange::near::NearChange;
 use crate::gpu::{GpuLinks, LogicalDevice};
@@ -140,29 +140,25 @@ impl Solver {
         self.upload_links();
         self.ray_hits = Some(hits);
         stats.links = link_stats;
-        let t = Instant::now();
+        // Every traced part brought along (`Traced::update`): the light
+        // links, the near hits' light columns and their gather rays redo
+        // what the motion can have changed; the rest is traced anew (any
+        // motion can move an emitter or what shades it; the sky's refined
+        // cells follow the new links' misses, the portals' rays the new
+        // positions, the near hits' sky rays the new hits; the noise check
+        // is a few hundred vertices).
         let tracers = Tracers::of(&self.gpu, &self.accel);
-        let (scene, traced) = (&self.scene, &mut self.traced);
-        stats.light_links_recomputed = tracers
-            .any("updating light links", |tr| traced.light_links.update_deformed(scene, tr, &params.light, &motion));
-        traced.on_cpu[Part::LightLinks.index()] |= tracers.take_cpu_used();
-        stats.light_links_ms = t.elapsed().as_secs_f64() * 1e3;
-        // The near hits' light columns and gather rays: those the motion
-        // can have changed traced again.
-        let change =
-            NearChange { before: &near_before, after: &self.links.near, redone: &near_redone, motion: &motion };
-        let near = &mut traced.near;
-        tracers.any("updating near-hit light", |tr| near.light.update_deformed(scene, &change, tr, &params.light));
-        traced.on_cpu[Part::NearLight.index()] |= tracers.take_cpu_used();
-        tracers.any("updating the near hits' final gather", |tr| {
-            near.gather.update_deformed(scene, &change, tr, &params.near_gather, params.seed())
+        let change = Change::Deformed(NearChange {
+            before: &near_before,
+            after: &self.links.near,
+            redone: &near_redone,
+            motion: &motion,
         });
-        traced.on_cpu[Part::NearGather.index()] |= tracers.take_cpu_used();
-        // Everything else is traced anew: any motion can move an emitter or
-        // what shades it; the sky's refined cells follow the new links'
-        // misses, the portals' rays the new positions, the near hits' sky
-        // rays the new hits; the noise check is a few hundred vertices.
-        self.retrace(&[Part::Emitters, Part::NearEmitters, Part::Sky, Part::NearSky, Part::NoiseCheck]);
+        let inputs = Inputs { scene: &self.scene, links: &self.links, near: &self.links.near, params: &self.params };
+        self.traced.update(&Part::ALL, &change, inputs, tracers);
+        self.emitters_changed();
+        let light = self.traced.cost(Part::LightLinks);
+        (stats.light_links_recomputed, stats.light_links_ms) = (light.redone, light.ms);
         stats.emitter_links_ms = self.traced.emitter_links.ms;
         stats.ray_state_bytes = self.ray_state_bytes();
         stats.ms = start.elapsed().as_secs_f64() * 1e3;

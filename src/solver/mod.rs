@@ -35,7 +35,7 @@ use crate::trace::{Accel, TracerKind};
 use compute::Tracers;
 use std::sync::{Arc, Mutex};
 use std::time::Instant;
-use traced::{Part, Traced};
+use traced::{Change, Inputs, Part, Traced};
 
 pub mod adaptive;
 mod change;
@@ -54,6 +54,7 @@ pub use deform::{DeformStats, Preview, PREVIEW_RAYS};
 pub use params::SolveParams;
 pub use solve::Sources;
 pub use stats::{Solution, SolveStats};
+pub use traced::PartCost;
 
 /// A scene with its acceleration structure, vertex links and every traced
 /// part built (module doc). Read with the accessors; changed with the
@@ -246,18 +247,52 @@ impl Solver {
     /// [`crate::scene::terms::Terms::DECIDED`] are decided first (after
     /// the sources among `parts`; `decide.rs`).
     fn retrace(&mut self, parts: &[Part]) {
+        self.update_parts(parts, &Change::Fresh)
+    }
+
+    /// Brings the traced `parts` up to date after `change`
+    /// ([`traced::Traced::update`]); the near-field terms that may be left
+    /// out are decided first, once the sources are traced, where they are
+    /// not decided yet.
+    fn update_parts(&mut self, parts: &[Part], change: &Change) {
         let decided = |p: &Part| crate::scene::terms::Terms::DECIDED.iter().any(|&n| Part::of_decided(n) == Some(*p));
         if self.decisions.is_none() && parts.iter().any(decided) {
             let (sources, rest): (Vec<Part>, Vec<Part>) = parts.iter().partition(|p| Part::SOURCES.contains(p));
-            self.retrace(&sources);
+            self.update_parts(&sources, change);
             self.decisions = Some(self.decide_terms());
-            return self.retrace(&rest);
+            return self.update_parts(&rest, change);
         }
         let t = Tracers::of(&self.gpu, &self.accel);
-        self.traced.trace(parts, &self.scene, &self.links, &self.params, t);
+        let inputs = Inputs { scene: &self.scene, links: &self.links, near: &self.links.near, params: &self.params };
+        self.traced.update(parts, change, inputs, t);
         if parts.contains(&Part::Emitters) {
             self.emitters_changed();
         }
+    }
+
+    /// Checks every traced part against a fresh trace of it from this
+    /// solver's scene, links and parameters (on the CPU structure): equal
+    /// bit for bit in what a solve reads, whatever updates brought it here
+    /// (a refinement round's split, a deformation). Parts never traced
+    /// (the near field of a marking round) are left out. Returns the parts
+    /// checked (or which one differs). Costs a fresh trace of each part: for tests.
+    pub fn check_traced(&self) -> Result<usize, String> {
+        let parts: Vec<Part> = Part::ALL.into_iter().filter(|&p| self.traced.cost(p).traced).collect();
+        let mut fresh = Traced::default();
+        let no_gpu = None;
+        let t = Tracers::of(&no_gpu, &self.accel);
+        let inputs = Inputs { scene: &self.scene, links: &self.links, near: &self.links.near, params: &self.params };
+        fresh.update(&parts, &Change::Fresh, inputs, t);
+        match parts.iter().find_map(|&p| self.traced.differs(&fresh, p)) {
+            Some(name) => Err(format!("the {name} differ from a fresh trace")),
+            None => Ok(parts.len()),
+        }
+    }
+
+    /// Per traced part, its name and what its last update did (a
+    /// refinement round's or a deformation's update, or a fresh trace).
+    pub fn part_costs(&self) -> Vec<(&'static str, PartCost)> {
+        Part::ALL.iter().map(|&p| (p.name(), self.traced.cost(p))).collect()
     }
 
     /// What the solve decided about the near-field terms it may leave out

@@ -33,7 +33,7 @@
 use super::{hit_albedo, hit_frame, trace_by_vertex, Bounce, Cost, Fields, NearTerm, Shape};
 use crate::csr::{Csr, RowBuilder};
 use crate::exchange::sources::emitter_geometry::Emitter;
-use crate::exchange::sources::emitter_links::{emitters, EmitterLinks};
+use crate::exchange::sources::emitter_links::{emitters_of, EmitterLinks};
 use crate::kdtree::traverse::{Ray, NO_SKIP};
 use crate::links::near::triangle_ranks;
 use crate::links::{NearHit, NearHits};
@@ -180,7 +180,7 @@ impl NearEmitters {
         if near.is_empty() || !links.is_active() || params.samples == 0 {
             return Ok(NearEmitters::default());
         }
-        let (tris, _) = emitters(scene);
+        let (tris, _) = emitters_of(scene);
         let groups = groups(&tris, links.group_vertex.len());
         let inv = 1.0 / rays_per_vertex.max(1) as f32;
         let mut rows = RowBuilder::new();

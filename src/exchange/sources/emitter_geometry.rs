@@ -340,7 +340,7 @@ fn edge_term(a: DVec3, b: DVec3, n: DVec3) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::exchange::sources::emitter_links::emitters;
+    use crate::exchange::sources::emitter_links::emitters_of;
     use crate::scene::shapes::MeshBuilder;
 
     /// Lambert's formula against brute-force cosine-weighted sampling of
@@ -487,7 +487,7 @@ mod tests {
         );
         desc.meshes.push(b.finish("glow", 30.0));
         let scene = crate::scene::prep::prepare(&desc).unwrap();
-        let (em, _) = emitters(&scene);
+        let (em, _) = emitters_of(&scene);
         let mesh = EmitterMesh::new(&scene, &em);
         assert!(mesh.runs.len() > 4 && mesh.edge_count < 3 * em.len());
         let (mut scratch, mut f) = (FormFactorScratch::default(), Vec::new());

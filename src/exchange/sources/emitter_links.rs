@@ -40,7 +40,7 @@
 //! 0 for every group and more rays would only confirm it, so the vertex
 //! keeps it; a vertex in penumbra traces its full `samples` anew. Both
 //! passes draw from the vertex's own seed (keyed by its position and
-//! normal, [`Stream::point_seed`], so a vertex a refinement round keeps
+//! normal, [`crate::sampling::stream::Stream::point_seed`], so a vertex a refinement round keeps
 //! draws what it drew before), so the answer is deterministic and
 //! independent of batches and threads.
 //!
@@ -78,15 +78,14 @@
 //! emitter links and every emitter's light travels through the vertex
 //! links (documented fallback; [`EmitterLinks::fallback`] says why).
 
-use super::emitter_geometry::{form_factor, polygon_point, Emitter, EmitterMesh, FormFactorScratch};
+use super::emitter_geometry::{Emitter, EmitterMesh};
+use super::emitter_rays::{finish_vertex, vertex_rays, Scratch, VertexRays};
 use crate::csr::{Csr, RowBuilder};
 use crate::kdtree::traverse::Ray;
 use crate::links::shoot::ray_origin;
-use crate::sampling::stream::Stream;
-use crate::scene::prep::PreparedScene;
-use crate::trace::{Tracer, RAY_OFFSET};
-use glam::{Vec2, Vec3};
-use rand::{Rng, SeedableRng};
+use crate::scene::prep::{PreparedScene, NO_VERTEX};
+use crate::trace::Tracer;
+use glam::Vec3;
 use rayon::prelude::*;
 use std::borrow::Cow;
 use std::time::Instant;
@@ -170,27 +169,6 @@ pub struct EmitterLinks {
 /// [`EmitterLinks::vertex_group`] of a vertex outside every group.
 pub const NO_GROUP: u32 = u32::MAX;
 
-/// A triangle a vertex sends rays to, and what its rays found.
-#[derive(Clone, Copy, Debug)]
-struct Pick {
-    group: u32,
-    /// `F_t / pi_t`.
-    scale: f32,
-    first_ray: u32,
-    rays: u32,
-}
-
-/// One vertex's shadow rays, their weights, the triangles they go to and
-/// the exact unshaded factor of every group it sees.
-#[derive(Clone, Debug, Default)]
-struct VertexRays {
-    rays: Vec<Ray>,
-    weights: Vec<f32>,
-    picks: Vec<Pick>,
-    /// `(group, F_g)` for the groups with `F_g > 0`.
-    unshaded: Vec<(u32, f64)>,
-}
-
 /// Vertices per batch of shadow rays (bounds memory).
 const CHUNK_VERTICES: usize = 8192;
 
@@ -204,7 +182,7 @@ impl EmitterLinks {
     ) -> crate::Result<Self> {
         let start = Instant::now();
         let n = scene.vertex_count();
-        let (emitters, group_vertex) = emitters(scene);
+        let (emitters, group_vertex) = emitters_of(scene);
         let mut out = EmitterLinks { rows: Csr::empty_rows(n), covered: vec![false; n], ..Default::default() };
         if emitters.is_empty() || params.samples == 0 {
             return Ok(out);
@@ -219,72 +197,164 @@ impl EmitterLinks {
             ));
             return Ok(out);
         }
-        out.group_vertex = group_vertex;
-        out.vertex_group = vec![NO_GROUP; n];
-        for e in &emitters {
+        out.set_groups(scene, &emitters, group_vertex);
+        let all: Vec<usize> = (0..n).collect();
+        let found = out.trace_vertices(scene, &emitters, &all, tracer, params, seed)?;
+        let mut rows = RowBuilder::new();
+        for row in found {
+            rows.extend(row);
+            rows.end_row();
+        }
+        out.rows = rows.finish();
+        out.ms = start.elapsed().as_secs_f64() * 1e3;
+        Ok(out)
+    }
+
+    /// The emitter links of `scene`, a split of `old_scene` (a refinement
+    /// round) whose links `old` were traced with the same `params` and
+    /// `seed`; `kept[w]` is the old vertex new vertex `w` keeps
+    /// ([`crate::links::Lineage::kept`], [`NO_VERTEX`] for none). A kept
+    /// vertex whose position, normal, ray origin, ray offset and incident
+    /// triangle count are those it had keeps its row; the others trace.
+    /// The result equals [`EmitterLinks::compute`] on `scene` bit for bit:
+    /// a kept vertex draws the samples it drew (its seed is its position's
+    /// and normal's), toward the same emitter triangles, and a split leaves
+    /// every surface where it was, so its shadow rays meet what they met
+    /// (`tests/refine.rs` compares every round). Where the emitters
+    /// changed (an emitter triangle split), everything is traced anew.
+    /// Returns the links and the number of vertices that kept their rows.
+    pub fn after_split(
+        old: &EmitterLinks,
+        old_scene: &PreparedScene,
+        scene: &PreparedScene,
+        kept: &[u32],
+        tracer: &dyn Tracer,
+        params: &EmitterLinkParams,
+        seed: u64,
+    ) -> crate::Result<(Self, u64)> {
+        let start = Instant::now();
+        let n = scene.vertex_count();
+        let (emitters, group_vertex) = emitters_of(scene);
+        let (before, _) = emitters_of(old_scene);
+        let same = old.is_active()
+            && old.fallback.is_none()
+            && params.samples > 0
+            && kept.len() == n
+            && n as u64 * emitters.len() as u64 <= params.max_pairs
+            && group_vertex.len() == old.group_vertex.len()
+            && emitters.len() == before.len()
+            && emitters.iter().zip(&before).all(|(a, b)| a.corners == b.corners && a.group == b.group);
+        if !same {
+            return Ok((Self::compute(scene, tracer, params, seed)?, 0));
+        }
+        let mut out = EmitterLinks { covered: vec![false; n], ..Default::default() };
+        out.set_groups(scene, &emitters, group_vertex);
+        let keeps = |v: usize, w: usize| {
+            old_scene.positions[v] == scene.positions[w]
+                && old_scene.normals[v] == scene.normals[w]
+                && old_scene.vertex_triangles.row(v).len() == scene.vertex_triangles.row(w).len()
+                && old_scene.mean_edge_length(v).to_bits() == scene.mean_edge_length(w).to_bits()
+                && ray_origin(old_scene, v, params.nudge) == ray_origin(scene, w, params.nudge)
+        };
+        let carried: Vec<Option<usize>> = (0..n)
+            .into_par_iter()
+            .map(|w| {
+                let v = kept[w];
+                (v != NO_VERTEX && keeps(v as usize, w)).then_some(v as usize)
+            })
+            .collect();
+        let rest: Vec<usize> = (0..n).filter(|&w| carried[w].is_none()).collect();
+        let mut traced = out.trace_vertices(scene, &emitters, &rest, tracer, params, seed)?.into_iter();
+        let mut rows = RowBuilder::new();
+        for c in &carried {
+            match c {
+                Some(v) => rows.extend(old.rows.row(*v).iter().copied()),
+                None => rows.extend(traced.next().expect("a row per traced vertex")),
+            }
+            rows.end_row();
+        }
+        out.rows = rows.finish();
+        out.ms = start.elapsed().as_secs_f64() * 1e3;
+        Ok((out, (n - rest.len()) as u64))
+    }
+
+    /// The groups of `emitters` (each group's vertex `group_vertex`), every
+    /// vertex's group and whether its emission is covered.
+    fn set_groups(&mut self, scene: &PreparedScene, emitters: &[Emitter], group_vertex: Vec<u32>) {
+        self.group_vertex = group_vertex;
+        self.vertex_group = vec![NO_GROUP; scene.vertex_count()];
+        for e in emitters {
             for &v in &scene.triangles[e.triangle as usize] {
-                out.vertex_group[v as usize] = e.group;
+                self.vertex_group[v as usize] = e.group;
             }
         }
         for t in &scene.triangles {
             if scene.emission[t[0] as usize] != Vec3::ZERO {
                 for &v in t {
-                    out.covered[v as usize] = true;
+                    self.covered[v as usize] = true;
                 }
             }
         }
-        let mesh = EmitterMesh::new(scene, &emitters);
-        let mut rows = RowBuilder::new();
-        for first in (0..n).step_by(CHUNK_VERTICES) {
-            let end = (first + CHUNK_VERTICES).min(n);
-            let groups = out.group_vertex.len();
-            let pass = |vertices: &[usize], samples: u32| -> crate::Result<(Vec<VertexRays>, Vec<bool>, f64)> {
-                let per_vertex: Vec<VertexRays> = vertices
-                    .par_iter()
-                    .map_init(Scratch::default, |s, &v| {
-                        vertex_rays(scene, &emitters, &mesh, groups, v, params, samples, seed, s)
-                    })
-                    .collect();
-                let rays: Vec<Ray> = per_vertex.iter().flat_map(|r| r.rays.iter().copied()).collect();
-                let traced = Instant::now();
-                let visible = tracer.visible(&rays)?;
-                Ok((per_vertex, visible, traced.elapsed().as_secs_f64() * 1e3))
-            };
-            let all: Vec<usize> = (first..end).collect();
-            let pilot = params.pilot();
-            let (per_vertex, visible, ms) = pass(&all, pilot.unwrap_or(params.samples))?;
-            out.trace_ms += ms;
-            out.shadow_rays += visible.len() as u64;
+    }
+
+    /// The `(group, F_vg)` entries of `vertices` (in their order), traced
+    /// by chunks: a pilot at every vertex, all samples where it disagrees.
+    /// Counts the shadow rays, the penumbra and the tracer's time in `self`.
+    fn trace_vertices(
+        &mut self,
+        scene: &PreparedScene,
+        emitters: &[Emitter],
+        vertices: &[usize],
+        tracer: &dyn Tracer,
+        params: &EmitterLinkParams,
+        seed: u64,
+    ) -> crate::Result<Vec<Vec<(u32, f32)>>> {
+        let mesh = EmitterMesh::new(scene, emitters);
+        let groups = self.group_vertex.len();
+        let pass = |vertices: &[usize], samples: u32| -> crate::Result<(Vec<VertexRays>, Vec<bool>, f64)> {
+            let per_vertex: Vec<VertexRays> = vertices
+                .par_iter()
+                .map_init(Scratch::default, |s, &v| {
+                    vertex_rays(scene, emitters, &mesh, groups, v, params.nudge, samples, seed, s)
+                })
+                .collect();
+            let rays: Vec<Ray> = per_vertex.iter().flat_map(|r| r.rays.iter().copied()).collect();
+            let traced = Instant::now();
+            let visible = tracer.visible(&rays)?;
+            Ok((per_vertex, visible, traced.elapsed().as_secs_f64() * 1e3))
+        };
+        let pilot = params.pilot();
+        let mut out = Vec::with_capacity(vertices.len());
+        for chunk in vertices.chunks(CHUNK_VERTICES) {
+            let (per_vertex, visible, ms) = pass(chunk, pilot.unwrap_or(params.samples))?;
+            self.trace_ms += ms;
+            self.shadow_rays += visible.len() as u64;
             // Per vertex its factors, or `None` while its pilot disagrees.
-            let mut found: Vec<Option<Vec<(u32, f32)>>> = Vec::with_capacity(all.len());
+            let mut found: Vec<Option<Vec<(u32, f32)>>> = Vec::with_capacity(chunk.len());
             let mut at = 0usize;
             for r in &per_vertex {
                 let vis = &visible[at..at + r.rays.len()];
                 at += r.rays.len();
                 let agree = vis.iter().all(|&x| x == vis[0]);
-                out.penumbra.1 += u64::from(!vis.is_empty());
+                self.penumbra.1 += u64::from(!vis.is_empty());
                 found.push((pilot.is_none() || agree).then(|| finish_vertex(vis, r)));
             }
-            let penumbra: Vec<usize> = all.iter().copied().filter(|&v| found[v - first].is_none()).collect();
-            out.penumbra.0 += penumbra.len() as u64;
+            let penumbra: Vec<usize> = (0..chunk.len()).filter(|&i| found[i].is_none()).collect();
+            self.penumbra.0 += penumbra.len() as u64;
             if !penumbra.is_empty() {
-                let (per_vertex, visible, ms) = pass(&penumbra, params.samples)?;
-                out.trace_ms += ms;
-                out.shadow_rays += visible.len() as u64;
+                let again: Vec<usize> = penumbra.iter().map(|&i| chunk[i]).collect();
+                let (per_vertex, visible, ms) = pass(&again, params.samples)?;
+                self.trace_ms += ms;
+                self.shadow_rays += visible.len() as u64;
                 let mut at = 0usize;
-                for (r, &v) in per_vertex.iter().zip(&penumbra) {
+                for (r, &i) in per_vertex.iter().zip(&penumbra) {
                     let vis = &visible[at..at + r.rays.len()];
                     at += r.rays.len();
-                    found[v - first] = Some(finish_vertex(vis, r));
+                    found[i] = Some(finish_vertex(vis, r));
                 }
             }
-            for row in found {
-                rows.extend(row.expect("every vertex decided"));
-                rows.end_row();
-            }
+            out.extend(found.into_iter().map(|row| row.expect("every vertex decided")));
         }
-        out.rows = rows.finish();
-        out.ms = start.elapsed().as_secs_f64() * 1e3;
         Ok(out)
     }
 
@@ -344,7 +414,7 @@ impl EmitterLinks {
 }
 
 /// Every emissive triangle with its group, and each group's vertex.
-pub(crate) fn emitters(scene: &PreparedScene) -> (Vec<Emitter>, Vec<u32>) {
+pub(crate) fn emitters_of(scene: &PreparedScene) -> (Vec<Emitter>, Vec<u32>) {
     let mut keys: Vec<(usize, [u32; 3])> = Vec::new();
     let mut group_vertex = Vec::new();
     let mut out = Vec::new();
@@ -371,157 +441,4 @@ pub(crate) fn emitters(scene: &PreparedScene) -> (Vec<Emitter>, Vec<u32>) {
         }
     }
     (out, group_vertex)
-}
-
-/// Whether emitter `e`'s front (counter-clockwise side) faces the point `p`.
-pub(crate) fn faces(e: &Emitter, p: Vec3) -> bool {
-    let [a, b, c] = e.corners.map(|x| x.as_dvec3());
-    (b - a).cross(c - a).dot(p.as_dvec3() - a) > 0.0
-}
-
-/// Per-thread buffers of [`vertex_rays`].
-#[derive(Default)]
-struct Scratch {
-    form: FormFactorScratch,
-    /// `F_t` per emitter triangle at the current vertex.
-    f: Vec<f64>,
-}
-
-/// Vertex `v`'s `samples` shadow rays toward the emitters (of `groups`
-/// groups; `mesh` is made of `emitters`).
-#[allow(clippy::too_many_arguments)]
-fn vertex_rays(
-    scene: &PreparedScene,
-    emitters: &[Emitter],
-    mesh: &EmitterMesh,
-    groups: usize,
-    v: usize,
-    params: &EmitterLinkParams,
-    samples: u32,
-    seed: u64,
-    scratch: &mut Scratch,
-) -> VertexRays {
-    let (p, n) = (scene.positions[v], scene.normals[v]);
-    mesh.form_factors(emitters, p, n, &mut scratch.form, &mut scratch.f);
-    // Emitters are one-sided like every surface: a vertex behind an
-    // emitter's plane (or in it) gets none of its light.
-    for (e, f) in emitters.iter().zip(scratch.f.iter_mut()) {
-        if *f > 0.0 && !faces(e, p) {
-            *f = 0.0;
-        }
-    }
-    let f = &scratch.f;
-    // `F_sum` and each group's `F_g` summed in emitter order; zeros are
-    // left out (adding +0 changes no sum), and the group at hand is
-    // summed in a register.
-    let (mut f_sum, mut f_group) = (0f64, vec![0f64; groups]);
-    let mut at: Option<(u32, f64)> = None;
-    for (e, &ft) in emitters.iter().zip(f) {
-        if ft > 0.0 {
-            f_sum += ft;
-            let sum = match at {
-                Some((g, ref mut sum)) if g == e.group => sum,
-                _ => {
-                    if let Some((g, sum)) = at {
-                        f_group[g as usize] = sum;
-                    }
-                    &mut at.insert((e.group, f_group[e.group as usize])).1
-                }
-            };
-            *sum += ft;
-        }
-    }
-    if let Some((g, sum)) = at {
-        f_group[g as usize] = sum;
-    }
-    let mut out = VertexRays::default();
-    if !(f_sum > 0.0) {
-        return out;
-    }
-    out.unshaded = f_group.iter().enumerate().filter(|(_, &x)| x > 0.0).map(|(g, &x)| (g as u32, x)).collect();
-    let VertexRays { rays, weights, picks, .. } = &mut out;
-    let mut rng = rand_pcg::Pcg32::seed_from_u64(Stream::EMITTER_LINKS.point_seed(seed, p, n));
-    let xi: f64 = rng.random();
-    let offset = Vec2::new(rng.random(), rng.random());
-    let total = samples as f64;
-    let origin = ray_origin(scene, v, params.nudge);
-    let eps = RAY_OFFSET * scene.mean_edge_length(v).max(f32::MIN_POSITIVE);
-    // Triangle t covers [lo, hi) of the `total` samples; its `lo` is the
-    // `hi` of the triangle before it, so its rounding is carried over.
-    let mut below = 0.0;
-    let mut lo_up = (below / f_sum * total - xi).ceil();
-    for (e, &ft) in emitters.iter().zip(f) {
-        if ft <= 0.0 {
-            continue;
-        }
-        let hi = (below + ft) / f_sum * total;
-        below += ft;
-        let hi_up = (hi - xi).ceil();
-        let count = (hi_up - lo_up).max(0.0) as u32;
-        lo_up = hi_up;
-        if count == 0 {
-            continue;
-        }
-        let (_, poly, m) = form_factor(p, n, &e.corners);
-        let pi_t = (total * ft / f_sum).min(1.0);
-        picks.push(Pick { group: e.group, scale: (ft / pi_t) as f32, first_ray: rays.len() as u32, rays: 0 });
-        let pick = picks.last_mut().expect("pushed");
-        let en = (e.corners[1] - e.corners[0]).cross(e.corners[2] - e.corners[0]).normalize_or_zero();
-        for j in 0..count {
-            // R2 low-discrepancy points, rotated per vertex: stratified on the triangle.
-            let u = (offset + Vec2::new(0.754_877_7, 0.569_840_3) * (j + 1) as f32).fract();
-            let y = (p.as_dvec3() + polygon_point(&poly[..m], u)).as_vec3();
-            let d = y - p;
-            let r2 = d.length_squared();
-            let w = if r2 > 0.0 { n.dot(d).max(0.0) * en.dot(d).abs() / (r2 * r2) } else { 0.0 };
-            let to = y - origin;
-            let dist = to.length();
-            let dir = to / dist.max(f32::MIN_POSITIVE);
-            pick.rays += 1;
-            weights.push(w);
-            if dist <= 2.0 * eps || !dir.is_finite() {
-                // The point touches the origin: nothing can lie in between.
-                rays.push(Ray { origin, dir: n, tmin: 0.0, tmax: 0.0, skip: v as u32 });
-                continue;
-            }
-            rays.push(Ray::shadow(origin, dir, dist, eps, eps, v as u32));
-        }
-    }
-    out
-}
-
-/// `F_vg` of one vertex from its rays' visibility: `(group, factor)` pairs.
-fn finish_vertex(visible: &[bool], r: &VertexRays) -> Vec<(u32, f32)> {
-    // Per group: sum of F_t / pi_t times the visible share, and of F_t / pi_t.
-    let mut sums: Vec<(u32, f64, f64)> = Vec::new();
-    for p in &r.picks {
-        let span = p.first_ray as usize..(p.first_ray + p.rays) as usize;
-        let (mut seen, mut all, mut hits) = (0f64, 0f64, 0u32);
-        for (&vis, &w) in visible[span.clone()].iter().zip(&r.weights[span]) {
-            all += w as f64;
-            if vis {
-                seen += w as f64;
-                hits += 1;
-            }
-        }
-        let share = if all > 0.0 { seen / all } else { hits as f64 / p.rays.max(1) as f64 };
-        let scale = p.scale as f64;
-        match sums.iter_mut().find(|e| e.0 == p.group) {
-            Some(e) => {
-                e.1 += scale * share;
-                e.2 += scale;
-            }
-            None => sums.push((p.group, scale * share, scale)),
-        }
-    }
-    let (num, den) = sums.iter().fold((0.0, 0.0), |a, e| (a.0 + e.1, a.1 + e.2));
-    let overall = if den > 0.0 { num / den } else { 0.0 };
-    r.unshaded
-        .iter()
-        .filter_map(|&(g, f_g)| {
-            let share = sums.iter().find(|e| e.0 == g).map_or(overall, |e| e.1 / e.2);
-            let f = (f_g * share) as f32;
-            (f > 0.0).then_some((g, f))
-        })
-        .collect()
 }

@@ -7,4 +7,5 @@
 pub mod emitter_cv;
 pub(crate) mod emitter_geometry;
 pub mod emitter_links;
+mod emitter_rays;
 pub mod light_links;
