@@ -207,6 +207,48 @@ fn refinement_finds_the_shadows_of_a_coarse_box() {
     }
 }
 
+/// Solves `desc` through its refinement rounds, checking after every round
+/// that each traced part equals a fresh trace of it on that round's mesh
+/// and, after the first, that the part named `updated` was updated (kept
+/// vertices kept their rows), not traced anew.
+fn solve_checking_rounds(desc: &SceneDesc, updated: &str) -> Refined {
+    let plan = Plan::of(desc);
+    let current = refine::apriori(desc, &desc.settings.refine).0;
+    let prepared = linkgi::scene::prep::prepare(&current).unwrap();
+    let mut rounds = 0;
+    let mut on_round = |s: &linkgi::solver::Solver, _: &linkgi::solver::Solution| {
+        let parts = s.check_traced().unwrap_or_else(|e| panic!("round {rounds}: {e}"));
+        assert!(parts >= 3, "round {rounds}: the sources traced ({parts} parts)");
+        let (_, cost) = *s.part_costs().iter().find(|(n, _)| *n == updated).expect("a part of that name");
+        eprintln!("round {rounds}: {updated} {cost:?}");
+        assert!(cost.rays > 0 || rounds > 0, "round {rounds}: {updated} traced");
+        if rounds > 0 {
+            assert!(cost.selective, "round {rounds}: the {updated} updated after the split");
+            let n = s.scene().vertex_count() as u64;
+            assert!(cost.redone > 0 && cost.redone < n, "round {rounds}: {} of {n} redone", cost.redone);
+        }
+        rounds += 1;
+    };
+    let r = adaptive::solve_planned_with(current, prepared, &plan, &Compute::Cpu, &|_, _| {}, &mut on_round)
+        .expect("solves");
+    assert!(rounds >= 2, "two marking rounds checked ({rounds})");
+    assert_eq!(r.solver.check_traced(), Ok(8), "the final solver's parts");
+    r
+}
+
+/// The sky's refined cells (a coarse box open on one side under a sky)
+/// are updated after each split like the emitter links: kept vertices
+/// with the same misses keep their cells' rays, and every round's parts
+/// equal a fresh trace.
+#[test]
+fn the_sky_rays_are_updated_after_each_split() {
+    let (mut desc, _) = coarse_cornell(RefineSettings::default());
+    desc.settings.rays_per_vertex = 16;
+    desc.sky = Some(linkgi::sky::Sky::gradient(Vec3::new(4.0, 5.0, 7.0), Vec3::splat(4.0), Vec3::ZERO));
+    let r = solve_checking_rounds(&desc, "sky rays");
+    assert!(r.solver.sky_rays().refine.rays > 0, "the sky's cells refined");
+}
+
 /// The error-driven rounds carry the hits of kept vertices over to the
 /// split mesh (`links::reassign`): new vertices trace, the rest is
 /// re-assigned. The result is a fresh shoot of the refined scene: the same
@@ -224,30 +266,7 @@ fn carried_hits_equal_a_fresh_solve_of_the_refined_mesh() {
     // Every decided term forced on, so every part is traced and compared
     // (on this box the emitters' near field moves the light by under 2%).
     desc.settings.forced = linkgi::scene::terms::Terms::with_on(linkgi::scene::terms::Terms::DECIDED).unwrap();
-    // After every round, each traced part equals a fresh trace of it on
-    // that round's mesh; after the first, the emitter links were updated
-    // (kept vertices kept their rows), not traced anew.
-    let plan = Plan::of(&desc);
-    let current = refine::apriori(&desc, &desc.settings.refine).0;
-    let prepared = linkgi::scene::prep::prepare(&current).unwrap();
-    let mut rounds = 0;
-    let mut on_round = |s: &linkgi::solver::Solver, _: &linkgi::solver::Solution| {
-        let parts = s.check_traced().unwrap_or_else(|e| panic!("round {rounds}: {e}"));
-        assert!(parts >= 3, "round {rounds}: the sources traced ({parts} parts)");
-        let (name, emitters) = s.part_costs()[1];
-        assert_eq!(name, "emitter links");
-        eprintln!("round {rounds}: emitter links {emitters:?}");
-        if rounds > 0 {
-            assert!(emitters.selective, "round {rounds}: the emitter links updated after the split");
-            let n = s.scene().vertex_count() as u64;
-            assert!(emitters.redone > 0 && emitters.redone < n, "round {rounds}: {} of {n} redone", emitters.redone);
-        }
-        rounds += 1;
-    };
-    let r = adaptive::solve_planned_with(current, prepared, &plan, &Compute::Cpu, &|_, _| {}, &mut on_round)
-        .expect("solves");
-    assert!(rounds >= 2, "two marking rounds checked ({rounds})");
-    assert_eq!(r.solver.check_traced(), Ok(8), "the final solver's parts");
+    let r = solve_checking_rounds(&desc, "emitter links");
     assert!(r.rounds.len() >= 2, "the error-driven rounds split something");
     let marking = linkgi::solver::SolveParams::from_settings(&desc.settings).marking().links.rays_per_vertex;
     assert_eq!(marking, 16, "the rounds mark at the full rays");

@@ -69,6 +69,12 @@ pub struct Lineage {
     /// Row `T` (an old solver triangle): the new solver triangles that
     /// cover it (one, itself renumbered, where it was not split).
     pub pieces: Csr,
+    /// Per new solver vertex: it keeps an old vertex whose incident
+    /// triangles it has, corner for corner (no split touched its one-ring),
+    /// so every ray it shoots starts from the same origin past the same
+    /// wedges and offset (the emitter links and the sky's refined cells
+    /// keep its rows: `EmitterLinks::after_split`, `SkyRefinement::after_split`).
+    pub whole: Vec<bool>,
 }
 
 /// Figures of one re-assignment.
@@ -157,13 +163,31 @@ impl Lineage {
                 scene.normals[w] = fresh_normals[w];
             }
         }
-        Lineage { kept, pieces }
+        let whole =
+            kept.iter().enumerate().map(|(w, &v)| v != NO_VERTEX && same_ring(old, v as usize, scene, w)).collect();
+        Lineage { kept, pieces, whole }
     }
 
     /// New vertices that keep their rays.
     pub fn kept_count(&self) -> usize {
         self.kept.iter().filter(|&&v| v != NO_VERTEX).count()
     }
+}
+
+/// Whether vertex `v` of `old` and `w` of `new` have the same incident
+/// triangles (as corner positions, bit for bit, in any order).
+fn same_ring(old: &PreparedScene, v: usize, new: &PreparedScene, w: usize) -> bool {
+    let corners = |s: &PreparedScene, x: usize| {
+        let mut t: Vec<[[u32; 3]; 3]> = s
+            .vertex_triangles
+            .row(x)
+            .iter()
+            .map(|&t| s.triangles[t as usize].map(|c| s.positions[c as usize].to_array().map(f32::to_bits)))
+            .collect();
+        t.sort_unstable();
+        t
+    };
+    old.vertex_triangles.row(v).len() == new.vertex_triangles.row(w).len() && corners(old, v) == corners(new, w)
 }
 
 /// The split triangles of a refinement, in a hash grid, to find the

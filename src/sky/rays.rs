@@ -10,7 +10,7 @@
 
 use super::{Portal, PortalSamples, SkyRefineParams, SkyRefinement, SkyVisibility};
 use crate::exchange::denoise::smooth::{pooled_variance, smooth, smooth_adaptive, SmoothMode, SmoothParams};
-use crate::links::{LinkParams, RaySetup};
+use crate::links::{Lineage, LinkParams, RaySetup};
 use crate::scene::prep::PreparedScene;
 use crate::trace::Tracer;
 use glam::Vec3;
@@ -52,6 +52,49 @@ impl SkyRays {
         let refine = SkyRefinement::compute(scene, tracer, &setup, vis, portals, seed, params)?;
         let portals = PortalSamples::compute(scene, tracer, &setup, portals, seed, &params.portal)?;
         Ok(SkyRays { refine, portals })
+    }
+
+    /// The sky's rays of `scene`, a split of `before` (a refinement round)
+    /// whose links' misses were `vis_before` and whose sky rays `old` were
+    /// traced with the same `link` and `params`, by `lineage`. A kept
+    /// vertex whose one-ring no split touched ([`Lineage::whole`]), with
+    /// the same ray origin, colour (so the same rotation and direction
+    /// set) and miss mask, keeps its refined cells' bits: the same rays
+    /// meet the same (unmoved) surfaces. The others trace. Equal to
+    /// [`SkyRays::trace`] bit for bit (`tests/refine.rs`); with portals
+    /// (their samples are keyed by the vertex's index) everything is
+    /// traced anew. Returns the rays and the vertices that kept their rows.
+    #[allow(clippy::too_many_arguments)]
+    pub fn after_split(
+        old: &SkyRays,
+        before: &PreparedScene,
+        vis_before: &SkyVisibility,
+        scene: &PreparedScene,
+        tracer: &dyn Tracer,
+        vis: &SkyVisibility,
+        lineage: &Lineage,
+        link: &LinkParams,
+        params: &SkyRefineParams,
+    ) -> crate::Result<(SkyRays, u64)> {
+        let portals = portals_of(scene, params);
+        if scene.sky.is_none() || !portals.is_empty() || !old.portals.is_empty() || old.refine.is_empty() {
+            return Ok((Self::trace(scene, tracer, vis, link, params)?, 0));
+        }
+        let setup = RaySetup::new(scene, link);
+        let row_of = |w: usize| -> Option<usize> {
+            let v = lineage.kept[w] as usize;
+            let keep = lineage.whole[w]
+                && before.colours[v] == scene.colours[w]
+                && vis_before.vertex(v) == vis.vertex(w)
+                && crate::links::shoot::ray_origin(before, v, link.nudge) == setup.origins[w];
+            keep.then_some(v)
+        };
+        let rows: Vec<Option<usize>> = (0..scene.vertex_count()).map(row_of).collect();
+        let kept_rows = rows.iter().filter(|r| r.is_some()).count() as u64;
+        let cells = &old.refine.cells;
+        let kept = |w: usize| rows[w].map(|v| cells.row(v));
+        let refine = SkyRefinement::keeping(scene, tracer, &setup, vis, portals, link.seed, params, &kept)?;
+        Ok((SkyRays { refine, portals: PortalSamples::default() }, kept_rows))
     }
 
     /// Irradiance from the scene's sky at every vertex, W/m^2: the link

@@ -166,6 +166,26 @@ impl SkyRefinement {
         seed: u64,
         params: &SkyRefineParams,
     ) -> crate::Result<SkyRefinement> {
+        Self::keeping(scene, tracer, setup, vis, portals, seed, params, &|_| None)
+    }
+
+    /// [`SkyRefinement::compute`] where `kept(v)` gives vertex `v`'s row
+    /// (cells and their bits) from a refinement it keeps: its refined
+    /// cells, found from its miss mask, must be that row's cells, and their
+    /// bits are taken instead of traced (`SkyRays::after_split` says when
+    /// a row may be kept). Equal to `compute` bit for bit where the kept
+    /// rows are what `compute` would trace.
+    #[allow(clippy::too_many_arguments)]
+    pub(crate) fn keeping<'k>(
+        scene: &PreparedScene,
+        tracer: &dyn Tracer,
+        setup: &RaySetup,
+        vis: &SkyVisibility,
+        portals: &[Portal],
+        seed: u64,
+        params: &SkyRefineParams,
+        kept: &(dyn Fn(usize) -> Option<&'k [(u32, u32)]> + Sync),
+    ) -> crate::Result<SkyRefinement> {
         let start = Instant::now();
         let sub = params.sub.min(MAX_SUB);
         let n = scene.vertex_count();
@@ -191,6 +211,18 @@ impl SkyRefinement {
         }
         let mut cells = rows.finish();
         let offsets = cells.offsets.clone();
+        // Rows kept with their bits: not traced.
+        let carried: Vec<bool> = (0..n)
+            .into_par_iter()
+            .map(|v| {
+                let row = &cells.items[offsets[v] as usize..offsets[v + 1] as usize];
+                kept(v).is_some_and(|k| k.len() == row.len() && k.iter().zip(row).all(|(a, b)| a.0 == b.0))
+            })
+            .collect();
+        for v in (0..n).filter(|&v| carried[v]) {
+            let row = kept(v).expect("checked");
+            cells.items[offsets[v] as usize..offsets[v + 1] as usize].copy_from_slice(row);
+        }
         let per = (sub * sub) as usize;
         let mut rays = 0u64;
         // Batches of vertices, so the rays of the whole scene are never held at once.
@@ -208,7 +240,7 @@ impl SkyRefinement {
                     let frame = vertex_frame(setup.normals[v], setup.rotations[v]);
                     let set = setup.sets[v];
                     let (setup, grid) = (&setup, &grid);
-                    let range = offsets[v] as usize..offsets[v + 1] as usize;
+                    let range = if carried[v] { 0..0 } else { offsets[v] as usize..offsets[v + 1] as usize };
                     let cells = &cells.items;
                     range.flat_map(move |slot| {
                         let (x, y) = grid.cell_of[cells[slot].0 as usize];

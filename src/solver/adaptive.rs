@@ -44,7 +44,8 @@
 //! one interface (`Traced::update` with `Change::Split`: the emitter links
 //! keep the rows of kept vertices whose ray origin and offset did not
 //! change and trace the others, Šibenik's second round 2.2 -> 0.4 s; the
-//! light links and the sky's rays are traced anew), and solves without the near-field terms
+//! sky's refined cells likewise where the vertex's misses are the same;
+//! the light links are traced anew), and solves without the near-field terms
 //! and the noise check. The round that marks nothing builds a fresh solver
 //! of the final mesh at the full parameters (every part), so the result is
 //! a fresh solve of the final mesh; where the marking rounds' links were
@@ -391,7 +392,7 @@ impl Solver {
         let lineage = Lineage::new(&self.scene, &mut scene, parents, self.params.links.nudge);
         let (links, hits, stats) = reassign_links(&self.scene, hits, &scene, &lineage, &accel, &params.links, progress);
         let mut solver = Solver::assemble(scene, params, accel, links, None, Compute::Cpu, Some(hits), &[]);
-        let change = Change::Split { before: &self.scene, traced: &self.traced, kept: &lineage.kept };
+        let change = Change::Split { before: &self.scene, links: &self.links, traced: &self.traced, lineage: &lineage };
         solver.update_parts(&Part::SOURCES, &change);
         (solver, stats)
     }

@@ -32,7 +32,7 @@ use super::compute::Tracers;
 use super::SolveParams;
 use crate::exchange::near::NearChange;
 use crate::exchange::{EmitterLinks, LightLinks, NearEmitters, NearField, NearGather, NearLight, NearSky, NoiseCheck};
-use crate::links::{Links, NearHits};
+use crate::links::{Lineage, Links, NearHits};
 use crate::scene::prep::PreparedScene;
 use crate::sky::rays::portals_of;
 use crate::sky::SkyRays;
@@ -63,16 +63,18 @@ pub enum Change<'a> {
     /// Nothing to start from: the part is traced from scratch.
     Fresh,
     /// A refinement round split triangles of `before` into the current
-    /// scene: `traced` are `before`'s parts, traced with the same
-    /// parameters, and `kept[w]` is the old vertex new vertex `w` keeps
-    /// ([`crate::links::Lineage::kept`]).
+    /// scene: `traced` are `before`'s parts and `links` its links, traced
+    /// with the same parameters; `lineage` says which new vertex keeps
+    /// which old one.
     Split {
         /// The scene before the split.
         before: &'a PreparedScene,
+        /// Its links.
+        links: &'a Links,
         /// Its traced parts.
         traced: &'a Traced,
-        /// Per new vertex, the old vertex it keeps ([`crate::scene::prep::NO_VERTEX`]: none).
-        kept: &'a [u32],
+        /// How the new vertices and triangles come from the old.
+        lineage: &'a Lineage,
     },
     /// A deformation moved vertices: the motion and the near hits before
     /// and after it (same triangles, same parameters).
@@ -215,11 +217,36 @@ impl Traced {
                         gather.update_deformed(scene, c, tr, &params.near_gather, seed)
                     }));
                 }
-                (Part::Emitters, Change::Split { before, traced, kept }) => {
+                (Part::Emitters, Change::Split { before, traced, lineage, .. }) => {
                     let (links, kept) = t.any("updating emitter links", |tr| {
-                        EmitterLinks::after_split(&traced.emitter_links, before, scene, kept, tr, &params.emitter, seed)
+                        EmitterLinks::after_split(
+                            &traced.emitter_links,
+                            before,
+                            scene,
+                            lineage,
+                            tr,
+                            &params.emitter,
+                            seed,
+                        )
                     });
                     self.emitter_links = links;
+                    redone = (kept > 0).then(|| scene.vertex_count() as u64 - kept);
+                }
+                (Part::Sky, Change::Split { before, links: links_before, traced, lineage }) => {
+                    let (sky, kept) = t.any("updating sky rays", |tr| {
+                        SkyRays::after_split(
+                            &traced.sky,
+                            before,
+                            &links_before.sky,
+                            scene,
+                            tr,
+                            &links.sky,
+                            lineage,
+                            &params.links,
+                            &params.sky,
+                        )
+                    });
+                    self.sky = sky;
                     redone = (kept > 0).then(|| scene.vertex_count() as u64 - kept);
                 }
                 (Part::LightLinks, _) => {

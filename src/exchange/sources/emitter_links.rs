@@ -83,7 +83,8 @@ use super::emitter_rays::{finish_vertex, vertex_rays, Scratch, VertexRays};
 use crate::csr::{Csr, RowBuilder};
 use crate::kdtree::traverse::Ray;
 use crate::links::shoot::ray_origin;
-use crate::scene::prep::{PreparedScene, NO_VERTEX};
+use crate::links::Lineage;
+use crate::scene::prep::PreparedScene;
 use crate::trace::Tracer;
 use glam::Vec3;
 use rayon::prelude::*;
@@ -212,10 +213,10 @@ impl EmitterLinks {
 
     /// The emitter links of `scene`, a split of `old_scene` (a refinement
     /// round) whose links `old` were traced with the same `params` and
-    /// `seed`; `kept[w]` is the old vertex new vertex `w` keeps
-    /// ([`crate::links::Lineage::kept`], [`NO_VERTEX`] for none). A kept
-    /// vertex whose position, normal, ray origin, ray offset and incident
-    /// triangle count are those it had keeps its row; the others trace.
+    /// `seed`, by `lineage`. A kept vertex whose one-ring no split touched
+    /// ([`Lineage::whole`]: the same position, normal, incident triangles,
+    /// so the same ray offset) and whose ray origin is the same keeps its
+    /// row; the others trace.
     /// The result equals [`EmitterLinks::compute`] on `scene` bit for bit:
     /// a kept vertex draws the samples it drew (its seed is its position's
     /// and normal's), toward the same emitter triangles, and a split leaves
@@ -227,7 +228,7 @@ impl EmitterLinks {
         old: &EmitterLinks,
         old_scene: &PreparedScene,
         scene: &PreparedScene,
-        kept: &[u32],
+        lineage: &Lineage,
         tracer: &dyn Tracer,
         params: &EmitterLinkParams,
         seed: u64,
@@ -239,7 +240,7 @@ impl EmitterLinks {
         let same = old.is_active()
             && old.fallback.is_none()
             && params.samples > 0
-            && kept.len() == n
+            && lineage.kept.len() == n
             && n as u64 * emitters.len() as u64 <= params.max_pairs
             && group_vertex.len() == old.group_vertex.len()
             && emitters.len() == before.len()
@@ -249,18 +250,12 @@ impl EmitterLinks {
         }
         let mut out = EmitterLinks { covered: vec![false; n], ..Default::default() };
         out.set_groups(scene, &emitters, group_vertex);
-        let keeps = |v: usize, w: usize| {
-            old_scene.positions[v] == scene.positions[w]
-                && old_scene.normals[v] == scene.normals[w]
-                && old_scene.vertex_triangles.row(v).len() == scene.vertex_triangles.row(w).len()
-                && old_scene.mean_edge_length(v).to_bits() == scene.mean_edge_length(w).to_bits()
-                && ray_origin(old_scene, v, params.nudge) == ray_origin(scene, w, params.nudge)
-        };
         let carried: Vec<Option<usize>> = (0..n)
-            .into_par_iter()
             .map(|w| {
-                let v = kept[w];
-                (v != NO_VERTEX && keeps(v as usize, w)).then_some(v as usize)
+                let v = lineage.kept[w];
+                (lineage.whole[w]
+                    && ray_origin(old_scene, v as usize, params.nudge) == ray_origin(scene, w, params.nudge))
+                .then_some(v as usize)
             })
             .collect();
         let rest: Vec<usize> = (0..n).filter(|&w| carried[w].is_none()).collect();
