@@ -261,7 +261,46 @@ fn the_sky_rays_are_updated_after_each_split() {
 /// rounds' own, its links carried and its other parts retraced.
 #[test]
 fn carried_hits_equal_a_fresh_solve_of_the_refined_mesh() {
+    let (desc, _) = coarse_cornell(RefineSettings::default());
+    carried_equals_fresh(desc);
+}
+
+/// The same with the room's corners shared between its walls, as in most
+/// OBJ files: each corner position is several solver vertices (a crease
+/// splits it by normal, a material border by albedo), and each old one is
+/// matched to the new one of its position with the nearest normal, so the
+/// rounds still carry most of the rays.
+#[test]
+fn carried_hits_at_shared_crease_corners_equal_a_fresh_solve() {
     let (mut desc, _) = coarse_cornell(RefineSettings::default());
+    let room = &mut desc.meshes[0];
+    let mut first: std::collections::HashMap<[u32; 3], u32> = std::collections::HashMap::new();
+    let remap: Vec<u32> = room
+        .positions
+        .iter()
+        .enumerate()
+        .map(|(i, p)| *first.entry(p.to_array().map(f32::to_bits)).or_insert(i as u32))
+        .collect();
+    for t in &mut room.triangles {
+        *t = t.map(|c| remap[c as usize]);
+    }
+    let prepared = linkgi::scene::prep::prepare(&desc).unwrap();
+    let m = &prepared.meshes[0];
+    let mut per_input = std::collections::HashMap::new();
+    for &i in &m.vertex_input {
+        *per_input.entry(i).or_insert(0) += 1;
+    }
+    assert!(per_input.values().any(|&k| k >= 3), "a corner is three solver vertices");
+    carried_equals_fresh(desc);
+}
+
+/// Solves `desc` at 16 rays a vertex through its refinement rounds (every
+/// decided term forced on) and checks the result against a fresh solve
+/// of the final mesh; each round after the first traces at most 1.6x the
+/// rays of its new vertices (the rest are the kept vertices whose one-ring
+/// a split touched: 1.14-1.41x on this box; matching a crease corner's old
+/// vertices by input position alone traced 2.1x and 2.6x in the last two).
+fn carried_equals_fresh(mut desc: SceneDesc) {
     desc.settings.rays_per_vertex = 16;
     // Every decided term forced on, so every part is traced and compared
     // (on this box the emitters' near field moves the light by under 2%).
@@ -279,7 +318,12 @@ fn carried_hits_equal_a_fresh_solve_of_the_refined_mesh() {
         );
         assert_eq!(round.rays_traced + round.rays_carried, total, "round {i}");
         if i > 0 {
-            assert!(round.rays_carried > total / 4, "round {i}: carried over");
+            let new = (round.vertices - r.rounds[i - 1].vertices) as u64 * marking as u64;
+            assert!(
+                round.rays_traced as f64 <= 1.6 * new as f64,
+                "round {i}: {} rays traced for {new} new",
+                round.rays_traced
+            );
         }
     }
     let scene = r.solver.scene().clone();

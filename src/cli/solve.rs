@@ -212,6 +212,19 @@ pub fn run(args: SolveArgs) -> Result<()> {
                 r.solve_ms,
                 r.ms
             );
+            if r.marked > 0 {
+                let parts: Vec<String> = r
+                    .parts
+                    .iter()
+                    .map(|(name, c)| {
+                        let how = if c.selective { format!(", {} vertices redone", c.redone) } else { String::new() };
+                        format!("{name} {:.0} ms ({} rays{how})", c.ms, c.rays)
+                    })
+                    .collect();
+                if !parts.is_empty() {
+                    println!("                 {}", parts.join("; "));
+                }
+            }
             if r.final_rays > 0 {
                 println!(
                     "                 then the final mesh at full rays: {} link rays and every other part in {:.0} ms",

@@ -73,7 +73,7 @@
 //! error, 0.025, as on a mesh refined for its new place).
 
 use super::traced::{Change, Part};
-use super::{Compute, SolveParams, Solver};
+use super::{Compute, PartCost, SolveParams, Solver};
 use crate::links::{reassign_links, Lineage, ReassignStats};
 use crate::render::exposure::luminance;
 use crate::scene::refine::{self, RefineMode, WorldEdge};
@@ -124,6 +124,9 @@ pub struct Round {
     pub final_rays: u64,
     /// The last round: building that solver (every part traced), milliseconds.
     pub final_ms: f64,
+    /// The parts a marking round brought up to date (name and cost: updated
+    /// after the split, or traced anew); empty in the last round.
+    pub parts: Vec<(&'static str, PartCost)>,
 }
 
 /// The solved, refined scene.
@@ -230,6 +233,7 @@ pub fn solve_planned_with(
             rays_carried: carried.rays_carried,
             links_ms: carried.ms,
             solve_ms,
+            parts: solver.part_costs().into_iter().filter(|(_, c)| c.traced && c.rays > 0).collect(),
             ..Default::default()
         };
         let mut marks = if plan.refining && rounds.len() < MAX_ROUNDS {
