@@ -138,6 +138,7 @@ fn off_switches_terms_and_rejects_unknown_names() {
     let scene = d.join("bad.toml");
     std::fs::write(&scene, "[settings]\noff = [\"hiden\"]\n[[mesh]]\nobj = \"floor.obj\"\n").unwrap();
     let (ok, err) = run(&["solve", scene.to_str().unwrap(), "--rays", "4", "--backend", "cpu"]);
+    std::fs::remove_dir_all(&d).ok();
     assert!(!ok && err.contains("bad.toml") && err.contains("settings.off") && err.contains("hidden"), "{err}");
 }
 

@@ -211,7 +211,7 @@ fn refinement_finds_the_shadows_of_a_coarse_box() {
 /// that each traced part equals a fresh trace of it on that round's mesh
 /// and, after the first, that the part named `updated` was updated (kept
 /// vertices kept their rows), not traced anew.
-fn solve_checking_rounds(desc: &SceneDesc, updated: &str) -> Refined {
+fn solve_checking_rounds(desc: &SceneDesc, updated: &[&str]) -> Refined {
     let plan = Plan::of(desc);
     let current = refine::apriori(desc, &desc.settings.refine).0;
     let prepared = linkgi::scene::prep::prepare(&current).unwrap();
@@ -219,13 +219,16 @@ fn solve_checking_rounds(desc: &SceneDesc, updated: &str) -> Refined {
     let mut on_round = |s: &linkgi::solver::Solver, _: &linkgi::solver::Solution| {
         let parts = s.check_traced().unwrap_or_else(|e| panic!("round {rounds}: {e}"));
         assert!(parts >= 3, "round {rounds}: the sources traced ({parts} parts)");
-        let (_, cost) = *s.part_costs().iter().find(|(n, _)| *n == updated).expect("a part of that name");
-        eprintln!("round {rounds}: {updated} {cost:?}");
-        assert!(cost.rays > 0 || rounds > 0, "round {rounds}: {updated} traced");
-        if rounds > 0 {
-            assert!(cost.selective, "round {rounds}: the {updated} updated after the split");
-            let n = s.scene().vertex_count() as u64;
-            assert!(cost.redone > 0 && cost.redone < n, "round {rounds}: {} of {n} redone", cost.redone);
+        for &updated in updated {
+            let (_, cost) = *s.part_costs().iter().find(|(n, _)| *n == updated).expect("a part of that name");
+            eprintln!("round {rounds}: {updated} {cost:?}");
+            assert!(cost.rays > 0 || rounds > 0, "round {rounds}: {updated} traced");
+            if rounds > 0 {
+                assert!(cost.selective, "round {rounds}: the {updated} updated after the split");
+                // Units redone: vertices, or (vertex, light) entries.
+                let all = s.scene().vertex_count() as u64 * s.scene().lights.len().max(1) as u64;
+                assert!(cost.redone > 0 && cost.redone < all, "round {rounds}: {} of {all} redone", cost.redone);
+            }
         }
         rounds += 1;
     };
@@ -237,15 +240,17 @@ fn solve_checking_rounds(desc: &SceneDesc, updated: &str) -> Refined {
 }
 
 /// The sky's refined cells (a coarse box open on one side under a sky)
-/// are updated after each split like the emitter links: kept vertices
-/// with the same misses keep their cells' rays, and every round's parts
-/// equal a fresh trace.
+/// and a point light's links are updated after each split like the
+/// emitter links: kept vertices with the same one-ring (and misses) keep
+/// their rows, and every round's parts equal a fresh trace.
 #[test]
-fn the_sky_rays_are_updated_after_each_split() {
+fn the_sky_rays_and_light_links_are_updated_after_each_split() {
     let (mut desc, _) = coarse_cornell(RefineSettings::default());
     desc.settings.rays_per_vertex = 16;
     desc.sky = Some(linkgi::sky::Sky::gradient(Vec3::new(4.0, 5.0, 7.0), Vec3::splat(4.0), Vec3::ZERO));
-    let r = solve_checking_rounds(&desc, "sky rays");
+    desc.lights.push(linkgi::scene::Light::Point { position: Vec3::new(0.5, 1.6, -0.3), intensity: Vec3::splat(2.0) });
+    let r = solve_checking_rounds(&desc, &["sky rays", "light links"]);
+    assert!(r.solver.light_links().shadow_rays > 0, "the light's links traced");
     assert!(r.solver.sky_rays().refine.rays > 0, "the sky's cells refined");
 }
 
@@ -305,7 +310,7 @@ fn carried_equals_fresh(mut desc: SceneDesc) {
     // Every decided term forced on, so every part is traced and compared
     // (on this box the emitters' near field moves the light by under 2%).
     desc.settings.forced = linkgi::scene::terms::Terms::with_on(linkgi::scene::terms::Terms::DECIDED).unwrap();
-    let r = solve_checking_rounds(&desc, "emitter links");
+    let r = solve_checking_rounds(&desc, &["emitter links"]);
     assert!(r.rounds.len() >= 2, "the error-driven rounds split something");
     let marking = linkgi::solver::SolveParams::from_settings(&desc.settings).marking().links.rays_per_vertex;
     assert_eq!(marking, 16, "the rounds mark at the full rays");

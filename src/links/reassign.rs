@@ -76,7 +76,7 @@ pub struct Lineage {
     /// Per new solver vertex: it keeps an old vertex whose incident
     /// triangles it has, corner for corner (no split touched its one-ring),
     /// so every ray it shoots starts from the same origin past the same
-    /// wedges and offset (the emitter links and the sky's refined cells
+    /// wedges and offset (the light links, the emitter links and the sky's refined cells
     /// keep its rows: `EmitterLinks::after_split`, `SkyRefinement::after_split`).
     pub whole: Vec<bool>,
 }

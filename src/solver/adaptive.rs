@@ -44,8 +44,8 @@
 //! one interface (`Traced::update` with `Change::Split`: the emitter links
 //! keep the rows of kept vertices whose ray origin and offset did not
 //! change and trace the others, Šibenik's second round 2.2 -> 0.4 s; the
-//! sky's refined cells likewise where the vertex's misses are the same;
-//! the light links are traced anew), and solves without the near-field terms
+//! sky's refined cells likewise where the vertex's misses are the same,
+//! and the light links), and solves without the near-field terms
 //! and the noise check. The round that marks nothing builds a fresh solver
 //! of the final mesh at the full parameters (every part), so the result is
 //! a fresh solve of the final mesh; where the marking rounds' links were

@@ -7,9 +7,10 @@
 //! a [`Change`]: [`Change::Fresh`] traces it from scratch (a new solver, a
 //! retrace, an edit of what it reads); [`Change::Split`] (a refinement
 //! round) and [`Change::Deformed`] (a deformation) redo only what the
-//! change can have touched, for the parts that know how (the emitter
-//! links after a split; the light links, the near hits' light and their
-//! final gather after a deformation), and trace the others anew. Either
+//! change can have touched, for the parts that know how (the light links,
+//! the emitter links and the sky's refined cells after a split; the light
+//! links, the near hits' light and their final gather after a
+//! deformation), and trace the others anew. Either
 //! way the part equals a fresh trace of the changed scene bit for bit (the
 //! light links after a deformation within 1e-6: they sum in another
 //! order), checked after every refinement round and deformation in
@@ -216,6 +217,13 @@ impl Traced {
                     redone = Some(t.any("updating the near hits' final gather", |tr| {
                         gather.update_deformed(scene, c, tr, &params.near_gather, seed)
                     }));
+                }
+                (Part::LightLinks, Change::Split { before, traced, lineage, .. }) => {
+                    let (light, entries) = t.any("updating light links", |tr| {
+                        LightLinks::after_split(&traced.light_links, before, scene, lineage, tr, &params.light)
+                    });
+                    self.light_links = light;
+                    redone = Some(entries);
                 }
                 (Part::Emitters, Change::Split { before, traced, lineage, .. }) => {
                     let (links, kept) = t.any("updating emitter links", |tr| {

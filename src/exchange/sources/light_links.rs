@@ -64,6 +64,7 @@
 
 use crate::kdtree::traverse::Ray;
 use crate::links::shoot::ray_origin;
+use crate::links::Lineage;
 use crate::scene::motion::Motion;
 use crate::scene::{prep::PreparedScene, Light};
 use crate::trace::{Tracer, RAY_OFFSET};
@@ -382,6 +383,61 @@ impl LightLinks {
         self.shadow_rays = traced;
         self.ms = start.elapsed().as_secs_f64() * 1e3;
         Ok(entries)
+    }
+
+    /// The light links of `scene`, a split of `before` (a refinement
+    /// round) whose light links `old` were computed with the same
+    /// `params`, by `lineage`: every column is kept at the kept vertices
+    /// whose one-ring no split touched ([`Lineage::whole`]) and whose ray
+    /// origin is the same (a vertex's entry reads only its own position,
+    /// normal, origin and one-ring, and the surfaces, which a split leaves
+    /// where they were), and computed at the others. Equal to a fresh
+    /// [`LightLinks::compute_with`] (`tests/refine.rs`). Returns the links
+    /// and the (vertex, light) entries computed.
+    pub fn after_split(
+        old: &LightLinks,
+        before: &PreparedScene,
+        scene: &PreparedScene,
+        lineage: &Lineage,
+        tracer: &dyn Tracer,
+        params: &LightLinkParams,
+    ) -> crate::Result<(LightLinks, u64)> {
+        let start = Instant::now();
+        let n = scene.vertex_count();
+        let valid = old.params == Some(*params)
+            && old.positions.len() == before.vertex_count()
+            && lineage.kept.len() == n
+            && !old.coarse.contains(&true);
+        if !valid {
+            let links = LightLinks::compute_with(scene, tracer, params)?;
+            return Ok((links, (n * scene.lights.len()) as u64));
+        }
+        let carried: Vec<Option<usize>> = (0..n)
+            .map(|w| {
+                let v = lineage.kept[w] as usize;
+                (lineage.whole[w] && ray_origin(before, v, params.nudge) == ray_origin(scene, w, params.nudge))
+                    .then_some(v)
+            })
+            .collect();
+        let remap = |column: &Vec<f32>| -> Vec<f32> { carried.iter().map(|c| c.map_or(0.0, |v| column[v])).collect() };
+        let mut out = LightLinks {
+            factors: old.factors.iter().map(remap).collect(),
+            point: old.point.iter().map(remap).collect(),
+            lights: old.lights.clone(),
+            params: old.params,
+            positions: scene.positions.clone(),
+            coarse: old.coarse.clone(),
+            shadow_rays: 0,
+            ms: 0.0,
+        };
+        let redo: Vec<u32> = (0..n as u32).filter(|&w| carried[w as usize].is_none()).collect();
+        let (columns, traced, entries) = out.patched_columns(scene, tracer, params, &|_| true, &|_| redo.clone())?;
+        out.coarse = vec![false; columns.len()];
+        out.set_columns(columns);
+        out.lights = scene.lights.clone();
+        out.shadow_rays = traced;
+        out.ms = start.elapsed().as_secs_f64() * 1e3;
+        Ok((out, entries))
     }
 
     /// The preview of [`LightLinks::update_deformed`]: columns of lights
