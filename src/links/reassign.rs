@@ -186,6 +186,21 @@ impl Lineage {
     pub fn kept_count(&self) -> usize {
         self.kept.iter().filter(|&&v| v != NO_VERTEX).count()
     }
+
+    /// Per new vertex of `scene` (a split of `before`): the old vertex whose
+    /// per-vertex rows a traced part may keep, where it is kept with a
+    /// one-ring no split touched ([`Lineage::whole`]) and its ray origin
+    /// with the part's `nudge` is the same to the bit; `None` where the
+    /// part traces it anew.
+    pub fn carried(&self, before: &PreparedScene, scene: &PreparedScene, nudge: f32) -> Vec<Option<usize>> {
+        (0..scene.vertex_count())
+            .map(|w| {
+                let v = self.kept[w] as usize;
+                (self.whole.get(w) == Some(&true) && ray_origin(before, v, nudge) == ray_origin(scene, w, nudge))
+                    .then_some(v)
+            })
+            .collect()
+    }
 }
 
 /// Whether vertex `v` of `old` and `w` of `new` have the same incident

@@ -81,15 +81,12 @@ impl SkyRays {
             return Ok((Self::trace(scene, tracer, vis, link, params)?, 0));
         }
         let setup = RaySetup::new(scene, link);
-        let row_of = |w: usize| -> Option<usize> {
-            let v = lineage.kept[w] as usize;
-            let keep = lineage.whole[w]
-                && before.colours[v] == scene.colours[w]
-                && vis_before.vertex(v) == vis.vertex(w)
-                && crate::links::shoot::ray_origin(before, v, link.nudge) == setup.origins[w];
-            keep.then_some(v)
-        };
-        let rows: Vec<Option<usize>> = (0..scene.vertex_count()).map(row_of).collect();
+        let rows: Vec<Option<usize>> = lineage
+            .carried(before, scene, link.nudge)
+            .into_iter()
+            .enumerate()
+            .map(|(w, c)| c.filter(|&v| before.colours[v] == scene.colours[w] && vis_before.vertex(v) == vis.vertex(w)))
+            .collect();
         let kept_rows = rows.iter().filter(|r| r.is_some()).count() as u64;
         let cells = &old.refine.cells;
         let kept = |w: usize| rows[w].map(|v| cells.row(v));

@@ -82,7 +82,6 @@ use super::emitter_geometry::{Emitter, EmitterMesh};
 use super::emitter_rays::{finish_vertex, vertex_rays, Scratch, VertexRays};
 use crate::csr::{Csr, RowBuilder};
 use crate::kdtree::traverse::Ray;
-use crate::links::shoot::ray_origin;
 use crate::links::Lineage;
 use crate::scene::prep::PreparedScene;
 use crate::trace::Tracer;
@@ -250,14 +249,7 @@ impl EmitterLinks {
         }
         let mut out = EmitterLinks { covered: vec![false; n], ..Default::default() };
         out.set_groups(scene, &emitters, group_vertex);
-        let carried: Vec<Option<usize>> = (0..n)
-            .map(|w| {
-                let v = lineage.kept[w];
-                (lineage.whole[w]
-                    && ray_origin(old_scene, v as usize, params.nudge) == ray_origin(scene, w, params.nudge))
-                .then_some(v as usize)
-            })
-            .collect();
+        let carried = lineage.carried(old_scene, scene, params.nudge);
         let rest: Vec<usize> = (0..n).filter(|&w| carried[w].is_none()).collect();
         let mut traced = out.trace_vertices(scene, &emitters, &rest, tracer, params, seed)?.into_iter();
         let mut rows = RowBuilder::new();

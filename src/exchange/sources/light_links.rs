@@ -412,13 +412,7 @@ impl LightLinks {
             let links = LightLinks::compute_with(scene, tracer, params)?;
             return Ok((links, (n * scene.lights.len()) as u64));
         }
-        let carried: Vec<Option<usize>> = (0..n)
-            .map(|w| {
-                let v = lineage.kept[w] as usize;
-                (lineage.whole[w] && ray_origin(before, v, params.nudge) == ray_origin(scene, w, params.nudge))
-                    .then_some(v)
-            })
-            .collect();
+        let carried = lineage.carried(before, scene, params.nudge);
         let remap = |column: &Vec<f32>| -> Vec<f32> { carried.iter().map(|c| c.map_or(0.0, |v| column[v])).collect() };
         let mut out = LightLinks {
             factors: old.factors.iter().map(remap).collect(),
