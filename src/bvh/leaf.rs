@@ -116,15 +116,18 @@ pub fn intersect8_portable(b: &Block8, o: Vec3, s: &RayShear, skip: u32, tmin: f
     h
 }
 
-/// Tests all lanes with 8-lane AVX operations (call only from code built
-/// with AVX2 enabled on a CPU that has it).
+/// Tests all lanes with 8-lane AVX operations.
+///
+/// # Safety
+/// The CPU must have AVX2 and the caller be built with it enabled (inlined
+/// into a `#[target_feature(enable = "avx2")]` walk). The loads are from the
+/// 32-byte aligned rows of `Block8` and the stores into local arrays, so
+/// nothing else is asked of the arguments.
 #[cfg(target_arch = "x86_64")]
 #[inline(always)]
-pub fn intersect8_avx(b: &Block8, o: Vec3, s: &RayShear, skip: u32, tmin: f32, tmax: f32) -> Hits8 {
+pub unsafe fn intersect8_avx(b: &Block8, o: Vec3, s: &RayShear, skip: u32, tmin: f32, tmax: f32) -> Hits8 {
     use std::arch::x86_64::*;
-    // SAFETY: callers are built with AVX2 enabled and run only where the
-    // CPU has it; loads are from 32-byte aligned rows of `Block8`, stores
-    // into local arrays.
+    // SAFETY: the contract above; aligned loads of `Block8` rows.
     unsafe {
         let (kx, ky, kz) = s.axes();
         let o = o.to_array();

@@ -224,8 +224,21 @@ pub struct Bvh {
     pub params: BvhBuildParams,
     /// Figures of the build (and of the last refit).
     pub stats: BvhStats,
-    /// The node-test build the single-ray queries use ([`Isa::detect`] by default).
-    pub isa: Isa,
+    /// The node-test build the queries use ([`Isa::detect`] by default).
+    /// Private: the SIMD walks trust it to be a build this CPU supports,
+    /// which [`Bvh::set_isa`] checks; read it with [`Bvh::isa`].
+    ///
+    /// Setting it from outside does not compile (it once could, and then
+    /// safe code could run AVX-512 instructions on a CPU without them):
+    ///
+    /// ```compile_fail
+    /// # use linkgi::bvh::{Bvh, BvhBuildParams, Isa};
+    /// # use glam::Vec3;
+    /// let positions = [Vec3::ZERO, Vec3::X, Vec3::Y];
+    /// let mut bvh = Bvh::build(&positions, &[[0, 1, 2]], &BvhBuildParams::default());
+    /// bvh.isa = Isa::Avx512;
+    /// ```
+    isa: Isa,
 }
 
 impl Bvh {
@@ -237,7 +250,14 @@ impl Bvh {
     /// Runs the queries with node tests of `isa` (the portable build where
     /// this CPU lacks it); returns the build in use.
     pub fn set_isa(&mut self, isa: Isa) -> Isa {
+        // The only place `isa` is chosen after the build (which takes
+        // `Isa::detect`): the walks' SAFETY comments rest on this check.
         self.isa = if isa.supported() { isa } else { Isa::Portable };
+        self.isa
+    }
+
+    /// The node-test build the queries use: always one this CPU supports.
+    pub fn isa(&self) -> Isa {
         self.isa
     }
 

@@ -310,6 +310,11 @@ impl Avx512Packet {
     /// triangle at a time, the same operations per lane in the same order
     /// (so the same `t`, `u`, `v` bit for bit); lanes with an edge function
     /// exactly zero take the scalar test, as there.
+    ///
+    /// # Safety
+    /// The CPU must have AVX-512 F and VL (the packet walks that call it
+    /// are built with them and run only where [`Isa::supported`] says so);
+    /// `c` is a leaf child of `bvh`.
     #[inline(always)]
     unsafe fn leaf_rays(bvh: &Bvh, c: u32, p: &mut Packet, mask: u16, tbest: &mut std::arch::x86_64::__m512) {
         use std::arch::x86_64::*;

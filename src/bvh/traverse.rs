@@ -274,6 +274,9 @@ impl NodeTest for Portable {
 }
 
 /// The slab distances of the eight boxes, in the ray octant's order.
+///
+/// # Safety
+/// The CPU must have AVX2 (the loads are from `Node8`'s 32-byte aligned rows).
 #[cfg(target_arch = "x86_64")]
 #[inline(always)]
 unsafe fn slabs(
@@ -306,6 +309,10 @@ unsafe fn slabs(
 
 /// Stores packed children and distances on the stack (whole vectors) and
 /// returns the last, the nearest.
+///
+/// # Safety
+/// The CPU must have AVX2, and `st.sp + 8 <= STACK` (the stack's eight
+/// slack entries take the whole-vector stores); `n <= 8`.
 #[cfg(target_arch = "x86_64")]
 #[inline(always)]
 unsafe fn push_packed(
@@ -374,7 +381,9 @@ impl NodeTest for Avx2 {
 
     #[inline(always)]
     fn block(b: &Block8, ray: &Ray, s: &RayShear, tmax: f32) -> Hits8 {
-        super::leaf::intersect8_avx(b, ray.origin, s, ray.skip, ray.tmin, tmax)
+        // SAFETY: as `step`: only reached from walks built with AVX2 that
+        // run where the CPU has it.
+        unsafe { super::leaf::intersect8_avx(b, ray.origin, s, ray.skip, ray.tmin, tmax) }
     }
 }
 

@@ -85,6 +85,11 @@ fn gather_row(links: &Links, b: &[Vec4], v: usize) -> Vec3 {
 /// process) and tearoom, whose radiosity fits in L2, no faster: cache
 /// misses cost conference a sixth, the rest is the loop's instructions,
 /// near this core's issue limit. u32 targets read 39 ms.
+///
+/// # Safety
+/// The CPU must have AVX2 and F16C; `chunk` holds the vertices from
+/// `first` on and `b` one radiosity per vertex of `links` (reads go
+/// through [`Links::simd_group`], which checks every row's bounds).
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,f16c")]
 unsafe fn gather_chunk_simd(links: &Links, b: &[Vec4], first: usize, chunk: &mut [Vec3]) {

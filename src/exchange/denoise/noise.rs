@@ -158,6 +158,11 @@ pub fn vertex_moments(links: &Links, b: &[[Vec4; 2]], v: usize) -> (Vec3, Vec3) 
 /// F16C weights and AVX2 arithmetic: a target's `[B, B^2]` (32 bytes) in
 /// one register, so one load, multiply and add a link; the same arithmetic
 /// per lane in the same order as [`moments`], so the same bits.
+///
+/// # Safety
+/// The CPU must have AVX2 and F16C; `b` holds one entry per vertex of
+/// `links` (targets are clamped to its last); rows are read through
+/// [`Links::simd_group`], which checks their bounds.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,f16c")]
 unsafe fn moments_simd(links: &Links, b: &[[Vec4; 2]], v: usize) -> (Vec3, Vec3) {
