@@ -55,6 +55,24 @@ impl Ray {
         let tmax = if dist.is_finite() { (dist - eps.max(1e-4 * dist)).max(tmin) } else { f32::INFINITY };
         Ray { origin, dir, tmin, tmax, skip }
     }
+
+    /// [`Ray::shadow`], or `None` where the point touches the origin
+    /// (`dist <= 2 eps`) or the direction is not finite: nothing can lie in
+    /// between, so the point counts as seen without a ray. The one home of
+    /// that guard (light links, emitter links, the near field's lights and
+    /// emitters).
+    #[inline]
+    pub fn shadow_checked(origin: Vec3, dir: Vec3, dist: f32, eps: f32, tmin: f32, skip: u32) -> Option<Ray> {
+        (dist > 2.0 * eps && dir.is_finite()).then(|| Ray::shadow(origin, dir, dist, eps, tmin, skip))
+    }
+
+    /// A segment of no length from `origin` along the unit `dir`, which
+    /// every tracer reports unoccluded: where [`Ray::shadow_checked`] finds
+    /// a touching point and the caller keeps one ray per sample.
+    #[inline]
+    pub fn touching(origin: Vec3, dir: Vec3, skip: u32) -> Ray {
+        Ray { origin, dir, tmin: 0.0, tmax: 0.0, skip }
+    }
 }
 
 /// The start leaves of rays leaving one origin, by direction octant
@@ -425,5 +443,21 @@ mod tests {
         assert_eq!(Ray::shadow(o, Vec3::X, 1e-4, 1e-3, 1e-5, 7).tmax, 1e-5);
         let sun = Ray::shadow(o, Vec3::Y, f32::INFINITY, 1e-3, 1e-5, 7);
         assert_eq!((sun.tmin, sun.tmax, sun.skip), (1e-5, f32::INFINITY, 7));
+    }
+
+    /// A point within two offsets of the origin, or a direction that is not
+    /// finite, takes no ray; beyond, the segment of `Ray::shadow`; a
+    /// touching stand-in has no length.
+    #[test]
+    fn touching_points_take_no_shadow_ray() {
+        let o = Vec3::ZERO;
+        assert_eq!(Ray::shadow_checked(o, Vec3::X, 2e-3, 1e-3, 0.0, NO_SKIP), None);
+        assert_eq!(Ray::shadow_checked(o, Vec3::NAN, 1.0, 1e-3, 0.0, NO_SKIP), None);
+        let far = Ray::shadow_checked(o, Vec3::X, 2.1e-3, 1e-3, 0.0, 3).expect("a segment");
+        assert_eq!(far, Ray::shadow(o, Vec3::X, 2.1e-3, 1e-3, 0.0, 3));
+        let sun = Ray::shadow_checked(o, Vec3::Y, f32::INFINITY, 1e-3, 0.0, 3).expect("unbounded");
+        assert_eq!(sun.tmax, f32::INFINITY);
+        let t = Ray::touching(o, Vec3::Z, 5);
+        assert_eq!((t.tmin, t.tmax, t.skip), (0.0, 0.0, 5));
     }
 }

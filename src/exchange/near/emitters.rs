@@ -404,12 +404,8 @@ fn point_samples(lights: &Lights, p: Vec3, normal: Vec3, eps: f32, m: u32, key: 
         let d = y - origin;
         let dist = d.length();
         let dir = d / dist.max(f32::MIN_POSITIVE);
-        if dist <= 2.0 * eps || !dir.is_finite() {
-            // The point touches the origin: nothing can lie in between.
-            out.rays.push(Ray { origin, dir: normal, tmin: 0.0, tmax: 0.0, skip: NO_SKIP });
-        } else {
-            out.rays.push(Ray::shadow(origin, dir, dist, eps, 0.0, NO_SKIP));
-        }
+        let ray = Ray::shadow_checked(origin, dir, dist, eps, 0.0, NO_SKIP);
+        out.rays.push(ray.unwrap_or_else(|| Ray::touching(origin, normal, NO_SKIP)));
         out.values.push((t.group, value));
     }
     out

@@ -196,10 +196,8 @@ fn shadow_ray(scene: &PreparedScene, h: &NearHit, light: &Light, params: &LightL
     let eps = RAY_OFFSET * l;
     let o = p + normal * eps;
     let (dir, dist) = toward(light, o);
-    if dist <= 2.0 * eps || !dir.is_finite() {
-        return (g, None); // the light sits on the surface here: nothing in between
-    }
-    (g, Some(Ray::shadow(o, dir, dist, eps, 0.0, NO_SKIP)))
+    // `None`: the light sits on the surface here, nothing in between.
+    (g, Ray::shadow_checked(o, dir, dist, eps, 0.0, NO_SKIP))
 }
 
 /// `G V` of `light` at `hits`, and the shadow rays it took.

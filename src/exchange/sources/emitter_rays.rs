@@ -143,12 +143,8 @@ pub(super) fn vertex_rays(
             let dir = to / dist.max(f32::MIN_POSITIVE);
             pick.rays += 1;
             weights.push(w);
-            if dist <= 2.0 * eps || !dir.is_finite() {
-                // The point touches the origin: nothing can lie in between.
-                rays.push(Ray { origin, dir: n, tmin: 0.0, tmax: 0.0, skip: v as u32 });
-                continue;
-            }
-            rays.push(Ray::shadow(origin, dir, dist, eps, eps, v as u32));
+            let ray = Ray::shadow_checked(origin, dir, dist, eps, eps, v as u32);
+            rays.push(ray.unwrap_or_else(|| Ray::touching(origin, n, v as u32)));
         }
     }
     out

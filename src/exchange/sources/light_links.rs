@@ -584,13 +584,14 @@ fn shadow_rays(
     let mut rays = Vec::with_capacity(pts.len());
     for (i, &s) in pts.iter().enumerate() {
         let (dir, dist) = toward(light, s);
-        if dist <= 2.0 * eps || !dir.is_finite() {
-            // The light sits on the surface at this point: nothing can be in between.
-            free += 1;
-            first_free |= i == 0;
-            continue;
+        match Ray::shadow_checked(s, dir, dist, eps, eps, v as u32) {
+            Some(ray) => rays.push(ray),
+            None => {
+                // The light sits on the surface at this point: nothing can be in between.
+                free += 1;
+                first_free |= i == 0;
+            }
         }
-        rays.push(Ray::shadow(s, dir, dist, eps, eps, v as u32));
     }
     VertexRays { g, samples: pts.len() as u32, free, first_free, rays }
 }
