@@ -113,22 +113,7 @@ impl Solver {
     /// on its compute. Returns whether it rebuilt.
     pub fn set_params(&mut self, params: SolveParams) -> crate::Result<bool> {
         let params = self.with_decisions(params).staged();
-        let traced_same = {
-            let (a, b) = (&self.params, &params);
-            a.tracer == b.tracer
-                && a.bvh == b.bvh
-                && a.kd == b.kd
-                && a.kd_gpu == b.kd_gpu
-                && a.links == b.links
-                && a.light == b.light
-                && a.emitter == b.emitter
-                && a.near_emitter == b.near_emitter
-                && a.near_sky == b.near_sky
-                && a.near_gather == b.near_gather
-                && a.sky == b.sky
-                && a.smoothing.noise.check_vertices == b.smoothing.noise.check_vertices
-        };
-        if traced_same {
+        if self.params.same_traced(&params) {
             if params.hidden != self.params.hidden || params.terms != self.params.terms {
                 self.links_changed();
             }

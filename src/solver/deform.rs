@@ -82,12 +82,7 @@ impl Solver {
         let start = Instant::now();
         let params = self.with_decisions(params).staged();
         let scene = self.keeping_moved_origins(scene);
-        let same = self.ray_hits.is_some()
-            && params.links == self.params.links
-            && params.tracer == self.params.tracer
-            && params.bvh == self.params.bvh
-            && params.kd == self.params.kd
-            && params.kd_gpu == self.params.kd_gpu;
+        let same = self.ray_hits.is_some() && params.same_links(&self.params);
         let motion = if same { Motion::between(&self.scene, &scene) } else { None };
         let Some(motion) = motion else {
             let (s, refitted) = self.deformed(scene, params, progress);
@@ -192,11 +187,7 @@ impl Solver {
     ) -> (Solver, bool) {
         let params = self.with_decisions(params).staged();
         let scene = self.keeping_moved_origins(scene);
-        let same_mesh = self.scene.triangles == scene.triangles
-            && params.tracer == self.params.tracer
-            && params.bvh == self.params.bvh
-            && params.kd == self.params.kd
-            && params.kd_gpu == self.params.kd_gpu;
+        let same_mesh = self.scene.triangles == scene.triangles && params.same_structures(&self.params);
         let compute = self.compute.clone();
         if !same_mesh || (self.gpu.is_none() && !matches!(self.accel, Accel::Bvh(_))) {
             return (rebuilt(scene, params, &compute, progress), false);

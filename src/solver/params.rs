@@ -34,7 +34,9 @@ pub struct SolveParams {
     /// faster solves of scenes whose near field changes little, and small
     /// local errors left where a term would have corrected them.
     pub pay_share: f32,
-    /// The CPU structure rays go through (the GPU path always walks its kd-tree).
+    /// The structure rays go through ([`TracerKind`]): on the CPU the BVH
+    /// or the kd-tree; on a GPU the same BVH walked with a short stack, the
+    /// rope kd-tree (`kd_gpu`) or hardware ray queries.
     pub tracer: TracerKind,
     /// The wide BVH of `tracer = bvh`.
     pub bvh: BvhBuildParams,
@@ -67,6 +69,37 @@ pub struct SolveParams {
     pub smoothing_angle_deg: f32,
     /// The smoothing filter (noise-aware by default, [`crate::exchange::denoise::smooth`]).
     pub smoothing: SmoothParams,
+}
+
+impl SolveParams {
+    /// Whether `other` traces through the same structures: the tracer and
+    /// the parameters of every tree it may build. A deformation refits
+    /// them only then.
+    pub fn same_structures(&self, other: &SolveParams) -> bool {
+        self.tracer == other.tracer && self.bvh == other.bvh && self.kd == other.kd && self.kd_gpu == other.kd_gpu
+    }
+
+    /// Whether `other` shoots the same link rays through the same
+    /// structures: a deformation then keeps the recorded hits and re-traces
+    /// only what moved.
+    pub fn same_links(&self, other: &SolveParams) -> bool {
+        self.same_structures(other) && self.links == other.links
+    }
+
+    /// Whether `other` traces everything as these do (links, lights,
+    /// emitters, sky, the near field, the noise check): the one rule of
+    /// what a parameter change retraces; anything else takes effect at the
+    /// next solve.
+    pub fn same_traced(&self, other: &SolveParams) -> bool {
+        self.same_links(other)
+            && self.light == other.light
+            && self.emitter == other.emitter
+            && self.near_emitter == other.near_emitter
+            && self.near_sky == other.near_sky
+            && self.near_gather == other.near_gather
+            && self.sky == other.sky
+            && self.smoothing.noise.check_vertices == other.smoothing.noise.check_vertices
+    }
 }
 
 impl Default for SolveParams {
@@ -202,5 +235,31 @@ impl SolveParams {
         p.gather.bounces = crate::scene::Bounces::Auto;
         p.sky.portal = crate::sky::PortalParams::for_link_rays(1024);
         p
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The retrace rule: a structure's parameters change every level, the
+    /// link rays the last two, an emitter's samples only the last, the
+    /// bounces and the smoothing none.
+    #[test]
+    fn what_a_parameter_change_retraces() {
+        let a = SolveParams::default();
+        let mut tree = a;
+        tree.bvh.bins += 1;
+        assert!(!a.same_structures(&tree) && !a.same_links(&tree) && !a.same_traced(&tree));
+        let mut rays = a;
+        rays.links.rays_per_vertex = 4 * a.links.rays_per_vertex;
+        assert!(a.same_structures(&rays) && !a.same_links(&rays) && !a.same_traced(&rays));
+        let mut emitter = a;
+        emitter.emitter.samples += 1;
+        assert!(a.same_links(&emitter) && !a.same_traced(&emitter));
+        let mut solve_only = a;
+        solve_only.gather.max_bounces += 1;
+        solve_only.smoothing_angle_deg += 5.0;
+        assert!(a.same_traced(&solve_only));
     }
 }
