@@ -66,8 +66,9 @@ impl Stream {
     pub const SKY_CELLS: Stream = Stream(0);
     /// The emitter links' per-vertex sample offsets
     /// ([`crate::exchange::sources::emitter_links`], a PCG seeded with
-    /// [`Stream::vertex_seed`]); salt 0, as before streams were named.
-    pub const EMITTER_LINKS: Stream = Stream(0);
+    /// [`Stream::point_seed`]). It shared salt 0 with [`Stream::SKY_CELLS`]
+    /// until it got its own.
+    pub const EMITTER_LINKS: Stream = Stream(0x6a09_e667_f3bc_c909);
     /// Jitter of the vertices' portal samples ([`crate::sky::portal`]).
     pub const PORTALS: Stream = Stream(0x5be0_cd19_137e_2179);
     /// Points on emitters from near hits ([`crate::exchange::near::emitters`]).
@@ -156,6 +157,7 @@ mod tests {
         let all = [
             Stream::ROTATIONS,
             Stream::SKY_CELLS,
+            Stream::EMITTER_LINKS,
             Stream::NOISE_CHECK,
             Stream::PORTALS,
             Stream::NEAR_EMITTERS,
