@@ -38,7 +38,7 @@
 //! renderers do at the hit points of their first rays, here only where
 //! the links' interpolation is known to fail (near hits).
 
-use super::{albedo_and_interpolated, hit_origin, trace_by_vertex, Bounce, Cost, Fields, NearChange, NearTerm, Shape};
+use super::{correct_by_hits, hit_origin, trace_by_vertex, Bounce, Cost, Fields, NearChange, NearTerm, Shape};
 use crate::kdtree::traverse::{Ray, NO_SKIP};
 use crate::kdtree::Hit;
 use crate::links::near::triangle_ranks;
@@ -47,7 +47,6 @@ use crate::sampling::stream::{cosine_direction, splitmix64, Stream};
 use crate::scene::prep::PreparedScene;
 use crate::trace::{Tracer, RAY_OFFSET};
 use glam::Vec3;
-use rayon::prelude::*;
 use std::time::Instant;
 
 /// How the final gather at near hits is sampled.
@@ -287,33 +286,21 @@ impl NearTerm for NearGather {
             return None;
         }
         let (b_h, g_h) = (f.b_later, f.g_later);
-        let inv = 1.0 / f.rays_per_vertex.max(1) as f32;
         let per_ray = std::f32::consts::PI / m as f32;
         let at = |tri: u32, beta: [f32; 3], x: &[Vec3]| -> Vec3 {
             let t = scene.triangles[tri as usize];
             (0..3).map(|c| x[t[c] as usize] * beta[c]).sum()
         };
-        Some(
-            (0..n)
-                .into_par_iter()
-                .map(|v| {
-                    let first = near.rows.offsets[v] as usize;
-                    let mut d = Vec3::ZERO;
-                    for (i, h) in near.of(v).iter().enumerate() {
-                        let k = first + i;
-                        let gathered: Vec3 = self.hits[k * m..(k + 1) * m]
-                            .iter()
-                            .filter(|y| y.tri != GatherHit::NONE.tri)
-                            .map(|y| at(y.tri, y.barycentrics(), b_h))
-                            .sum::<Vec3>()
-                            * per_ray;
-                        let (rho, interpolated) = albedo_and_interpolated(scene, h, g_h);
-                        d += (rho * gathered - interpolated) * h.weight;
-                    }
-                    d * inv
-                })
-                .collect(),
-        )
+        // What hit k's gather rays met, radiosity read at their hits.
+        let gathered = |k: usize| -> Vec3 {
+            self.hits[k * m..(k + 1) * m]
+                .iter()
+                .filter(|y| y.tri != GatherHit::NONE.tri)
+                .map(|y| at(y.tri, y.barycentrics(), b_h))
+                .sum::<Vec3>()
+                * per_ray
+        };
+        Some(correct_by_hits(f, g_h, gathered))
     }
 
     fn cost(&self) -> Cost {

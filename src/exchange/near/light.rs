@@ -35,7 +35,7 @@
 //! hits); shadow rays start `eps * l` off the surface (l: the triangle's
 //! longest edge) and stop as short of a point light, as the light links do.
 
-use super::{albedo_and_interpolated, hit_frame, Bounce, Cost, Fields, NearChange, NearTerm, Shape, BATCH_HITS};
+use super::{correct_by_hits, hit_frame, Bounce, Cost, Fields, NearChange, NearTerm, Shape, BATCH_HITS};
 use crate::exchange::sources::light_links::{geometry, same_column, toward, LightLinkParams};
 use crate::kdtree::traverse::{Ray, NO_SKIP};
 use crate::links::{NearHit, NearHits};
@@ -130,27 +130,12 @@ impl NearTerm for NearLight {
     /// while some light's column is stale (a light preview): then the
     /// links' interpolated first bounce stands.
     fn correction(&self, f: &Fields) -> Option<Vec<Vec3>> {
-        let (scene, near) = (f.scene, f.near);
-        if near.is_empty() || !self.covers(f.lights) {
+        if f.near.is_empty() || !self.covers(f.lights) {
             return None;
         }
         let powers: Vec<Vec3> = f.lights.iter().map(Light::power).collect();
-        let inv = 1.0 / f.rays_per_vertex.max(1) as f32;
-        Some(
-            (0..scene.vertex_count())
-                .into_par_iter()
-                .map(|v| {
-                    let first = near.rows.offsets[v] as usize;
-                    let mut d = Vec3::ZERO;
-                    for (i, h) in near.of(v).iter().enumerate() {
-                        let (rho, interpolated) = albedo_and_interpolated(scene, h, f.e_lights);
-                        let e_d: Vec3 = powers.iter().zip(&self.columns).map(|(p, col)| *p * col[first + i]).sum();
-                        d += (rho * e_d - interpolated) * h.weight;
-                    }
-                    d * inv
-                })
-                .collect(),
-        )
+        let at_hit = |k: usize| -> Vec3 { powers.iter().zip(&self.columns).map(|(p, col)| *p * col[k]).sum() };
+        Some(correct_by_hits(f, f.e_lights, at_hit))
     }
 
     fn cost(&self) -> Cost {

@@ -244,6 +244,34 @@ pub fn hit_albedo(scene: &PreparedScene, h: &NearHit) -> Vec3 {
     albedo_and_interpolated(scene, h, &[]).0
 }
 
+/// The correction of every vertex by its near hits' own values, W/m^2:
+///
+/// ```text
+/// D(x) = 1/n * sum over x's near hits k of w_k [ rho(h_k) y_k - sum_c beta_c rho_c X(c) ]
+/// ```
+///
+/// with `y_k = at_hit(k)` (`k` the hit's index in `f.near`) the irradiance
+/// at the hit itself, `X` the per-vertex field the links interpolate
+/// ([`albedo_and_interpolated`]), `w_k` the hit's weight and `n` the rays a
+/// vertex: the one loop of the terms that keep a value per near hit (the
+/// lights' near field, the final gather).
+pub(super) fn correct_by_hits(f: &Fields, field: &[Vec3], at_hit: impl Fn(usize) -> Vec3 + Sync) -> Vec<Vec3> {
+    let (scene, near) = (f.scene, f.near);
+    let inv = 1.0 / f.rays_per_vertex.max(1) as f32;
+    (0..scene.vertex_count())
+        .into_par_iter()
+        .map(|v| {
+            let first = near.rows.offsets[v] as usize;
+            let mut d = Vec3::ZERO;
+            for (i, h) in near.of(v).iter().enumerate() {
+                let (rho, interpolated) = albedo_and_interpolated(scene, h, field);
+                d += (rho * at_hit(first + i) - interpolated) * h.weight;
+            }
+            d * inv
+        })
+        .collect()
+}
+
 /// The albedo at near hit `h` and what its corners interpolate of the
 /// per-vertex irradiance `x` reflected, `sum_c beta_c rho_c x(c)` (W/m^2;
 /// `x` empty: zero): what a link brought of `x`'s reflection at the hit,
