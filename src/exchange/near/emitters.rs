@@ -96,8 +96,7 @@ pub struct NearEmitters {
 
 /// One emissive triangle as the near hits sample it.
 struct Tri {
-    corners: [Vec3; 3],
-    group: u32,
+    emitter: Emitter,
     /// Area, m^2.
     area: f32,
     /// Centroid and the radius of a sphere about it holding the corners, m.
@@ -135,7 +134,7 @@ impl Lights {
                 let centre = (c[0] + c[1] + c[2]) / 3.0;
                 let radius = c.iter().map(|p| p.distance(centre)).fold(0.0, f32::max);
                 let area = (c[1] - c[0]).cross(c[2] - c[0]).length() / 2.0;
-                Tri { corners: c, group: e.group, area, centre, radius }
+                Tri { emitter: *e, area, centre, radius }
             })
             .filter(|t| t.area > 0.0 && t.area.is_finite())
             .collect();
@@ -380,9 +379,7 @@ fn point_samples(lights: &Lights, p: Vec3, normal: Vec3, eps: f32, m: u32, key: 
             let mut isum = 0f32;
             for t in tris {
                 // Emitters light their front only: none from behind its plane.
-                let [a, b, cc] = t.corners.map(|x| x.as_dvec3());
-                let front = (b - a).cross(cc - a).dot(p.as_dvec3() - a) > 0.0;
-                isum += if front { bound(t.area, t.centre, t.radius, p, normal) } else { 0.0 };
+                isum += if t.emitter.faces(p) { bound(t.area, t.centre, t.radius, p, normal) } else { 0.0 };
                 inner.push(isum);
             }
         }
@@ -406,7 +403,7 @@ fn point_samples(lights: &Lights, p: Vec3, normal: Vec3, eps: f32, m: u32, key: 
         let dir = d / dist.max(f32::MIN_POSITIVE);
         let ray = Ray::shadow_checked(origin, dir, dist, eps, 0.0, NO_SKIP);
         out.rays.push(ray.unwrap_or_else(|| Ray::touching(origin, normal, NO_SKIP)));
-        out.values.push((t.group, value));
+        out.values.push((t.emitter.group, value));
     }
     out
 }
@@ -425,13 +422,13 @@ const NEAR: f32 = 4.0;
 /// radius`) without the arc tangents of the exact factor.
 fn triangle_sample(t: &Tri, p: Vec3, n: Vec3, u: Vec2) -> Option<(Vec3, f64)> {
     if p.distance_squared(t.centre) < (NEAR * t.radius).powi(2) {
-        let (f, poly, corners) = form_factor(p, n, &t.corners);
+        let (f, poly, corners) = form_factor(p, n, &t.emitter.corners);
         if !(f > 0.0) || corners < 3 {
             return None;
         }
         return Some(((p.as_dvec3() + polygon_point(&poly[..corners], u)).as_vec3(), f));
     }
-    let c = t.corners;
+    let c = t.emitter.corners;
     let (mut a, mut b) = (u.x, u.y);
     if a + b > 1.0 {
         (a, b) = (1.0 - a, 1.0 - b);
@@ -461,7 +458,7 @@ mod tests {
                 let o = Vec3::new(i as f32 * s * 1.2, j as f32 * s * 1.2, 0.0);
                 let [a, b, c, d] = [o, o + Vec3::X * s, o + Vec3::new(s, s, 0.0), o + Vec3::Y * s];
                 for corners in [[a, b, c], [a, c, d]] {
-                    out.push(Emitter { corners, group: 0, triangle: out.len() as u32 });
+                    out.push(Emitter::new(corners, 0, out.len() as u32));
                 }
             }
         }

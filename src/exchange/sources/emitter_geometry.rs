@@ -45,6 +45,24 @@ pub(crate) struct Emitter {
     pub(crate) group: u32,
     /// Its index in the scene's triangles.
     pub(crate) triangle: u32,
+    /// `(b - a) x (c - a)` of its corners in f64 (m^2, twice its area
+    /// along its front normal), computed once for [`Emitter::faces`].
+    area_normal: DVec3,
+}
+
+impl Emitter {
+    /// Emissive triangle `triangle` of group `group` with `corners`.
+    pub(crate) fn new(corners: [Vec3; 3], group: u32, triangle: u32) -> Emitter {
+        let [a, b, c] = corners.map(|x| x.as_dvec3());
+        Emitter { corners, group, triangle, area_normal: (b - a).cross(c - a) }
+    }
+
+    /// Whether its front (counter-clockwise side) faces the point `p`:
+    /// emitters light their front only.
+    #[inline]
+    pub(crate) fn faces(&self, p: Vec3) -> bool {
+        self.area_normal.dot(p.as_dvec3() - self.corners[0].as_dvec3()) > 0.0
+    }
 }
 
 /// The part of triangle `q` (corners relative to the vertex) with
@@ -125,23 +143,50 @@ impl Far {
     }
 }
 
-/// `F_t` of one triangle at a vertex at `p` with normal `n`, with the clipped polygon.
-pub(crate) fn form_factor(p: Vec3, n: Vec3, corners: &[Vec3; 3]) -> (f64, [DVec3; 4], usize) {
+/// What a vertex sees of a triangle: far (its point estimate and the
+/// whole triangle), nothing, or the part above the horizon.
+enum Seen {
+    Far(f64, [DVec3; 3]),
+    Nothing,
+    Clipped([DVec3; 4], usize),
+}
+
+/// Triangle `corners` seen from a vertex at `p` with normal `n` (corners
+/// relative to the vertex, f64).
+fn seen(p: Vec3, n: Vec3, corners: &[Vec3; 3]) -> Seen {
     let (pd, nd) = (p.as_dvec3(), n.as_dvec3());
     let q = corners.map(|c| c.as_dvec3() - pd);
     if let Some(f) = Far::of(corners).factor(pd, nd) {
-        return (f, [q[0], q[1], q[2], DVec3::ZERO], 3);
+        return Seen::Far(f, q);
     }
     // A corner on the vertex puts the vertex in the triangle's plane: no solid angle.
     let scale = q.iter().map(|c| c.length()).fold(0.0, f64::max);
     if q.iter().any(|c| c.length() <= 1e-9 * scale) || q.iter().all(|c| nd.dot(*c) <= 0.0) {
-        return (0.0, [DVec3::ZERO; 4], 0);
+        return Seen::Nothing;
     }
-    let (poly, m) = clip(nd, q);
-    if m < 3 {
-        return (0.0, poly, 0);
+    match clip(nd, q) {
+        (poly, m) if m >= 3 => Seen::Clipped(poly, m),
+        _ => Seen::Nothing,
     }
-    (lambert(nd, &poly[..m]), poly, m)
+}
+
+/// `F_t` of one triangle at a vertex at `p` with normal `n`, with the clipped polygon.
+pub(crate) fn form_factor(p: Vec3, n: Vec3, corners: &[Vec3; 3]) -> (f64, [DVec3; 4], usize) {
+    match seen(p, n, corners) {
+        Seen::Far(f, q) => (f, [q[0], q[1], q[2], DVec3::ZERO], 3),
+        Seen::Nothing => (0.0, [DVec3::ZERO; 4], 0),
+        Seen::Clipped(poly, m) => (lambert(n.as_dvec3(), &poly[..m]), poly, m),
+    }
+}
+
+/// The polygon of [`form_factor`] without its factor (no arc tangents):
+/// where points are drawn on a triangle whose `F_t` is already known.
+pub(crate) fn seen_polygon(p: Vec3, n: Vec3, corners: &[Vec3; 3]) -> ([DVec3; 4], usize) {
+    match seen(p, n, corners) {
+        Seen::Far(_, q) => ([q[0], q[1], q[2], DVec3::ZERO], 3),
+        Seen::Nothing => ([DVec3::ZERO; 4], 0),
+        Seen::Clipped(poly, m) => (poly, m),
+    }
 }
 
 /// A point drawn uniformly on the convex polygon `poly` (3 or 4 corners) for `u` in `[0, 1)^2`.

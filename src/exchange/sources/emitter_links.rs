@@ -424,7 +424,7 @@ pub(crate) fn emitters_of(scene: &PreparedScene) -> (Vec<Emitter>, Vec<u32>) {
                     keys.len() - 1
                 }
             };
-            out.push(Emitter { corners: t.map(|i| scene.positions[i as usize]), group: group as u32, triangle: tri });
+            out.push(Emitter::new(t.map(|i| scene.positions[i as usize]), group as u32, tri));
         }
     }
     (out, group_vertex)

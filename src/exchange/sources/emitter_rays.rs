@@ -7,13 +7,13 @@
 //! group `F_vg = F_g * sum (F_t / pi_t) V_t / sum (F_t / pi_t)` from the
 //! rays' visibility. Unitless factors; positions in metres.
 
-use super::emitter_geometry::{form_factor, polygon_point, Emitter, EmitterMesh, FormFactorScratch};
+use super::emitter_geometry::{polygon_point, seen_polygon, Emitter, EmitterMesh, FormFactorScratch};
 use crate::kdtree::traverse::Ray;
 use crate::links::shoot::ray_origin;
 use crate::sampling::stream::Stream;
 use crate::scene::prep::PreparedScene;
 use crate::trace::RAY_OFFSET;
-use glam::{Vec2, Vec3};
+use glam::Vec2;
 use rand::{Rng, SeedableRng};
 
 /// A triangle a vertex sends rays to, and what its rays found.
@@ -35,12 +35,6 @@ pub(super) struct VertexRays {
     picks: Vec<Pick>,
     /// `(group, F_g)` for the groups with `F_g > 0`.
     unshaded: Vec<(u32, f64)>,
-}
-
-/// Whether emitter `e`'s front (counter-clockwise side) faces the point `p`.
-pub(crate) fn faces(e: &Emitter, p: Vec3) -> bool {
-    let [a, b, c] = e.corners.map(|x| x.as_dvec3());
-    (b - a).cross(c - a).dot(p.as_dvec3() - a) > 0.0
 }
 
 /// Per-thread buffers of [`vertex_rays`].
@@ -70,7 +64,7 @@ pub(super) fn vertex_rays(
     // Emitters are one-sided like every surface: a vertex behind an
     // emitter's plane (or in it) gets none of its light.
     for (e, f) in emitters.iter().zip(scratch.f.iter_mut()) {
-        if *f > 0.0 && !faces(e, p) {
+        if *f > 0.0 && !e.faces(p) {
             *f = 0.0;
         }
     }
@@ -126,7 +120,7 @@ pub(super) fn vertex_rays(
         if count == 0 {
             continue;
         }
-        let (_, poly, m) = form_factor(p, n, &e.corners);
+        let (poly, m) = seen_polygon(p, n, &e.corners);
         let pi_t = (total * ft / f_sum).min(1.0);
         picks.push(Pick { group: e.group, scale: (ft / pi_t) as f32, first_ray: rays.len() as u32, rays: 0 });
         let pick = picks.last_mut().expect("pushed");
