@@ -170,16 +170,22 @@ pub struct BvhBuildParams {
     pub rebuild_factor: f32,
 }
 
+impl BvhBuildParams {
+    /// The defaults (each field's doc gives its effect and trade-off);
+    /// `const`, so presets built from it are `const fn`.
+    pub const DEFAULT: BvhBuildParams = Self {
+        traversal_cost: 1.0,
+        intersect_cost: 1.0,
+        bins: 16,
+        max_leaf_triangles: 8,
+        parallel_threshold: 4096,
+        rebuild_factor: 1.5,
+    };
+}
+
 impl Default for BvhBuildParams {
     fn default() -> Self {
-        Self {
-            traversal_cost: 1.0,
-            intersect_cost: 1.0,
-            bins: 16,
-            max_leaf_triangles: 8,
-            parallel_threshold: 4096,
-            rebuild_factor: 1.5,
-        }
+        Self::DEFAULT
     }
 }
 
@@ -227,17 +233,6 @@ pub struct Bvh {
     /// The node-test build the queries use ([`Isa::detect`] by default).
     /// Private: the SIMD walks trust it to be a build this CPU supports,
     /// which [`Bvh::set_isa`] checks; read it with [`Bvh::isa`].
-    ///
-    /// Setting it from outside does not compile (it once could, and then
-    /// safe code could run AVX-512 instructions on a CPU without them):
-    ///
-    /// ```compile_fail
-    /// # use linkgi::bvh::{Bvh, BvhBuildParams, Isa};
-    /// # use glam::Vec3;
-    /// let positions = [Vec3::ZERO, Vec3::X, Vec3::Y];
-    /// let mut bvh = Bvh::build(&positions, &[[0, 1, 2]], &BvhBuildParams::default());
-    /// bvh.isa = Isa::Avx512;
-    /// ```
     isa: Isa,
 }
 
@@ -257,6 +252,18 @@ impl Bvh {
     }
 
     /// The node-test build the queries use: always one this CPU supports.
+    ///
+    /// It is chosen only by the build and [`Bvh::set_isa`]; setting it from
+    /// outside does not compile (it once could, and then safe code could
+    /// run AVX-512 instructions on a CPU without them):
+    ///
+    /// ```compile_fail
+    /// # use linkgi::bvh::{Bvh, BvhBuildParams, Isa};
+    /// # use glam::Vec3;
+    /// let positions = [Vec3::ZERO, Vec3::X, Vec3::Y];
+    /// let mut bvh = Bvh::build(&positions, &[[0, 1, 2]], &BvhBuildParams::default());
+    /// bvh.isa = Isa::Avx512;
+    /// ```
     pub fn isa(&self) -> Isa {
         self.isa
     }

@@ -24,7 +24,7 @@
 //! plane), with probability `p_j`; a scene's cost does not grow with its
 //! count of emitters. `f_j` is what the ray brings unoccluded: close to
 //! its triangle (within 4 radii), the triangle's exact factor `F_t`
-//! (Lambert's formula, [`form_factor`]) with the ray to a uniform point of
+//! (Lambert's formula, as the emitter links') with the ray to a uniform point of
 //! the part above the horizon; further away, `A_t cos_h cos_e / (pi r^2)`
 //! at a uniform point (`r = |y - h|`, m; `cos_e` at the emitter's front
 //! only). `V_j` is a shadow ray from the hit point.
@@ -77,9 +77,15 @@ pub struct NearEmitterParams {
     pub samples: u32,
 }
 
+impl NearEmitterParams {
+    /// The defaults (each field's doc gives its effect and trade-off);
+    /// `const`, so presets built from it are `const fn`.
+    pub const DEFAULT: NearEmitterParams = Self { samples: 2 };
+}
+
 impl Default for NearEmitterParams {
     fn default() -> Self {
-        Self { samples: 2 }
+        Self::DEFAULT
     }
 }
 
