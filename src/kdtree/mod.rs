@@ -151,16 +151,22 @@ pub struct KdBuildParams {
     pub parallel_levels: Option<u32>,
 }
 
+impl KdBuildParams {
+    /// The defaults (each field's doc gives its effect and trade-off);
+    /// `const`, so presets built from it are `const fn`.
+    pub const DEFAULT: KdBuildParams = Self {
+        traversal_cost: 1.5,
+        intersect_cost: 1.5,
+        leaf_block: 4,
+        empty_bonus: 0.2,
+        max_depth: None,
+        parallel_levels: Some(1),
+    };
+}
+
 impl Default for KdBuildParams {
     fn default() -> Self {
-        Self {
-            traversal_cost: 1.5,
-            intersect_cost: 1.5,
-            leaf_block: 4,
-            empty_bonus: 0.2,
-            max_depth: None,
-            parallel_levels: Some(1),
-        }
+        Self::DEFAULT
     }
 }
 
@@ -168,8 +174,8 @@ impl KdBuildParams {
     /// Costs for a tree the GPU shader walks: triangles counted one by one
     /// with a traversal cost of 1 (the tree this project used before the CPU
     /// walk tested four at once; not yet timed on a hardware GPU).
-    pub fn for_gpu() -> Self {
-        Self { traversal_cost: 1.0, leaf_block: 1, ..Self::default() }
+    pub const fn for_gpu() -> Self {
+        Self { traversal_cost: 1.0, leaf_block: 1, ..Self::DEFAULT }
     }
 
     /// Blocks of `leaf_block` triangles that hold `n` triangles.

@@ -47,9 +47,15 @@ pub struct NearParams {
     pub max_share: f32,
 }
 
+impl NearParams {
+    /// The defaults (each field's doc gives its effect and trade-off);
+    /// `const`, so presets built from it are `const fn`.
+    pub const DEFAULT: NearParams = Self { factor: 1.0, max_rays: 32_000_000, max_share: 0.125 };
+}
+
 impl Default for NearParams {
     fn default() -> Self {
-        Self { factor: 1.0, max_rays: 32_000_000, max_share: 0.125 }
+        Self::DEFAULT
     }
 }
 

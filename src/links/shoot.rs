@@ -46,9 +46,15 @@ pub struct LinkParams {
     pub near: super::near::NearParams,
 }
 
+impl LinkParams {
+    /// The defaults (each field's doc gives its effect and trade-off);
+    /// `const`, so presets built from it are `const fn`.
+    pub const DEFAULT: LinkParams = Self { rays_per_vertex: 256, seed: 1, nudge: 1e-3, batch_vertices: 8192, near: super::near::NearParams::DEFAULT };
+}
+
 impl Default for LinkParams {
     fn default() -> Self {
-        Self { rays_per_vertex: 256, seed: 1, nudge: 1e-3, batch_vertices: 8192, near: Default::default() }
+        Self::DEFAULT
     }
 }
 

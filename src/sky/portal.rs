@@ -176,9 +176,15 @@ pub struct PortalParams {
     pub rays: u32,
 }
 
+impl PortalParams {
+    /// The defaults (each field's doc gives its effect and trade-off);
+    /// `const`, so presets built from it are `const fn`.
+    pub const DEFAULT: PortalParams = Self { rays: 64 };
+}
+
 impl Default for PortalParams {
     fn default() -> Self {
-        Self { rays: 64 }
+        Self::DEFAULT
     }
 }
 
@@ -194,8 +200,10 @@ impl PortalParams {
     /// A quarter of `link_rays` a vertex and portal, between 64 and 256,
     /// so the portals' noise keeps falling with the link rays' (see the
     /// module doc's figures).
-    pub fn for_link_rays(link_rays: u32) -> PortalParams {
-        PortalParams { rays: (link_rays / 4).clamp(64, MAX_SIDE * MAX_SIDE) }
+    pub const fn for_link_rays(link_rays: u32) -> PortalParams {
+        let rays = link_rays / 4;
+        let rays = if rays < 64 { 64 } else if rays > MAX_SIDE * MAX_SIDE { MAX_SIDE * MAX_SIDE } else { rays };
+        PortalParams { rays }
     }
 }
 

@@ -67,9 +67,15 @@ pub struct SkyRefineParams {
 /// The largest [`SkyRefineParams::sub`]: a refined cell's rays fit one u32 mask.
 pub const MAX_SUB: u32 = 5;
 
+impl SkyRefineParams {
+    /// The defaults (each field's doc gives its effect and trade-off);
+    /// `const`, so presets built from it are `const fn`.
+    pub const DEFAULT: SkyRefineParams = Self { sub: 3, portal: super::PortalParams::DEFAULT };
+}
+
 impl Default for SkyRefineParams {
     fn default() -> Self {
-        Self { sub: 3, portal: super::PortalParams::default() }
+        Self::DEFAULT
     }
 }
 

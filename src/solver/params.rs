@@ -102,28 +102,34 @@ impl SolveParams {
     }
 }
 
+impl SolveParams {
+    /// The defaults, as listed in docs/DESIGN.md, "Defaults" (each field's
+    /// doc gives its effect); `const`, as the presets built from it.
+    pub const DEFAULT: SolveParams = SolveParams {
+        terms: Terms::ALL,
+        forced: Terms::NONE,
+        pay_share: 0.02,
+        tracer: TracerKind::Auto,
+        bvh: BvhBuildParams::DEFAULT,
+        kd: KdBuildParams::DEFAULT,
+        kd_gpu: KdBuildParams::for_gpu(),
+        links: LinkParams::DEFAULT,
+        light: LightLinkParams::DEFAULT,
+        emitter: EmitterLinkParams::DEFAULT,
+        near_emitter: NearEmitterParams::DEFAULT,
+        near_sky: NearSkyParams::DEFAULT,
+        near_gather: NearGatherParams::DEFAULT,
+        gather: GatherParams::DEFAULT,
+        hidden: HiddenParams::DEFAULT,
+        sky: crate::sky::SkyRefineParams::DEFAULT,
+        smoothing_angle_deg: 0.0,
+        smoothing: SmoothParams::DEFAULT,
+    };
+}
+
 impl Default for SolveParams {
     fn default() -> Self {
-        SolveParams {
-            terms: Terms::ALL,
-            forced: Terms::NONE,
-            pay_share: 0.02,
-            tracer: TracerKind::default(),
-            bvh: BvhBuildParams::default(),
-            kd: KdBuildParams::default(),
-            kd_gpu: KdBuildParams::for_gpu(),
-            links: LinkParams::default(),
-            light: LightLinkParams::default(),
-            emitter: EmitterLinkParams::default(),
-            near_emitter: Default::default(),
-            near_sky: Default::default(),
-            near_gather: Default::default(),
-            gather: GatherParams::default(),
-            hidden: HiddenParams::default(),
-            sky: Default::default(),
-            smoothing_angle_deg: 0.0,
-            smoothing: SmoothParams::default(),
-        }
+        Self::DEFAULT
     }
 }
 
@@ -215,8 +221,8 @@ impl SolveParams {
     /// A quick preview: 16 rays a vertex, no near-field terms, no noise
     /// check, emitter links at 16 samples; for a first picture in well
     /// under a second on scenes of 100k vertices.
-    pub fn preview() -> SolveParams {
-        let mut p = SolveParams::default();
+    pub const fn preview() -> SolveParams {
+        let mut p = SolveParams::DEFAULT;
         p.links.rays_per_vertex = 16;
         p.terms.near = false;
         p.terms.noise_check = false;
@@ -227,8 +233,8 @@ impl SolveParams {
 
     /// Reference quality: 1024 rays a vertex, auto bounces, every
     /// correction on (none decided off), emitter links with as many samples as link rays.
-    pub fn reference() -> SolveParams {
-        let mut p = SolveParams::default();
+    pub const fn reference() -> SolveParams {
+        let mut p = SolveParams::DEFAULT;
         p.links.rays_per_vertex = 1024;
         p.emitter.samples = 1024;
         p.pay_share = 0.0;
@@ -261,5 +267,18 @@ mod tests {
         solve_only.gather.max_bounces += 1;
         solve_only.smoothing_angle_deg += 5.0;
         assert!(a.same_traced(&solve_only));
+    }
+
+    /// The presets are `const fn` (usable in a `const`), and the portal
+    /// rays they derive from the link rays stay within `64..=256`.
+    #[test]
+    fn presets_are_const() {
+        const PREVIEW: SolveParams = SolveParams::preview();
+        const REFERENCE: SolveParams = SolveParams::reference();
+        assert_eq!((PREVIEW.links.rays_per_vertex, PREVIEW.sky.portal.rays), (16, 64));
+        assert_eq!((REFERENCE.links.rays_per_vertex, REFERENCE.sky.portal.rays), (1024, 256));
+        assert_eq!(crate::sky::PortalParams::for_link_rays(400).rays, 100);
+        assert!(!PREVIEW.terms.near && REFERENCE.terms.near);
+        assert_eq!(SolveParams::default(), SolveParams::DEFAULT);
     }
 }

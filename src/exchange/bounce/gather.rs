@@ -36,9 +36,15 @@ pub struct GatherParams {
     pub max_bounces: u32,
 }
 
+impl GatherParams {
+    /// The defaults (each field's doc gives its effect and trade-off);
+    /// `const`, so presets built from it are `const fn`.
+    pub const DEFAULT: GatherParams = Self { bounces: Bounces::Auto, tolerance: 1e-4, max_bounces: 100_000 };
+}
+
 impl Default for GatherParams {
     fn default() -> Self {
-        Self { bounces: Bounces::Auto, tolerance: 1e-4, max_bounces: 100_000 }
+        Self::DEFAULT
     }
 }
 

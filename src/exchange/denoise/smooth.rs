@@ -98,14 +98,20 @@ pub struct SmoothParams {
     pub sky: bool,
 }
 
+impl SmoothParams {
+    /// The defaults (each field's doc gives its effect and trade-off);
+    /// `const`, so presets built from it are `const fn`.
+    pub const DEFAULT: SmoothParams = Self {
+        mode: SmoothMode::Adaptive,
+        passes: 2,
+        noise: crate::exchange::denoise::noise::NoiseParams::DEFAULT,
+        sky: true,
+    };
+}
+
 impl Default for SmoothParams {
     fn default() -> Self {
-        Self {
-            mode: SmoothMode::default(),
-            passes: 2,
-            noise: crate::exchange::denoise::noise::NoiseParams::default(),
-            sky: true,
-        }
+        Self::DEFAULT
     }
 }
 

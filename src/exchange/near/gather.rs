@@ -78,9 +78,15 @@ pub struct NearGatherParams {
     pub rays: u32,
 }
 
+impl NearGatherParams {
+    /// The defaults (each field's doc gives its effect and trade-off);
+    /// `const`, so presets built from it are `const fn`.
+    pub const DEFAULT: NearGatherParams = Self { rays: 2 };
+}
+
 impl Default for NearGatherParams {
     fn default() -> Self {
-        Self { rays: 2 }
+        Self::DEFAULT
     }
 }
 

@@ -75,9 +75,15 @@ pub struct NearSkyParams {
     pub portal_samples: u32,
 }
 
+impl NearSkyParams {
+    /// The defaults (each field's doc gives its effect and trade-off);
+    /// `const`, so presets built from it are `const fn`.
+    pub const DEFAULT: NearSkyParams = Self { samples: 1, portal_samples: 1 };
+}
+
 impl Default for NearSkyParams {
     fn default() -> Self {
-        Self { samples: 1, portal_samples: 1 }
+        Self::DEFAULT
     }
 }
 

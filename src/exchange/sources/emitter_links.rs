@@ -118,9 +118,15 @@ pub struct EmitterLinkParams {
     pub pilot_share: f32,
 }
 
+impl EmitterLinkParams {
+    /// The defaults (each field's doc gives its effect and trade-off);
+    /// `const`, so presets built from it are `const fn`.
+    pub const DEFAULT: EmitterLinkParams = Self { samples: 64, max_pairs: 400_000_000, nudge: 1e-3, pilot_share: 0.25 };
+}
+
 impl Default for EmitterLinkParams {
     fn default() -> Self {
-        Self { samples: 64, max_pairs: 400_000_000, nudge: 1e-3, pilot_share: 0.25 }
+        Self::DEFAULT
     }
 }
 
