@@ -59,7 +59,11 @@
 
 #![warn(missing_docs)]
 
+// The CLI's harnesses: the accuracy sweep and the benchmarks (the
+// integration tests and benches, built with the default features, use them).
+#[cfg(feature = "cli")]
 pub mod accuracy;
+#[cfg(feature = "cli")]
 pub mod bench;
 pub mod bvh;
 pub mod csr;
