@@ -49,7 +49,13 @@ pub struct LinkParams {
 impl LinkParams {
     /// The defaults (each field's doc gives its effect and trade-off);
     /// `const`, so presets built from it are `const fn`.
-    pub const DEFAULT: LinkParams = Self { rays_per_vertex: 256, seed: 1, nudge: 1e-3, batch_vertices: 8192, near: super::near::NearParams::DEFAULT };
+    pub const DEFAULT: LinkParams = Self {
+        rays_per_vertex: 256,
+        seed: 1,
+        nudge: 1e-3,
+        batch_vertices: 8192,
+        near: super::near::NearParams::DEFAULT,
+    };
 }
 
 impl Default for LinkParams {

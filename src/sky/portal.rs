@@ -202,7 +202,13 @@ impl PortalParams {
     /// module doc's figures).
     pub const fn for_link_rays(link_rays: u32) -> PortalParams {
         let rays = link_rays / 4;
-        let rays = if rays < 64 { 64 } else if rays > MAX_SIDE * MAX_SIDE { MAX_SIDE * MAX_SIDE } else { rays };
+        let rays = if rays < 64 {
+            64
+        } else if rays > MAX_SIDE * MAX_SIDE {
+            MAX_SIDE * MAX_SIDE
+        } else {
+            rays
+        };
         PortalParams { rays }
     }
 }

@@ -82,7 +82,8 @@ impl NoiseParams {
 impl NoiseParams {
     /// The defaults (each field's doc gives its effect and trade-off);
     /// `const`, so presets built from it are `const fn`.
-    pub const DEFAULT: NoiseParams = Self { scale: 0.2, reference_rays: 256, exponent: 0.75, check_vertices: 512, check_neighbours: 24 };
+    pub const DEFAULT: NoiseParams =
+        Self { scale: 0.2, reference_rays: 256, exponent: 0.75, check_vertices: 512, check_neighbours: 24 };
 }
 
 impl Default for NoiseParams {

@@ -154,9 +154,8 @@ impl Lights {
                 continue;
             }
             let span = &mut tris[lo..hi];
-            let (min, max) = span.iter().fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(a, b), t| {
-                (a.min(t.centre), b.max(t.centre))
-            });
+            let (min, max) =
+                span.iter().fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(a, b), t| (a.min(t.centre), b.max(t.centre)));
             let axis = (max - min).max_position();
             let mid = span.len() / 2;
             span.sort_by(|a, b| a.centre[axis].total_cmp(&b.centre[axis]));
@@ -504,7 +503,9 @@ mod tests {
         for (p, n) in cases {
             let exact: f64 = emitters
                 .iter()
-                .filter(|e| (e.corners[1] - e.corners[0]).cross(e.corners[2] - e.corners[0]).dot(p - e.corners[0]) > 0.0)
+                .filter(|e| {
+                    (e.corners[1] - e.corners[0]).cross(e.corners[2] - e.corners[0]).dot(p - e.corners[0]) > 0.0
+                })
                 .map(|e| form_factor(p, n, &e.corners).0)
                 .sum();
             let (mean, max) = estimate(&lights, p, n, 20_000);

@@ -89,7 +89,8 @@ pub struct LightLinkParams {
 impl LightLinkParams {
     /// The defaults (each field's doc gives its effect and trade-off);
     /// `const`, so presets built from it are `const fn`.
-    pub const DEFAULT: LightLinkParams = Self { oversample: false, min_distance: 1e-3, nudge: 1e-3, bounce_source: BounceSource::Point };
+    pub const DEFAULT: LightLinkParams =
+        Self { oversample: false, min_distance: 1e-3, nudge: 1e-3, bounce_source: BounceSource::Point };
 }
 
 impl Default for LightLinkParams {
