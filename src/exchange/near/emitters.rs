@@ -206,11 +206,16 @@ fn pick(cdf: &[f32], u: f32) -> usize {
     (0..=i).rev().find(|&k| cdf[k] > if k == 0 { 0.0 } else { cdf[k - 1] }).unwrap_or(i)
 }
 
-/// One near hit's shadow rays and, per ray, its group and what it adds
-/// when it is unoccluded: `F_t / (m p_t)`.
-struct HitSamples {
-    rays: Vec<Ray>,
-    values: Vec<(u32, f32)>,
+/// Per shadow ray of one near hit, its group and what it adds when it is
+/// unoccluded: `f / (m p_t)`.
+type HitValues = Vec<(u32, f32)>;
+
+/// Per-vertex buffers of [`point_samples`]: the running sums of the
+/// clusters' bounds and of one cluster's triangles' bounds.
+#[derive(Default)]
+struct Scratch {
+    cdf: Vec<f32>,
+    inner: Vec<f32>,
 }
 
 impl NearEmitters {
@@ -236,13 +241,18 @@ impl NearEmitters {
         let mut rows = RowBuilder::new();
         let samples = |v: usize, hits: &[NearHit]| {
             let ranks = triangle_ranks(hits);
-            let per_hit: Vec<HitSamples> = (0..hits.len())
-                .map(|i| hit_samples(scene, &hits[i], &lights, params, seed, v, ranks[i] as usize))
+            let (mut scratch, mut rays) = (Scratch::default(), Vec::new());
+            let per_hit: Vec<HitValues> = (0..hits.len())
+                .map(|i| {
+                    let (p, normal, l) = hit_frame(scene, &hits[i]);
+                    let key = Stream::NEAR_EMITTERS.hit_key(seed, v, hits[i].tri, ranks[i] as usize) << 20;
+                    let m = params.samples;
+                    point_samples(&lights, p, normal, RAY_OFFSET * l, m, key, &mut scratch, &mut rays)
+                })
                 .collect();
-            let rays = per_hit.iter().flat_map(|s| s.rays.iter().copied()).collect();
             (per_hit, rays)
         };
-        let rays = trace_by_vertex(near, n, tracer, samples, |v, per_hit: Vec<HitSamples>, visible: &[bool]| {
+        let rays = trace_by_vertex(near, n, tracer, samples, |v, per_hit: Vec<HitValues>, visible: &[bool]| {
             let mut row: Vec<(u32, Vec3)> = Vec::new();
             let mut add = |g: u32, c: Vec3| match row.iter_mut().find(|e| e.0 == g) {
                 Some(e) => e.1 += c,
@@ -253,12 +263,12 @@ impl NearEmitters {
                 let tri = scene.triangles[h.tri as usize];
                 let beta = [1.0 - h.u - h.v, h.u, h.v];
                 let rho = hit_albedo(scene, h) * h.weight;
-                for (&(g, value), &seen) in s.values.iter().zip(&visible[at..at + s.rays.len()]) {
+                for (&(g, value), &seen) in s.iter().zip(&visible[at..at + s.len()]) {
                     if seen {
                         add(g, rho * (value * inv));
                     }
                 }
-                at += s.rays.len();
+                at += s.len();
                 // Minus what the corners bring (their emitter links' factors).
                 for c in 0..3 {
                     let cv = tri[c] as usize;
@@ -328,37 +338,33 @@ impl NearTerm for NearEmitters {
     }
 }
 
-/// The shadow rays of near hit `h` (vertex `v`'s `rank`-th on its
-/// triangle: the draws hash from the vertex, the triangle and the rank, as
-/// [`crate::exchange::near::sky`]'s, so a near hit more or less elsewhere,
-/// where the CPU and GPU tracers differ, keeps this hit's draws): a budget
-/// of [`NearEmitterParams::samples`] rays, each to a triangle `t` drawn in
-/// two levels ([`bound`]: a cluster by systematic sampling over the
-/// rays, then a triangle of it), with probability `p_t`, and to a uniform
-/// point of `t` clipped to the hit's horizon; an unoccluded ray adds
-/// `F_t / (m p_t)` (`F_t` exact, [`form_factor`]) to `t`'s group. The rays
-/// start `eps * l` off the surface (see
-/// [`crate::exchange::near::hit_origin`] for why not also into the triangle).
-fn hit_samples(
-    scene: &PreparedScene,
-    h: &crate::links::NearHit,
+/// The shadow rays of a near hit at `p` with unit normal `normal`,
+/// appended to `rays`, and per ray its group and what it adds when
+/// unoccluded. The draws hash from `key` (the hit's: its vertex, triangle
+/// and rank, as [`crate::exchange::near::sky`]'s, so a near hit more or
+/// less elsewhere, where the CPU and GPU tracers differ, keeps this hit's
+/// draws). A budget of `m` rays, each to a triangle `t` drawn in two
+/// levels ([`bound`]: a cluster by systematic sampling over the rays, then
+/// a triangle of it) with probability `p_t`; an unoccluded ray adds `f /
+/// (m p_t)` to `t`'s group, `f` and the ray's end point as
+/// [`triangle_sample`] gives them. The rays start `eps` (m) off the
+/// surface (see [`crate::exchange::near::hit_origin`] for why not also
+/// into the triangle).
+#[allow(clippy::too_many_arguments)]
+fn point_samples(
     lights: &Lights,
-    params: &NearEmitterParams,
-    seed: u64,
-    v: usize,
-    rank: usize,
-) -> HitSamples {
-    let (p, normal, l) = hit_frame(scene, h);
-    let key = Stream::NEAR_EMITTERS.hit_key(seed, v, h.tri, rank) << 20;
-    point_samples(lights, p, normal, RAY_OFFSET * l, params.samples, key)
-}
-
-/// [`hit_samples`] at a point `p` with unit normal `normal`, the rays
-/// starting `eps` (m) off the surface, `m` of them drawn from `key`.
-fn point_samples(lights: &Lights, p: Vec3, normal: Vec3, eps: f32, m: u32, key: u64) -> HitSamples {
+    p: Vec3,
+    normal: Vec3,
+    eps: f32,
+    m: u32,
+    key: u64,
+    scratch: &mut Scratch,
+    rays: &mut Vec<Ray>,
+) -> HitValues {
     let origin = p + normal * eps;
-    let mut out = HitSamples { rays: Vec::new(), values: Vec::new() };
-    let mut cdf = Vec::with_capacity(lights.clusters.len());
+    let mut out = HitValues::new();
+    let Scratch { cdf, inner } = scratch;
+    cdf.clear();
     let mut sum = 0f32;
     for c in &lights.clusters {
         sum += bound(c.area, c.centre, c.radius, p, normal);
@@ -369,13 +375,12 @@ fn point_samples(lights: &Lights, p: Vec3, normal: Vec3, eps: f32, m: u32, key: 
     }
     let xi = unit(splitmix64(key ^ CLUSTER_DRAW));
     let width = |cdf: &[f32], i: usize| cdf[i] - if i == 0 { 0.0 } else { cdf[i - 1] };
-    let mut inner = Vec::with_capacity(CLUSTER);
     let mut inner_of = usize::MAX;
     for j in 0..m {
         // The `m` cluster draws stratify [0, 1) (systematic sampling), so
         // they come in cluster order and a cluster's triangle bounds are
         // summed once a hit.
-        let ci = pick(&cdf, ((j as f32 + xi) / m as f32).min(1.0 - f32::EPSILON));
+        let ci = pick(cdf, ((j as f32 + xi) / m as f32).min(1.0 - f32::EPSILON));
         let c = &lights.clusters[ci];
         let tris = &lights.tris[c.first as usize..c.end as usize];
         if inner_of != ci {
@@ -393,8 +398,8 @@ fn point_samples(lights: &Lights, p: Vec3, normal: Vec3, eps: f32, m: u32, key: 
             continue;
         }
         let hash = splitmix64(key ^ u64::from(j));
-        let ti = pick(&inner, unit(hash));
-        let p_t = (width(&cdf, ci) / sum) as f64 * (width(&inner, ti) / isum) as f64;
+        let ti = pick(inner, unit(hash));
+        let p_t = (width(cdf, ci) / sum) as f64 * (width(inner, ti) / isum) as f64;
         let t = &tris[ti];
         let h2 = splitmix64(hash);
         let u = Vec2::new(unit(h2), unit(splitmix64(h2)));
@@ -407,8 +412,8 @@ fn point_samples(lights: &Lights, p: Vec3, normal: Vec3, eps: f32, m: u32, key: 
         let dist = d.length();
         let dir = d / dist.max(f32::MIN_POSITIVE);
         let ray = Ray::shadow_checked(origin, dir, dist, eps, 0.0, NO_SKIP);
-        out.rays.push(ray.unwrap_or_else(|| Ray::touching(origin, normal, NO_SKIP)));
-        out.values.push((t.emitter.group, value));
+        rays.push(ray.unwrap_or_else(|| Ray::touching(origin, normal, NO_SKIP)));
+        out.push((t.emitter.group, value));
     }
     out
 }
@@ -474,8 +479,10 @@ mod tests {
     fn estimate(lights: &Lights, p: Vec3, normal: Vec3, n: u64) -> (f64, f64) {
         let (mut sum, mut max) = (0f64, 0f64);
         for key in 0..n {
-            let s = point_samples(lights, p, normal, 1e-5, 2, splitmix64(key) << 20);
-            let total: f64 = s.values.iter().map(|&(_, v)| v as f64).sum();
+            let (mut scratch, mut rays) = (Scratch::default(), Vec::new());
+            let s = point_samples(lights, p, normal, 1e-5, 2, splitmix64(key) << 20, &mut scratch, &mut rays);
+            assert_eq!(rays.len(), s.len());
+            let total: f64 = s.iter().map(|&(_, v)| v as f64).sum();
             sum += total;
             max = max.max(total);
         }
