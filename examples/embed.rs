@@ -5,19 +5,25 @@
 //! Run: `cargo run --release --example embed`
 
 use glam::Vec3;
-use linkgi::scene::builder::{MeshInput, SceneBuilder};
-use linkgi::scene::shapes::MeshBuilder;
-use linkgi::scene::{prep, Light};
-use linkgi::solver::{SolveParams, Solver};
+use linkgi::{prepare, Light, MeshInput, SceneBuilder, SolveParams, Solver};
 
 /// An n x n grid of quads from `origin` along `u` and `v` (front: u x v)
 /// as position and index buffers, as an engine would hold them.
 fn grid(origin: Vec3, u: Vec3, v: Vec3, n: u32) -> (Vec<Vec3>, Vec<u32>) {
-    let mut b = MeshBuilder::new();
-    let m = b.add_material("grid", Vec3::splat(0.5));
-    b.quad_grid(origin, u, v, n, n, m);
-    let mesh = b.finish("grid", 30.0);
-    (mesh.positions, mesh.triangles.iter().flatten().copied().collect())
+    let mut positions = Vec::new();
+    for j in 0..=n {
+        for i in 0..=n {
+            positions.push(origin + u * (i as f32 / n as f32) + v * (j as f32 / n as f32));
+        }
+    }
+    let at = |i: u32, j: u32| j * (n + 1) + i;
+    let mut indices = Vec::new();
+    for j in 0..n {
+        for i in 0..n {
+            indices.extend([at(i, j), at(i + 1, j), at(i + 1, j + 1), at(i, j), at(i + 1, j + 1), at(i, j + 1)]);
+        }
+    }
+    (positions, indices)
 }
 
 fn main() -> linkgi::Result<()> {
@@ -30,7 +36,7 @@ fn main() -> linkgi::Result<()> {
         .mesh(MeshInput::new("wall", &wall_p, &wall_i).albedo(Vec3::new(0.7, 0.1, 0.1)))
         .light(lamp(1.0))
         .build()?;
-    let mut solver = Solver::new(prep::prepare(&scene)?, SolveParams::from_settings(&scene.settings), &|_, _| {});
+    let mut solver = Solver::new(prepare(&scene)?, SolveParams::from_settings(&scene.settings), &|_, _| {});
     // The floor's vertex nearest the wall's foot, in the caller's numbering.
     let probe = (0..floor_p.len())
         .min_by(|&a, &b| floor_p[a].z.total_cmp(&floor_p[b].z).then(floor_p[a].x.abs().total_cmp(&floor_p[b].x.abs())))

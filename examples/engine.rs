@@ -6,19 +6,17 @@
 //! Run: `cargo run --release --example engine`
 
 use glam::Vec3;
-use linkgi::engine::{Change, Engine, EngineParams};
-use linkgi::scene::{builtin, prep, Light};
-use linkgi::solver::{Compute, SolveParams};
+use linkgi::{load_scene, prepare, Change, Compute, Engine, EngineParams, Light, SolveParams};
 use std::time::{Duration, Instant};
 
 fn main() -> linkgi::Result<()> {
-    let mut desc = builtin::builtin("cornell").expect("built-in");
+    let mut desc = load_scene("cornell")?;
     desc.settings.rays_per_vertex = 64;
-    let scene = prep::prepare(&desc)?;
-    let Light::Point { position, intensity } = scene.lights[0] else { unreachable!("cornell has a point light") };
+    let scene = prepare(&desc)?;
+    let Light::Point { position, intensity } = scene.lights()[0] else { unreachable!("cornell has a point light") };
     let mut engine = Engine::start(
         scene.clone(),
-        SolveParams::from_settings(&scene.settings),
+        SolveParams::from_settings(scene.settings()),
         Compute::Cpu,
         EngineParams::default(),
     )?;

@@ -40,6 +40,7 @@ impl<T> Csr<T> {
 
     /// The item range of row `i`.
     #[inline]
+    #[cfg(any(test, feature = "internals"))]
     pub fn range(&self, i: usize) -> std::ops::Range<usize> {
         self.offsets[i] as usize..self.offsets[i + 1] as usize
     }
@@ -110,6 +111,7 @@ impl<T> RowBuilder<T> {
 
     /// Adds an item to the current row.
     #[inline]
+    #[cfg(any(test, feature = "internals"))]
     pub fn push(&mut self, item: T) {
         self.csr.items.push(item);
     }
@@ -126,11 +128,13 @@ impl<T> RowBuilder<T> {
     }
 
     /// Items pushed so far, all rows.
+    #[cfg(any(test, feature = "internals"))]
     pub fn len(&self) -> usize {
         self.csr.items.len()
     }
 
     /// True when no item was pushed.
+    #[cfg(any(test, feature = "internals"))]
     pub fn is_empty(&self) -> bool {
         self.csr.items.is_empty()
     }

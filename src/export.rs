@@ -130,6 +130,7 @@ pub fn ply_bytes(scene: &PreparedScene, solution: &Solution) -> Vec<u8> {
 /// The PLY of the mesh alone (`x y z nx ny nz` per vertex and the
 /// triangles), in the solver's vertex order: what other programs that only
 /// need the geometry read (the Embree peer of `linkgi bench`).
+#[cfg(any(feature = "cli", feature = "internals"))]
 pub fn mesh_ply_bytes(scene: &PreparedScene) -> Vec<u8> {
     ply_with(scene, &PLY_VERTEX_PROPERTIES[..6], |v| vec![scene.positions[v], scene.normals[v]], None)
 }

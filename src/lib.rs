@@ -2,21 +2,33 @@
 //! diffuse global illumination at a scene's vertices for moving lights and
 //! deforming meshes.
 //!
-//! Pipeline: [`scene`] (load, build in code, refine, prepare) → [`bvh`]
-//! (8-wide BVH, the CPU tracer; [`kdtree`] with ropes for the GPU shader)
-//! → [`sampling`] (cosine ray directions) → [`links`] (vertex links) →
-//! [`exchange`] (light links, emitters, sky, bounces, near-field terms,
-//! smoothing), driven by [`solver`]; [`engine`] runs it in the background,
-//! [`render`] draws it.
+//! The API, all at the crate root:
+//!
+//! - **Scenes**: [`load_scene`] reads a `.toml`, `.obj`, `.gltf` or `.glb`
+//!   file or a built-in name into a [`SceneDesc`] ([`MeshDesc`],
+//!   [`Material`], [`Light`], [`Sky`], [`Camera`], [`Settings`]);
+//!   [`SceneBuilder`] builds one from the caller's own arrays; [`prepare`]
+//!   turns it into the lighting mesh, a [`PreparedScene`].
+//! - **Solving**: a [`Solver`] holds the scene, its ray tracer and links
+//!   ([`SolveParams`] and its presets, [`Terms`], [`TracerKind`],
+//!   [`Backend`]); [`Solver::solve`] gives a [`Solution`] (irradiance per
+//!   lighting-mesh vertex, W/m^2). [`Engine`] runs a solver on its own
+//!   thread and takes [`Change`]s (lights moved, meshes deformed) while the
+//!   caller draws the newest [`GiResult`].
+//! - **Pictures**: [`Renderer`] draws a [`Frame`] into an [`HdrImage`];
+//!   [`write_png`] and [`write_exr`] save it.
+//!
+//! Inside, the pipeline is: scene (load, refine, prepare) → tracer (an
+//! 8-wide BVH on the CPU; a BVH walk, a rope kd-tree walk or ray queries on
+//! the GPU) → cosine ray directions → vertex links → light links,
+//! emitters, sky, bounces, near-field terms and smoothing (docs/DESIGN.md).
 //!
 //! The whole loop, with a scene built in code: solve, read the irradiance
 //! on the caller's own vertices, move the light, read again.
 //!
 //! ```
 //! use glam::Vec3;
-//! use linkgi::scene::builder::{MeshInput, SceneBuilder};
-//! use linkgi::scene::{prep, Light};
-//! use linkgi::solver::{SolveParams, Solver};
+//! use linkgi::{prepare, Light, MeshInput, SceneBuilder, SolveParams, Solver};
 //!
 //! // A floor and a back wall, 4 x 4 quads each, and a point light (W/sr).
 //! let (mut positions, mut indices) = (Vec::new(), Vec::new());
@@ -42,7 +54,7 @@
 //!     .mesh(MeshInput::new("walls", &positions, &indices).albedo(Vec3::splat(0.6)))
 //!     .light(light)
 //!     .build()?;
-//! let prepared = prep::prepare(&scene)?;
+//! let prepared = prepare(&scene)?;
 //! let mut solver = Solver::new(prepared, SolveParams::from_settings(&scene.settings), &|_, _| {});
 //! let before = solver.solve();
 //! // Indirect irradiance (W/m^2) at the caller's vertex 12 (the floor's middle).
@@ -59,27 +71,132 @@
 
 #![warn(missing_docs)]
 
-// The CLI's harnesses: the accuracy sweep and the benchmarks (the
-// integration tests and benches, built with the default features, use them).
-#[cfg(feature = "cli")]
-pub mod accuracy;
-#[cfg(feature = "cli")]
-pub mod bench;
-pub mod bvh;
-pub mod csr;
-pub mod engine;
-pub mod error;
-pub mod exchange;
-pub mod export;
-pub mod gpu;
-pub mod kdtree;
-pub mod links;
-pub mod reference;
-pub mod render;
-pub mod sampling;
-pub mod scene;
-pub mod sky;
-pub mod solver;
-pub mod trace;
+/// Methods the API does not offer but the integration tests and benches
+/// call: `pub(crate)`, or `pub` and hidden from the docs with the
+/// `internals` feature.
+macro_rules! internal {
+    ($($(#[$attr:meta])* pub fn $name:ident ($($args:tt)*) $(-> $ret:ty)? $body:block)*) => {$(
+        $(#[$attr])*
+        #[cfg(feature = "internals")]
+        #[doc(hidden)]
+        pub fn $name($($args)*) $(-> $ret)? $body
+        $(#[$attr])*
+        #[cfg(not(feature = "internals"))]
+        #[cfg_attr(not(feature = "cli"), allow(dead_code))]
+        pub(crate) fn $name($($args)*) $(-> $ret)? $body
+    )*};
+}
 
+/// A struct of the API whose fields other items trust: the fields are
+/// `pub(crate)` (read through methods), or `pub` with the `internals`
+/// feature for the integration tests and benches.
+macro_rules! internal_fields {
+    ($(#[$attr:meta])* pub struct $name:ident { $($(#[$fattr:meta])* pub $field:ident : $ty:ty),* $(,)? }) => {
+        $(#[$attr])*
+        #[cfg(feature = "internals")]
+        pub struct $name { $($(#[$fattr])* pub $field: $ty),* }
+        $(#[$attr])*
+        #[cfg(not(feature = "internals"))]
+        pub struct $name { $($(#[$fattr])* pub(crate) $field: $ty),* }
+    };
+}
+
+/// Declares the internal modules: private to the crate, or public but
+/// hidden from the docs with the `internals` feature (the integration
+/// tests' and benches' only way in; it is not part of the API).
+macro_rules! internal_modules {
+    ($($(#[$attr:meta])* $name:ident),* $(,)?) => {$(
+        $(#[$attr])*
+        #[cfg(feature = "internals")]
+        #[doc(hidden)]
+        pub mod $name;
+        $(#[$attr])*
+        #[cfg(not(feature = "internals"))]
+        mod $name;
+    )*};
+}
+
+internal_modules! {
+    // The CLI's harnesses: the accuracy sweep, the benchmarks and the
+    // Monte Carlo reference they score against.
+    #[cfg(feature = "cli")]
+    accuracy,
+    #[cfg(feature = "cli")]
+    bench,
+    #[cfg(any(feature = "cli", feature = "internals"))]
+    reference,
+    bvh,
+    csr,
+    engine,
+    error,
+    exchange,
+    export,
+    gpu,
+    kdtree,
+    links,
+    render,
+    sampling,
+    scene,
+    sky,
+    solver,
+    trace,
+}
+
+#[cfg(feature = "cli")]
+mod cli;
+
+/// The `linkgi` command line (feature `cli`): parses the process's
+/// arguments and runs the subcommand; the binary's whole `main`.
+#[cfg(feature = "cli")]
+pub fn run_cli() -> anyhow::Result<()> {
+    cli::run()
+}
+
+pub use engine::{Adopted, Change, Counters, Engine, EngineParams, GiResult};
 pub use error::{Error, Result};
+pub use export::export as export_solution;
+pub use gpu::GpuDevice;
+pub use render::exposure::auto_exposure;
+pub use render::{write_exr, write_png, Frame, HdrImage, RenderParams, RenderStats, Renderer, View};
+pub use scene::builder::{MeshInput, SceneBuilder};
+pub use scene::deform::{deform_scene, has_deformers, Deform, DeformKind};
+pub use scene::file::write_scene;
+pub use scene::load as load_scene;
+pub use scene::prep::{prepare, PreparedScene};
+pub use scene::refine::{RefineMode, RefineSettings};
+pub use scene::terms::Terms;
+pub use scene::texture::{CornerTextures, MeshTextures, Sampler, Texture, TextureMap, Wrap};
+pub use scene::{Backend, Bounces, Camera, Light, Material, MeshDesc, SceneDesc, Settings, TracerKind, Transform};
+pub use sky::{EnvMap, Portal, Sky, SkyModel};
+pub use solver::adaptive::{solve, Refined};
+pub use solver::{Compute, DeformStats, GpuCompute, Preview, Solution, SolveParams, SolveStats, Solver};
+
+/// The scene's own camera, or where it has none (a bare OBJ, a glTF
+/// without cameras) one framed automatically: outside the scene looking
+/// in, or inside an enclosed room looking across it.
+pub fn camera_for(scene: &PreparedScene, camera: Option<Camera>) -> Camera {
+    render::framing::camera_or_framed(camera, scene, None).0
+}
+
+/// Statistics of the stages a [`SolveStats`] or [`DeformStats`] reports.
+pub mod stats {
+    pub use crate::bvh::BvhStats;
+    pub use crate::exchange::GatherResult;
+    pub use crate::kdtree::KdStats;
+    pub use crate::links::{LinkStats, ReshootStats};
+    pub use crate::solver::adaptive::Round;
+}
+
+/// The stages' parameters that [`SolveParams`] gathers, each with its
+/// documented defaults (a `DEFAULT` const) and trade-offs.
+pub mod params {
+    pub use crate::bvh::BvhBuildParams;
+    pub use crate::exchange::{
+        BounceSource, EmitterLinkParams, GatherParams, HiddenParams, LightLinkParams, NearEmitterParams,
+        NearGatherParams, NearSkyParams, NoiseParams, SmoothMode, SmoothParams,
+    };
+    pub use crate::gpu::{DeviceShare, ScheduleParams};
+    pub use crate::kdtree::KdBuildParams;
+    pub use crate::links::{LinkParams, NearParams};
+    pub use crate::sky::{PortalParams, SkyRefineParams};
+}

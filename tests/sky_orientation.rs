@@ -114,7 +114,7 @@ fn the_camera_sees_the_sky_image_unmirrored() {
     // the half-width tan(fov / 2) * aspect, in pixels from the left.
     let half_width = (30f32.to_radians().tan() * width as f32 / height as f32) as f64;
     let expect_green = (1.0 + (22.5f64.to_radians().tan() / half_width)) / 2.0 * width as f64;
-    for renderer in [Renderer::Cpu, Renderer::open(linkgi::gpu::Backend::Gpu)] {
+    for renderer in [Renderer::open(linkgi::gpu::Backend::Cpu), Renderer::open(linkgi::gpu::Backend::Gpu)] {
         let (img, _) = renderer.render(&frame, &params).unwrap();
         let row = height / 2;
         let peak = |channel: usize| {

@@ -28,6 +28,4 @@ pub mod preview;
 pub mod sweep;
 
 pub use metrics::ErrorStats;
-pub use path::PathRow;
-pub use preview::PreviewRow;
 pub use sweep::{sweep, SweepParams, SweepRow};

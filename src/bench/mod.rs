@@ -21,7 +21,7 @@ pub mod peer;
 pub mod report;
 pub mod scenes;
 
-pub use paper::{paper_rows, PaperRow};
+pub use paper::paper_rows;
 pub use peer::PeerFigures;
 pub use report::markdown;
 

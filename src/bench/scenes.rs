@@ -11,9 +11,6 @@
 use crate::scene::{builtin, shapes::MeshBuilder, SceneDesc};
 use glam::Vec3;
 
-/// Names accepted by [`scene`].
-pub const NAMES: &[&str] = &["glowsphere"];
-
 /// The benchmark scene of this name, if there is one.
 pub fn scene(name: &str) -> Option<SceneDesc> {
     match name {

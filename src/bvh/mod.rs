@@ -166,7 +166,7 @@ pub struct BvhBuildParams {
     /// Subtrees with more triangles than this are built in parallel.
     pub parallel_threshold: usize,
     /// A refit whose SAH cost exceeds this factor times the last fresh
-    /// build's is replaced by a rebuild ([`Bvh::update`]).
+    /// build's is replaced by a rebuild (`Bvh::update`).
     pub rebuild_factor: f32,
 }
 
@@ -264,6 +264,7 @@ impl Bvh {
     /// let mut bvh = Bvh::build(&positions, &[[0, 1, 2]], &BvhBuildParams::default());
     /// bvh.isa = Isa::Avx512;
     /// ```
+    #[cfg(any(test, feature = "internals"))]
     pub fn isa(&self) -> Isa {
         self.isa
     }

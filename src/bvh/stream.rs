@@ -140,6 +140,7 @@ impl Bvh {
 
     /// [`Bvh::intersect_origin`] as single rays in flight whatever the
     /// build (the walk packets are measured against).
+    #[cfg(any(test, feature = "internals"))]
     pub fn intersect_origin_single(&self, origin: Vec3, skip: u32, dirs: &[Vec3], out: &mut [Option<Hit>]) {
         match self.isa {
             #[cfg(target_arch = "x86_64")]
@@ -158,6 +159,7 @@ impl Bvh {
 
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2,bmi1,bmi2,popcnt,lzcnt,avx512f,avx512vl")]
+    #[cfg(any(test, feature = "internals"))]
     fn origin_avx512(&self, origin: Vec3, skip: u32, dirs: &[Vec3], out: &mut [Option<Hit>]) {
         self.origin_rays::<Avx512>(origin, skip, dirs, out)
     }

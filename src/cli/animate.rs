@@ -10,13 +10,13 @@
 //! first ([`EngineParams::deform_preview`]) unless `--sync` is given.
 
 use super::setup::{compute, setup, Overrides, Setup};
+use crate::engine::{Change, Engine, EngineParams};
+use crate::render::{write_png, Frame, RenderParams, Renderer};
+use crate::scene::deform::{deform_scene, has_deformers};
+use crate::scene::Light;
+use crate::solver::SolveParams;
 use anyhow::{Context, Result};
 use indicatif::{ProgressBar, ProgressStyle};
-use linkgi::engine::{Change, Engine, EngineParams};
-use linkgi::render::{write_png, Frame, RenderParams, Renderer};
-use linkgi::scene::deform::{deform_scene, has_deformers};
-use linkgi::scene::Light;
-use linkgi::solver::SolveParams;
 use std::fmt::Write as _;
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
@@ -159,7 +159,7 @@ pub fn run(args: AnimateArgs) -> Result<()> {
             camera,
         };
         let (img, stats) = renderer.render(&frame, &params)?;
-        let e = *exposure.get_or_insert_with(|| linkgi::render::exposure::auto_exposure(&img));
+        let e = *exposure.get_or_insert_with(|| crate::render::exposure::auto_exposure(&img));
         write_png(&img, e, &args.out.join(format!("frame_{k:04}.png")))?;
         let c = engine.counters();
         let frame_ms = tf.elapsed().as_secs_f64() * 1e3;

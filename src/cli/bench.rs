@@ -2,10 +2,10 @@
 //! printed as markdown, optionally written as JSON and markdown files.
 
 use super::setup::{self, Overrides};
+use crate::bench::{self, Backend, BenchParams};
+use crate::scene::{self, TracerKind};
 use anyhow::{Context, Result};
 use indicatif::{ProgressBar, ProgressStyle};
-use linkgi::bench::{self, Backend, BenchParams};
-use linkgi::scene::{self, TracerKind};
 use std::path::PathBuf;
 
 /// Arguments of `linkgi bench`.

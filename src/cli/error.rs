@@ -5,11 +5,11 @@
 //! errors.png into the output folder and print a summary.
 
 use super::setup::{setup, Overrides, Setup};
+use crate::accuracy::{self, path, preview, SweepParams};
+use crate::reference::{self, ReferenceParams};
+use crate::scene::TracerKind;
 use anyhow::{Context, Result};
 use indicatif::{ProgressBar, ProgressStyle};
-use linkgi::accuracy::{self, path, preview, SweepParams};
-use linkgi::reference::{self, ReferenceParams};
-use linkgi::scene::TracerKind;
 use std::path::PathBuf;
 use std::time::Instant;
 
@@ -36,7 +36,7 @@ pub struct ErrorArgs {
     pub tracer: Option<TracerKind>,
     /// Optional terms of the solve to switch off, comma-separated (as `solve --off`), to measure what they buy.
     #[arg(long, value_name = "TERM[,TERM]", value_parser = super::setup::parse_off)]
-    pub off: Option<linkgi::scene::terms::Terms>,
+    pub off: Option<crate::scene::terms::Terms>,
     /// Also score the picture: render the link solution (scene's settings, CPU
     /// renderer) and the reference image at the scene's camera, this size
     /// (WIDTHxHEIGHT), and print the mean luminance ratio and the mean 8x8-block
@@ -51,7 +51,7 @@ pub struct ErrorArgs {
     pub max_edge: Option<f32>,
     /// Refinement of coarse meshes: auto (the default) or off.
     #[arg(long, value_name = "auto|off", value_parser = super::setup::parse_refine)]
-    pub refine: Option<linkgi::scene::refine::RefineMode>,
+    pub refine: Option<crate::scene::refine::RefineMode>,
     /// Error-driven refinement's tolerance (as `render --refine-tolerance`).
     #[arg(long, value_name = "SHARE")]
     pub refine_tolerance: Option<f32>,
@@ -188,32 +188,32 @@ pub fn run(args: ErrorArgs) -> Result<()> {
 fn image_score(
     args: &ErrorArgs,
     size: &str,
-    desc: &linkgi::scene::SceneDesc,
-    prepared: &linkgi::scene::prep::PreparedScene,
-    plan: &linkgi::solver::adaptive::Plan,
+    desc: &crate::scene::SceneDesc,
+    prepared: &crate::scene::prep::PreparedScene,
+    plan: &crate::solver::adaptive::Plan,
 ) -> Result<()> {
-    use linkgi::render::{cpu::render_cpu, exposure::auto_exposure, write_png, Frame, RenderParams};
+    use crate::render::{cpu::render_cpu, exposure::auto_exposure, write_png, Frame, RenderParams};
     let (w, h) = super::render::parse_size(size)?;
     if args.image_spp == 0 {
         anyhow::bail!("--image-spp must be at least 1");
     }
     // The link solution as `render` makes it (refined where the light needs it), on the CPU.
     let mut settings = prepared.settings;
-    settings.backend = linkgi::scene::Backend::Cpu;
+    settings.backend = crate::scene::Backend::Cpu;
     let setup = Setup { desc: desc.clone(), prepared: prepared.clone(), settings, plan: plan.clone() };
-    let refined = super::setup::solve(setup, &linkgi::solver::Compute::Cpu, &|_, _| {})?;
+    let refined = super::setup::solve(setup, &crate::solver::Compute::Cpu, &|_, _| {})?;
     let (solver, sol) = (&refined.solver, &refined.solution);
     eprintln!(
         "link solution: {} vertices ({} before refinement)",
         solver.scene().vertex_count(),
         prepared.vertex_count()
     );
-    let bvh = linkgi::bvh::Bvh::build(&prepared.positions, &prepared.triangles, &Default::default());
+    let bvh = crate::bvh::Bvh::build(&prepared.positions, &prepared.triangles, &Default::default());
     let camera = super::setup::camera(desc, prepared, Some(&bvh));
     let params = RenderParams { width: w, height: h, ..Default::default() };
     let frame = Frame::of(solver.scene(), &sol.e_indirect, camera).with_sky(&sol.e_sky);
     let s = solver.scene();
-    let refined_bvh = linkgi::bvh::Bvh::build(&s.positions, &s.triangles, &Default::default());
+    let refined_bvh = crate::bvh::Bvh::build(&s.positions, &s.triangles, &Default::default());
     let (ours, _) = render_cpu(&frame, &params, Some(&refined_bvh))?;
     let rp = ReferenceParams { seed: prepared.settings.seed, ..Default::default() };
     let t = Instant::now();

@@ -2,10 +2,10 @@
 //! CPU when there is no adapter) and write a tone-mapped PNG.
 
 use super::setup::{compute, setup, Overrides};
+use crate::render::exposure::auto_exposure;
+use crate::render::{write_exr, write_png, Frame, RenderParams, Renderer, View};
+use crate::solver::adaptive::Refined;
 use anyhow::{bail, Context, Result};
-use linkgi::render::exposure::auto_exposure;
-use linkgi::render::{write_exr, write_png, Frame, RenderParams, Renderer, View};
-use linkgi::solver::adaptive::Refined;
 use std::path::PathBuf;
 use std::time::Instant;
 
@@ -94,7 +94,7 @@ pub fn run(args: RenderArgs) -> Result<()> {
 
 /// Writes the PNG (at `--exposure`, else the automatic one) and the EXR
 /// when asked; returns the exposure used.
-fn write_outputs(img: &linkgi::render::HdrImage, args: &RenderArgs) -> Result<f32> {
+fn write_outputs(img: &crate::render::HdrImage, args: &RenderArgs) -> Result<f32> {
     let exposure = args.exposure.unwrap_or_else(|| auto_exposure(img));
     write_png(img, exposure, &args.out)?;
     if let Some(exr) = &args.exr {
@@ -107,8 +107,8 @@ fn write_outputs(img: &linkgi::render::HdrImage, args: &RenderArgs) -> Result<f3
 /// `render --reference`: the reference path tracer's image, with a progress bar.
 fn reference(
     args: &RenderArgs,
-    desc: &linkgi::scene::SceneDesc,
-    prepared: &linkgi::scene::prep::PreparedScene,
+    desc: &crate::scene::SceneDesc,
+    prepared: &crate::scene::prep::PreparedScene,
     width: u32,
     height: u32,
 ) -> Result<()> {
@@ -116,7 +116,7 @@ fn reference(
         bail!("--spp must be at least 1");
     }
     let t0 = Instant::now();
-    let bvh = linkgi::bvh::Bvh::build(&prepared.positions, &prepared.triangles, &Default::default());
+    let bvh = crate::bvh::Bvh::build(&prepared.positions, &prepared.triangles, &Default::default());
     let camera = super::setup::camera(desc, prepared, Some(&bvh));
     let bar = indicatif::ProgressBar::new(height as u64);
     bar.set_style(
@@ -124,9 +124,9 @@ fn reference(
             .expect("template")
             .progress_chars("=> "),
     );
-    let params = linkgi::reference::ReferenceParams { seed: prepared.settings.seed, ..Default::default() };
+    let params = crate::reference::ReferenceParams { seed: prepared.settings.seed, ..Default::default() };
     let img =
-        linkgi::reference::image::render(prepared, &bvh, &camera, width, height, args.spp, &params, &|| bar.inc(1));
+        crate::reference::image::render(prepared, &bvh, &camera, width, height, args.spp, &params, &|| bar.inc(1));
     bar.finish_and_clear();
     let exposure = write_outputs(&img, args)?;
     println!(

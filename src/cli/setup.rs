@@ -15,11 +15,11 @@
 //! [`load`] is steps 1-3 (for `bench`, which prepares per run itself);
 //! [`setup`] is all four.
 
+use crate::scene::prep::{self, PreparedScene};
+use crate::scene::terms::Terms;
+use crate::scene::{self, Backend, Bounces, SceneDesc, Settings, TracerKind};
+use crate::solver::{adaptive, Compute};
 use anyhow::{Context, Result};
-use linkgi::scene::prep::{self, PreparedScene};
-use linkgi::scene::terms::Terms;
-use linkgi::scene::{self, Backend, Bounces, SceneDesc, Settings, TracerKind};
-use linkgi::solver::{adaptive, Compute};
 
 /// Command-line overrides of the scene's settings; `None` keeps the scene's value.
 /// The flags are flattened into `solve`, `render`, `animate` and `view`.
@@ -50,7 +50,7 @@ pub struct Overrides {
     /// Refinement of coarse meshes: auto (the default: edges split to the target length, then
     /// where the light needs it) or off; overrides the scene's `refine` setting.
     #[arg(long, value_name = "auto|off", value_parser = parse_refine)]
-    pub refine: Option<linkgi::scene::refine::RefineMode>,
+    pub refine: Option<crate::scene::refine::RefineMode>,
     /// Longest edge kept by refinement, metres (default: 8% of the scene's diagonal).
     #[arg(long, value_name = "METRES")]
     pub max_edge: Option<f32>,
@@ -114,8 +114,8 @@ impl Overrides {
 }
 
 /// Parses `--refine` (clap value parser): "auto" or "off".
-pub fn parse_refine(s: &str) -> Result<linkgi::scene::refine::RefineMode, String> {
-    use linkgi::scene::refine::RefineMode;
+pub fn parse_refine(s: &str) -> Result<crate::scene::refine::RefineMode, String> {
+    use crate::scene::refine::RefineMode;
     match s {
         "auto" => Ok(RefineMode::Auto),
         "off" => Ok(RefineMode::Off),
@@ -179,9 +179,9 @@ pub fn load(scene: &str, overrides: &Overrides) -> Result<SceneDesc> {
 pub fn camera(
     desc: &SceneDesc,
     prepared: &PreparedScene,
-    tracer: Option<&dyn linkgi::trace::CpuTracer>,
-) -> linkgi::scene::Camera {
-    let (camera, framing) = linkgi::render::framing::camera_or_framed(desc.camera, prepared, tracer);
+    tracer: Option<&dyn crate::trace::CpuTracer>,
+) -> crate::scene::Camera {
+    let (camera, framing) = crate::render::framing::camera_or_framed(desc.camera, prepared, tracer);
     if let Some(f) = framing {
         eprintln!("note: the scene has no camera; framed it as {}", f.describe());
     }
@@ -200,14 +200,14 @@ fn has_light(desc: &SceneDesc) -> bool {
 }
 
 /// Solves `setup`'s scene on `compute`, refining its coarse meshes where
-/// the light needs it (`linkgi::solver::adaptive`; one solve of the
+/// the light needs it (`crate::solver::adaptive`; one solve of the
 /// prepared scene when there are none or refinement is off) and saying
 /// what the rounds did.
 pub fn solve(
     setup: Setup,
     compute: &Compute,
     progress: &(dyn Fn(usize, usize) + Sync),
-) -> Result<linkgi::solver::adaptive::Refined> {
+) -> Result<crate::solver::adaptive::Refined> {
     let refined = adaptive::solve_planned(setup.desc, setup.prepared, &setup.plan, compute, progress)?;
     if refined.rounds.len() > 1 {
         let list: Vec<String> =
@@ -220,10 +220,10 @@ pub fn solve(
 /// [`solve`] with a progress bar across the refinement rounds: each
 /// round's link rays, by vertices (a round's count falls back when the
 /// next one starts), and the elapsed time while the other parts trace.
-pub fn solve_shown(setup: Setup, compute: &Compute) -> Result<linkgi::solver::adaptive::Refined> {
+pub fn solve_shown(setup: Setup, compute: &Compute) -> Result<crate::solver::adaptive::Refined> {
     use indicatif::{ProgressBar, ProgressStyle};
     use std::sync::atomic::{AtomicUsize, Ordering};
-    let rounds = if setup.plan.refining { linkgi::solver::adaptive::MAX_ROUNDS + 1 } else { 1 };
+    let rounds = if setup.plan.refining { crate::solver::adaptive::MAX_ROUNDS + 1 } else { 1 };
     let bar = ProgressBar::new(setup.prepared.vertex_count() as u64);
     bar.set_style(
         ProgressStyle::with_template("{msg:24} [{bar:40}] {pos}/{len} vertices ({elapsed})")
@@ -253,9 +253,9 @@ pub fn solve_shown(setup: Setup, compute: &Compute) -> Result<linkgi::solver::ad
 
 /// The light of a scene that has none (a bare OBJ or glTF of an object):
 /// a studio-like gradient sky, W/(m^2 sr): 1 at the zenith, 0.5 at the
-/// horizon, 0.1 below ([`linkgi::sky::SkyModel::Gradient`]).
-pub fn default_sky() -> linkgi::sky::Sky {
-    linkgi::sky::Sky::gradient(glam::Vec3::ONE, glam::Vec3::splat(0.5), glam::Vec3::splat(0.1))
+/// horizon, 0.1 below ([`crate::sky::SkyModel::Gradient`]).
+pub fn default_sky() -> crate::sky::Sky {
+    crate::sky::Sky::gradient(glam::Vec3::ONE, glam::Vec3::splat(0.5), glam::Vec3::splat(0.1))
 }
 
 /// Steps 1-4: [`load`], then prepares the scene and warns about dropped
@@ -273,7 +273,7 @@ pub fn setup(scene: &str, overrides: &Overrides) -> Result<Setup> {
     let before: usize = desc.meshes.iter().map(|m| m.triangles.len()).sum();
     let plan = adaptive::Plan::of(&desc);
     if plan.refining {
-        desc = linkgi::scene::refine::apriori(&desc, &desc.settings.refine).0;
+        desc = crate::scene::refine::apriori(&desc, &desc.settings.refine).0;
     }
     let prepared = prep::prepare(&desc).with_context(|| format!("preparing scene {scene}"))?;
     if prepared.dropped_triangles > 0 {

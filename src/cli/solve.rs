@@ -2,10 +2,10 @@
 //! optionally export PLY + JSON.
 
 use super::setup::{compute, setup, Overrides};
+use crate::scene::deform::{deform_scene, has_deformers};
+use crate::scene::refine::RefineMode;
+use crate::scene::Bounces;
 use anyhow::{Context, Result};
-use linkgi::scene::deform::{deform_scene, has_deformers};
-use linkgi::scene::refine::RefineMode;
-use linkgi::scene::Bounces;
 use std::path::PathBuf;
 use std::time::Instant;
 
@@ -289,11 +289,11 @@ pub fn run(args: SolveArgs) -> Result<()> {
     );
     println!("smoothing ms     {:.1}", s.smooth_ms);
     println!("total ms         {:.1}", t0.elapsed().as_secs_f64() * 1e3);
-    if let Some(b) = linkgi::bench::memory::peak_bytes() {
+    if let Some(b) = crate::bench::memory::peak_bytes() {
         println!("peak memory MB   {:.0}", b as f64 / 1e6);
     }
     if let Some(dir) = export {
-        linkgi::export::export(&dir, &solver.scene(), &solution, &stats)?;
+        crate::export::export(&dir, &solver.scene(), &solution, &stats)?;
         println!("wrote            {} and {}", dir.join("mesh.ply").display(), dir.join("scene.json").display());
     }
     Ok(())

@@ -90,9 +90,9 @@ pub enum Change {
     /// rebuilt where rays, seed or tracer do); per-vertex emission comes
     /// with the new mesh, so emission edits are sent again after it.
     Adopt(Adopted),
-    /// Test hook (feature `test-hooks`, the tests' only): the worker
+    /// Test hook (feature `internals`, the tests' only): the worker
     /// panics while handling this change.
-    #[cfg(feature = "test-hooks")]
+    #[cfg(feature = "internals")]
     #[doc(hidden)]
     Panic,
 }
@@ -207,7 +207,7 @@ pub struct EngineParams {
     /// off; the viewer turns it on.
     pub light_preview: bool,
     /// A deformation handled selectively first publishes a preview: the
-    /// remade vertices' links shot at [`PREVIEW_RAYS`](crate::solver::PREVIEW_RAYS) rays and their light
+    /// remade vertices' links shot at `PREVIEW_RAYS` rays and their light
     /// links from the vertices alone, everything else as before; the full
     /// result follows at once. Default off; the viewer and `animate` turn
     /// it on.

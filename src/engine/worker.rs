@@ -179,7 +179,7 @@ impl Worker {
                         dirty.geometry = true;
                     }
                 }
-                #[cfg(feature = "test-hooks")]
+                #[cfg(feature = "internals")]
                 Change::Panic => dirty.panic = true,
             }
         }

@@ -25,7 +25,9 @@ pub mod denoise;
 pub mod near;
 pub mod sources;
 
-pub use bounce::gather::{gather, GatherParams, GatherResult};
+pub use bounce::gather::{GatherParams, GatherResult};
+#[cfg(any(test, feature = "internals"))]
+pub use bounce::gather::gather;
 pub use bounce::hidden::HiddenParams;
 pub use bounce::reconstruct::Reconstruction;
 pub use denoise::noise::NoiseParams;

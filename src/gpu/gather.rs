@@ -18,7 +18,9 @@ use super::buffers::{checked, compute_pipelines, dispatch_size, read_back, stora
 use super::context::GpuDevice;
 use super::layout::{GatherUniforms, GATHER_WGSL};
 use crate::error::Result;
-use crate::exchange::bounce::gather::{source_radiosity, BounceKernel};
+use crate::exchange::bounce::gather::BounceKernel;
+#[cfg(any(test, feature = "internals"))]
+use crate::exchange::bounce::gather::source_radiosity;
 use crate::exchange::bounce::operator::radiosity;
 use crate::links::packed::PAD;
 use crate::links::Links;
@@ -36,6 +38,8 @@ struct Segment {
     weights: wgpu::Buffer,
     groups: (u32, u32),
     /// Links of the segment.
+    // Read only by the decode oracle (`GpuLinks::decode_targets`, a test's).
+    #[cfg_attr(not(any(test, feature = "internals")), allow(dead_code))]
     links: usize,
 }
 
@@ -49,6 +53,8 @@ pub struct GpuLinks {
     pub dev: Arc<GpuDevice>,
     gather: wgpu::ComputePipeline,
     update: wgpu::ComputePipeline,
+    // Read only by the decode oracle (`GpuLinks::decode_targets`, a test's).
+    #[cfg_attr(not(any(test, feature = "internals")), allow(dead_code))]
     decode: wgpu::ComputePipeline,
     reconstruct: wgpu::ComputePipeline,
     /// The radiosity correction's weights last uploaded, with the `Arc`
@@ -103,6 +109,7 @@ impl GpuLinks {
     }
 
     /// The number of link segments.
+    #[cfg(any(test, feature = "internals"))]
     pub fn segment_count(&self) -> usize {
         self.segments.len()
     }
@@ -173,6 +180,7 @@ impl GpuLinks {
     }
 
     /// A bounce kernel starting from direct irradiance `e_direct` (no emission).
+    #[cfg(any(test, feature = "internals"))]
     pub fn kernel(&self, e_direct: &[Vec3], albedo: &[Vec3]) -> Result<GpuBounces<'_>> {
         self.kernel_from_radiosity(&source_radiosity(e_direct, albedo, &[]), albedo)
     }
@@ -246,6 +254,7 @@ impl GpuLinks {
 
     /// How many radiosity corrections were uploaded (a kernel with the
     /// last one uploaded reuses its buffers).
+    #[cfg(any(test, feature = "internals"))]
     pub fn correction_uploads(&self) -> u32 {
         self.correction_uploads.load(std::sync::atomic::Ordering::Relaxed)
     }
@@ -278,6 +287,7 @@ impl GpuLinks {
 
     /// Every link's target as the WGSL decoder reads it from the uploaded
     /// stream (`decode_targets`), in link order: equal to `Links::targets`.
+    #[cfg(any(test, feature = "internals"))]
     pub fn decode_targets(&self) -> Result<Vec<u32>> {
         checked(&self.dev, "decoding link targets", || {
             let d = &self.dev.device;

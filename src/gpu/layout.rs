@@ -7,10 +7,14 @@
 //! Lengths in metres; `vec3<f32>` fields are followed by a `u32`/`f32` so
 //! they fill 16 bytes as WGSL lays them out.
 
+#[cfg(any(test, feature = "internals"))]
 use crate::bvh::{Block8, Node8};
+#[cfg(any(test, feature = "internals"))]
 use crate::kdtree::{KdLeaf, KdNode, KdTriangle};
+#[cfg(any(test, feature = "internals"))]
 use crate::links::HitRecord;
 use bytemuck::{Pod, Zeroable};
+#[cfg(any(test, feature = "internals"))]
 use std::mem::{offset_of, size_of};
 
 /// One shooting vertex of a batch: ray origin, the vertex its rays skip,
@@ -164,6 +168,7 @@ pub struct ToneMapUniforms {
 }
 
 /// A struct shared with WGSL: name, size and `(field, offset)` pairs.
+#[cfg(any(test, feature = "internals"))]
 pub struct SharedStruct {
     /// The struct's name in Rust and WGSL.
     pub name: &'static str,
@@ -173,6 +178,7 @@ pub struct SharedStruct {
     pub fields: Vec<(&'static str, usize)>,
 }
 
+#[cfg(any(test, feature = "internals"))]
 macro_rules! shared {
     ($t:ty, $name:literal, [$($f:ident),*]) => {
         SharedStruct { name: $name, size: size_of::<$t>(), fields: vec![$((stringify!($f), offset_of!($t, $f))),*] }
@@ -180,6 +186,7 @@ macro_rules! shared {
 }
 
 /// Every struct the shaders also declare.
+#[cfg(any(test, feature = "internals"))]
 pub fn shared_structs() -> Vec<SharedStruct> {
     vec![
         shared!(KdNode, "KdNode", [split, kind, a, b]),
@@ -209,6 +216,7 @@ pub fn shared_structs() -> Vec<SharedStruct> {
 
 /// Constants shared with WGSL: `(shader file, name, value)`, checked by
 /// the layout test against the shaders' `const` declarations.
+#[cfg(any(test, feature = "internals"))]
 pub fn shared_constants() -> Vec<(&'static str, &'static str, u32)> {
     vec![
         ("gather.wgsl", "GAP_BYTES", crate::links::packed::GAP_BYTES_WORD),
@@ -225,6 +233,7 @@ pub fn shared_constants() -> Vec<(&'static str, &'static str, u32)> {
 }
 
 /// Float constants shared with WGSL, checked like [`shared_constants`].
+#[cfg(any(test, feature = "internals"))]
 pub fn shared_f32_constants() -> Vec<(&'static str, &'static str, f32)> {
     vec![
         ("render.wgsl", "MAX_ALBEDO", crate::scene::MAX_ALBEDO),
@@ -257,4 +266,5 @@ pub const GATHER_WGSL: &str = include_str!("../../shaders/gather.wgsl");
 /// The renderer's WGSL source.
 pub const RENDER_WGSL: &str = include_str!("../../shaders/render.wgsl");
 /// The display (tone mapping) pass's WGSL source.
+#[cfg(any(feature = "viewer", feature = "internals"))]
 pub const TONEMAP_WGSL: &str = include_str!("../../shaders/tonemap.wgsl");

@@ -43,6 +43,7 @@ use layout::ShadowRay;
 /// `light_visibility`, each in batches of at most
 /// [`GpuTracer::max_batch_rays`].
 impl Tracer for GpuTracer {
+    #[cfg(any(test, feature = "internals"))]
     fn name(&self) -> &'static str {
         self.walk().name()
     }

@@ -50,7 +50,7 @@ pub struct LogicalDevice {
 /// What one logical device did.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct DeviceShare {
-    /// The device's label ([`LogicalDevice::label`]).
+    /// The device's label (`LogicalDevice::label`).
     pub label: String,
     /// Batches it traced.
     pub batches: usize,

@@ -59,6 +59,7 @@ impl GpuWalk {
     }
 
     /// Why the `tracer` setting `kind` gave this walk, for the output.
+    #[cfg(any(feature = "cli", feature = "internals"))]
     pub fn reason(self, kind: crate::scene::TracerKind) -> &'static str {
         use crate::scene::TracerKind as K;
         match (kind, self) {

@@ -131,7 +131,7 @@ pub struct KdBuildParams {
     /// `n` triangles costs `intersect_cost * ceil(n / leaf_block)`).
     pub intersect_cost: f32,
     /// Triangles the walk that will use the tree tests at once: 4 for the
-    /// CPU walk ([`triangle::intersect4`]), 1 for the WGSL shader, which
+    /// CPU walk (`triangle::intersect4`), 1 for the WGSL shader, which
     /// tests one per step ([`KdBuildParams::for_gpu`]). Hits do not depend
     /// on it, only speed.
     pub leaf_block: u32,

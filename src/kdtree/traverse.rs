@@ -14,7 +14,9 @@
 //! returns the same hit.
 
 use super::accel::{CpuLeaf, ROPE_LEAF};
-use super::triangle::{intersect, intersect4, Hit, RayShear};
+use super::triangle::{intersect4, Hit, RayShear};
+#[cfg(any(test, feature = "internals"))]
+use super::triangle::intersect;
 use super::{KdTree, LEAF, NO_ROPE};
 use glam::Vec3;
 
@@ -173,6 +175,7 @@ impl KdTree {
 
     /// Tests a leaf's triangles (shared layout), keeping the nearest hit.
     #[inline(always)]
+    #[cfg(any(test, feature = "internals"))]
     fn test_leaf(&self, leaf: u32, ray: &Ray, shear: &RayShear, best: &mut Option<Hit>) {
         let l = &self.leaves[leaf as usize];
         let ids = &self.leaf_triangles[l.first as usize..(l.first + l.count) as usize];
@@ -373,6 +376,7 @@ impl KdTree {
     /// Nearest hit by front-to-back traversal with an explicit stack (test
     /// oracle; splits within a relative 1e-6 of an interval's end visit
     /// both children).
+    #[cfg(any(test, feature = "internals"))]
     pub fn intersect_stack(&self, ray: &Ray) -> Option<Hit> {
         let inv = ray.dir.recip();
         let (t0, t1) = self.clip_root(ray, inv)?;
@@ -413,6 +417,7 @@ impl KdTree {
 }
 
 /// Nearest hit by testing every triangle (test oracle).
+#[cfg(any(test, feature = "internals"))]
 pub fn brute_force(kd: &KdTree, ray: &Ray) -> Option<Hit> {
     let mut best: Option<Hit> = None;
     let shear = RayShear::new(ray.dir);

@@ -38,13 +38,17 @@ pub mod splice;
 use crate::sky::SkyVisibility;
 use half::f16;
 
-pub use assemble::{assemble, CsrBuilder, GroupRun};
+pub use assemble::{assemble, GroupRun};
 pub use merge::RayHits;
-pub use merge::{merge_vertex, HitRecord, MergeScratch, HIT_BACK, HIT_MISS};
+pub use merge::{merge_vertex, HitRecord, MergeScratch};
+#[cfg(any(test, feature = "internals"))]
+pub use merge::{HIT_BACK, HIT_MISS};
 pub use near::{NearHit, NearHits, NearParams};
 pub use reassign::{reassign_links, Lineage, ReassignStats};
 pub use selective::ReshootStats;
-pub use shoot::{shoot_links, shoot_links_recording, LinkParams, RaySetup, TraceScratch, Wedge};
+pub use shoot::{shoot_links_recording, LinkParams, RaySetup};
+#[cfg(any(test, feature = "internals"))]
+pub use shoot::shoot_links;
 
 /// Counters of one link generation.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -63,7 +67,7 @@ pub struct LinkStats {
     pub merged_links: u64,
     /// Raw storage: (u32 target, f32 weight) per raw link.
     pub raw_bytes: u64,
-    /// Bytes the gathers read ([`Links::gather_bytes`]): packed targets,
+    /// Bytes the gathers read (`Links::gather_bytes`): packed targets,
     /// f16 weights and the row offsets.
     pub merged_bytes: u64,
     /// Time spent shooting and merging, ms.
@@ -110,6 +114,7 @@ pub struct Links {
 impl Links {
     /// Links from CSR arrays (targets of a group strictly increasing),
     /// packed, with `stats.merged_links` and `stats.merged_bytes` set.
+    #[cfg(any(test, feature = "internals"))]
     pub fn from_csr(offsets: Vec<u32>, targets: &[u32], weights: Vec<f16>) -> Links {
         let packed = packed::PackedTargets::encode(&offsets, targets);
         let mut links = Links { offsets, weights, packed, ..Default::default() };
@@ -147,6 +152,7 @@ impl Links {
     }
 
     /// Every link's target in link order (decoded).
+    #[cfg(any(test, feature = "internals"))]
     pub fn targets(&self) -> Vec<u32> {
         let mut out = Vec::with_capacity(self.link_count());
         for v in 0..self.vertex_count() {

@@ -38,7 +38,7 @@ pub struct NearParams {
     pub max_rays: u64,
     /// The near hits a vertex keeps, as a share of its link rays: a vertex
     /// with more keeps each with probability `keep / near` and weight
-    /// `near / keep` (unbiased; see [`NearRule`]). Every near hit costs the
+    /// `near / keep` (unbiased; see `NearRule`). Every near hit costs the
     /// near-field terms a few rays (4 toward the emitters, 2 of final
     /// gather), so a vertex amid large triangles, whose rays are mostly
     /// near (Šibenik: 35% of all link rays), paid more for its near field
@@ -125,6 +125,7 @@ impl NearHits {
     }
 
     /// Every vertex's hits, vertex after vertex.
+    #[cfg(any(test, feature = "internals"))]
     pub fn hits(&self) -> &[NearHit] {
         &self.rows.items
     }
@@ -160,6 +161,7 @@ impl NearHits {
     /// Checks the CSR offsets against `n` vertices, triangle ids against
     /// `triangles`, the barycentrics (finite, inside the triangle) and the
     /// weights (finite, at least 1).
+    #[cfg(any(test, feature = "internals"))]
     pub fn validate(&self, n: usize, triangles: usize) -> Result<(), String> {
         self.rows
             .validate(n, |_, h| {

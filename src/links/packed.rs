@@ -44,6 +44,7 @@
 //! of neighbouring vertices), so vertices keep the scene's order unless a
 //! mesh comes scrambled ([`crate::scene::order`]).
 
+#[cfg(any(test, feature = "internals"))]
 use rayon::prelude::*;
 
 /// Zero bytes after the stream: a 16-byte load at any block's data stays inside.
@@ -53,6 +54,7 @@ pub const PAD: usize = 16;
 pub const CODE_BYTES: [u32; 4] = [0, 1, 2, 4];
 
 /// [`CODE_BYTES`] one per byte (code `k` in byte `k`): the WGSL gather's `GAP_BYTES`.
+#[cfg(any(test, feature = "internals"))]
 pub const GAP_BYTES_WORD: u32 = CODE_BYTES[0] | CODE_BYTES[1] << 8 | CODE_BYTES[2] << 16 | CODE_BYTES[3] << 24;
 
 /// The code of a gap: the fewest bytes that hold it.
@@ -248,6 +250,7 @@ pub mod simd {
 impl PackedTargets {
     /// Encodes the groups of a CSR matrix (`offsets`, `targets`), rows in
     /// parallel.
+    #[cfg(any(test, feature = "internals"))]
     pub fn encode(offsets: &[u32], targets: &[u32]) -> PackedTargets {
         let n = offsets.len().saturating_sub(1);
         const ROWS: usize = 1024;

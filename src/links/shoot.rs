@@ -42,7 +42,7 @@ pub struct LinkParams {
     pub nudge: f32,
     /// Vertices per streamed batch (bounds the memory of raw hits).
     pub batch_vertices: usize,
-    /// Which rays are recorded as near hits ([`super::near`]).
+    /// Which rays are recorded as near hits (`super::near`).
     pub near: super::near::NearParams,
 }
 
@@ -222,6 +222,7 @@ impl RaySetup {
     }
 
     /// Traces all rays of vertex `v` with `tracer` into `out` (one record per ray).
+    #[cfg(any(test, feature = "internals"))]
     pub fn trace_vertex(&self, tracer: &dyn CpuTracer, v: usize, out: &mut Vec<HitRecord>) {
         self.trace_vertex_with(tracer, v, &mut TraceScratch::default(), out)
     }
@@ -360,6 +361,7 @@ pub fn plain_origin(scene: &PreparedScene, v: usize, nudge: f32) -> Vec3 {
 
 /// Shoots every vertex's rays with a CPU tracer and builds the merged links.
 /// `progress(done, total)` is called after each batch.
+#[cfg(any(test, feature = "internals"))]
 pub fn shoot_links(
     scene: &PreparedScene,
     tracer: &dyn CpuTracer,

@@ -53,7 +53,7 @@ pub fn key_exposure(radiances: impl IntoIterator<Item = Vec3>) -> Option<f32> {
     (e.is_finite() && e > 0.0).then_some(e)
 }
 
-/// [`key_exposure`] of an image's pixels, or [`super::DEFAULT_EXPOSURE`]
+/// `key_exposure` of an image's pixels, or `super::DEFAULT_EXPOSURE`
 /// when it shows nothing.
 pub fn auto_exposure(img: &HdrImage) -> f32 {
     key_exposure(img.pixels.iter().copied()).unwrap_or(super::DEFAULT_EXPOSURE)
@@ -62,6 +62,7 @@ pub fn auto_exposure(img: &HdrImage) -> f32 {
 /// The viewer's adaptation: the exposure moves toward `target` in log
 /// space, halving the remaining ratio every `half_life_s` seconds, so a
 /// change of light fades in rather than jumps.
+#[cfg(any(feature = "viewer", feature = "internals"))]
 pub fn adapt(current: f32, target: f32, dt_s: f32, half_life_s: f32) -> f32 {
     if !(current.is_finite() && current > 0.0) {
         return target;
@@ -75,6 +76,7 @@ pub fn adapt(current: f32, target: f32, dt_s: f32, half_life_s: f32) -> f32 {
 /// while lights are being moved so a moving light brightens and darkens
 /// the picture instead of being compensated away.
 #[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg(any(feature = "viewer", feature = "internals"))]
 pub struct AutoExposure {
     /// The exposure shown now.
     pub current: f32,
@@ -90,6 +92,7 @@ pub struct AutoExposure {
     since_edit_s: f32,
 }
 
+#[cfg(any(feature = "viewer", feature = "internals"))]
 impl AutoExposure {
     /// Starts at `initial` (used until the first probe).
     pub fn new(initial: f32) -> AutoExposure {

@@ -64,6 +64,7 @@ pub struct Framing {
 
 impl Framing {
     /// One line for the user: where the camera stands and why.
+    #[cfg(any(feature = "cli", feature = "internals"))]
     pub fn describe(&self) -> String {
         let c = &self.camera;
         format!(

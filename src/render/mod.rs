@@ -29,6 +29,8 @@ pub mod exposure;
 pub mod framing;
 pub mod gpu;
 pub mod gpu_data;
+// The viewer's presentation: the tone-map pass into a swap chain.
+#[cfg(any(feature = "viewer", feature = "internals"))]
 pub mod present;
 
 use crate::exchange::bounce::operator::radiosity;
@@ -74,7 +76,7 @@ pub struct RenderParams {
     pub height: u32,
     /// Which terms of the radiance are shown. Default [`View::Combined`].
     pub view: View,
-    /// Radiance scale before tone mapping. Default [`DEFAULT_EXPOSURE`].
+    /// Radiance scale before tone mapping. Default `DEFAULT_EXPOSURE`.
     pub exposure: f32,
     /// Shadow-map layer size in texels (GPU). Default 1024.
     pub shadow_size: u32,
@@ -123,7 +125,7 @@ pub struct Frame<'a> {
     pub emission: &'a [Vec3],
     /// What pixels that see no surface show (black without a sky).
     pub sky: Option<&'a crate::sky::Sky>,
-    /// The lights (at most [`MAX_LIGHTS`]).
+    /// The lights (at most `MAX_LIGHTS`).
     pub lights: &'a [Light],
     /// The camera the frame is seen from.
     pub camera: Camera,
@@ -315,8 +317,11 @@ pub fn write_png(img: &HdrImage, exposure: f32, path: &Path) -> crate::Result<()
         .map_err(|e| crate::Error::Io { path: path.to_path_buf(), source: std::io::Error::other(e.to_string()) })
 }
 
-/// Which renderer runs.
-pub enum Renderer {
+/// The renderer: the wgpu rasterizer, or the CPU ray-traced fallback
+/// where there is no adapter.
+pub struct Renderer(Kind);
+
+enum Kind {
     /// The GPU renderer.
     Gpu(Box<gpu::GpuRenderer>),
     /// No adapter: [`cpu::render_cpu`].
@@ -329,36 +334,36 @@ impl Renderer {
     pub fn open(backend: crate::gpu::Backend) -> Renderer {
         if backend == crate::gpu::Backend::Cpu {
             log::info!("rendering on the CPU (--backend cpu): ray-traced fallback, hard shadows");
-            return Renderer::Cpu;
+            return Renderer(Kind::Cpu);
         }
         match crate::gpu::open_all().into_iter().next() {
             Some(dev) => match gpu::GpuRenderer::new(dev) {
-                Ok(r) => Renderer::Gpu(Box::new(r)),
+                Ok(r) => Renderer(Kind::Gpu(Box::new(r))),
                 Err(e) => {
                     log::info!("{e}; rendering on the CPU (ray-traced fallback)");
-                    Renderer::Cpu
+                    Renderer(Kind::Cpu)
                 }
             },
             None => {
                 log::info!("no graphics adapter: rendering on the CPU (ray-traced fallback, hard shadows)");
-                Renderer::Cpu
+                Renderer(Kind::Cpu)
             }
         }
     }
 
     /// A one-line description: `"gpu: <adapter>"` or `"cpu fallback"`.
     pub fn describe(&self) -> String {
-        match self {
-            Renderer::Gpu(r) => format!("gpu: {}", r.dev.describe()),
-            Renderer::Cpu => "cpu fallback".into(),
+        match &self.0 {
+            Kind::Gpu(r) => format!("gpu: {}", r.dev.describe()),
+            Kind::Cpu => "cpu fallback".into(),
         }
     }
 
     /// Renders `frame`; the CPU path builds a wide BVH of the frame's geometry.
     pub fn render(&self, frame: &Frame, params: &RenderParams) -> crate::Result<(HdrImage, RenderStats)> {
-        match self {
-            Renderer::Gpu(r) => r.render(frame, params),
-            Renderer::Cpu => cpu::render_cpu(frame, params, None),
+        match &self.0 {
+            Kind::Gpu(r) => r.render(frame, params),
+            Kind::Cpu => cpu::render_cpu(frame, params, None),
         }
     }
 }

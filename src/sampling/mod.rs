@@ -20,10 +20,9 @@ use crate::csr::Csr;
 pub mod stream;
 mod warp;
 pub use stream::{splitmix64, Stream};
-pub use warp::{
-    basis, concentric_disk, concentric_disk_inverse, cosine_hemisphere, cosine_hemisphere_inverse,
-    cosine_hemisphere_pdf,
-};
+pub use warp::{basis, cosine_hemisphere};
+#[cfg(test)]
+use warp::{concentric_disk, concentric_disk_inverse, cosine_hemisphere_inverse, cosine_hemisphere_pdf};
 
 /// The grid cells of a `k*k` grid in 4*4-block order.
 pub fn block_order(k: u32) -> Vec<(u32, u32)> {
@@ -87,6 +86,7 @@ impl DirectionSet {
     }
 
     /// True if the sets hold no direction (`k` is 0).
+    #[cfg(any(test, feature = "internals"))]
     pub fn is_empty(&self) -> bool {
         self.k == 0
     }

@@ -90,13 +90,6 @@ impl Stream {
         seed ^ self.0
     }
 
-    /// The seed of vertex `v`'s generator in this stream (vertices spread
-    /// by the golden-ratio multiple, so neighbours' seeds differ in every bit).
-    #[inline]
-    pub const fn vertex_seed(self, seed: u64, v: usize) -> u64 {
-        self.seed(seed) ^ (v as u64).wrapping_mul(0x9e37_79b9_7f4a_7c15)
-    }
-
     /// The seed of the generator of a vertex at position `p` with normal
     /// `n` in this stream: keyed by the vertex's geometry, not its index,
     /// so a vertex that a refinement round keeps (same position and

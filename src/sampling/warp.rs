@@ -3,7 +3,9 @@
 //! steradian), their inverses, and an orthonormal basis about a normal.
 
 use glam::{Vec2, Vec3};
-use std::f32::consts::{FRAC_PI_2, FRAC_PI_4, PI};
+use std::f32::consts::{FRAC_PI_2, FRAC_PI_4};
+#[cfg(test)]
+use std::f32::consts::PI;
 
 /// Concentric map from `[0,1)^2` to the unit disc.
 pub fn concentric_disk(u: Vec2) -> Vec2 {
@@ -17,6 +19,7 @@ pub fn concentric_disk(u: Vec2) -> Vec2 {
 }
 
 /// Inverse of [`concentric_disk`].
+#[cfg(test)]
 pub fn concentric_disk_inverse(p: Vec2) -> Vec2 {
     let r = p.length();
     if r == 0.0 {
@@ -47,11 +50,13 @@ pub fn cosine_hemisphere(u: Vec2) -> Vec3 {
 }
 
 /// Density of [`cosine_hemisphere`] per steradian.
+#[cfg(test)]
 pub fn cosine_hemisphere_pdf(w: Vec3) -> f32 {
     w.z.max(0.0) / PI
 }
 
 /// Inverse of [`cosine_hemisphere`]: the unit-square point that maps to `w`.
+#[cfg(test)]
 pub fn cosine_hemisphere_inverse(w: Vec3) -> Vec2 {
     concentric_disk_inverse(Vec2::new(w.x, w.y))
 }

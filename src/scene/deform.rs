@@ -53,7 +53,7 @@ pub fn moved_normals(scene: &PreparedScene, old: &[Vec3], new: &[Vec3], normals:
 
 /// Positions of the whole prepared scene at time `t`: every dynamic mesh
 /// with deformers is deformed from `rest` (the positions as prepared);
-/// other vertices keep their rest positions and normals ([`moved_normals`]).
+/// other vertices keep their rest positions and normals (`moved_normals`).
 /// Returns `(positions, normals)`.
 pub fn deform_scene(scene: &PreparedScene, rest: &[Vec3], rest_normals: &[Vec3], t: f32) -> (Vec<Vec3>, Vec<Vec3>) {
     let mut positions = rest.to_vec();

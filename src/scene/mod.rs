@@ -19,6 +19,8 @@ pub mod emission;
 pub mod file;
 pub mod gltf;
 mod gltf_mesh;
+// The glTF writer: the tests write scenes with it (issue 46 makes it the bake).
+#[cfg(any(test, feature = "internals"))]
 pub mod gltf_write;
 pub mod motion;
 pub mod obj;
@@ -47,7 +49,7 @@ pub struct Material {
     /// Emitted radiant exitance `M` per channel, W/m^2; zero for surfaces
     /// that do not glow. Files give emitted radiance `L` (MTL `Ke`, the
     /// scene file's `emission`, glTF's emissive factor x strength), read as
-    /// `M = pi L` by [`emission::exitance`].
+    /// `M = pi L` by `emission::exitance`.
     pub emission: Vec3,
 }
 
@@ -112,7 +114,7 @@ pub struct MeshDesc {
     pub transform: Transform,
     /// True if the mesh may deform.
     pub dynamic: bool,
-    /// Deformers applied over time (dynamic meshes only), in order; see [`deform`].
+    /// Deformers applied over time (dynamic meshes only), in order; see `deform`.
     pub deform: Vec<deform::Deform>,
     /// The OBJ or glTF file this mesh came from, if any (for errors and for writing scenes back).
     pub source: Option<PathBuf>,
@@ -389,25 +391,25 @@ pub struct SceneDesc {
     pub settings: Settings,
     /// The file's camera; `None` where it has none (a bare OBJ, a glTF
     /// without cameras, a TOML without `[camera]`): renderers then frame the
-    /// scene automatically ([`crate::render::framing`]).
+    /// scene automatically (`crate::render::framing`).
     pub camera: Option<Camera>,
     /// The triangle meshes.
     pub meshes: Vec<MeshDesc>,
     /// The lights.
     pub lights: Vec<Light>,
-    /// Sky light (`[sky]` in the scene file), if any ([`crate::sky`]).
+    /// Sky light (`[sky]` in the scene file), if any (`crate::sky`).
     pub sky: Option<crate::sky::Sky>,
     /// Problems that were fixed up while loading (clamped albedo, missing MTL, ...),
     /// for the caller to show. Empty for built-in scenes.
     pub warnings: Vec<String>,
     /// What the loaders assumed where a file leaves it open (how an
-    /// emission was read, [`emission::note`]), for the caller to show as
+    /// emission was read, `emission::note`), for the caller to show as
     /// notes. Empty for built-in scenes.
     pub notes: Vec<String>,
 }
 
 /// Loads a scene given a path to a `.toml` file (or a bare `.obj`, or a
-/// `.gltf`/`.glb`, see [`gltf`]), or the name of a built-in scene.
+/// `.gltf`/`.glb`, see `gltf`), or the name of a built-in scene.
 pub fn load(name_or_path: &str) -> crate::Result<SceneDesc> {
     let path = std::path::Path::new(name_or_path);
     if path.exists() {

@@ -86,6 +86,7 @@ impl Motion {
     }
 
     /// True when nothing moved and no normal changed.
+    #[cfg(any(test, feature = "internals"))]
     pub fn is_empty(&self) -> bool {
         self.remade_count == 0 && self.moved_triangles.is_empty()
     }

@@ -24,6 +24,7 @@
 
 use super::texture::{CornerTextures, NO_MAP};
 use super::{Light, SceneDesc, Settings};
+use crate::sky::Sky;
 use crate::{Error, Result};
 use glam::{Vec2, Vec3};
 use std::collections::HashMap;
@@ -64,11 +65,12 @@ pub struct MeshRange {
 pub const NO_VERTEX: u32 = u32::MAX;
 
 pub use super::rings::rings_of;
-pub use crate::csr::{check_offsets, Csr};
+pub use crate::csr::Csr;
 
+internal_fields! {
 /// The scene ready for the solver: world-space solver vertices and triangles.
 #[derive(Clone, Debug)]
-pub struct PreparedScene {
+    pub struct PreparedScene {
     /// Scene name.
     pub name: String,
     /// Solver settings.
@@ -114,6 +116,60 @@ pub struct PreparedScene {
     /// Albedo textures per triangle corner, drawn per pixel by the renderer
     /// (`None`: no mesh has one; shared, so copies of the scene are cheap).
     pub textures: Option<Arc<CornerTextures>>,
+}
+}
+
+impl PreparedScene {
+    /// Scene name.
+    pub fn name(&self) -> &str {
+        &self.name
+    }
+
+    /// The solver settings it was prepared with.
+    pub fn settings(&self) -> &Settings {
+        &self.settings
+    }
+
+    /// The lights.
+    pub fn lights(&self) -> &[Light] {
+        &self.lights
+    }
+
+    /// World positions of the lighting mesh's vertices, metres.
+    pub fn positions(&self) -> &[Vec3] {
+        &self.positions
+    }
+
+    /// Unit normals of the lighting mesh's vertices (front side).
+    pub fn normals(&self) -> &[Vec3] {
+        &self.normals
+    }
+
+    /// Albedo per vertex and channel, in [0, 1).
+    pub fn albedo(&self) -> &[Vec3] {
+        &self.albedo
+    }
+
+    /// Emitted radiant exitance per vertex and channel, W/m^2.
+    pub fn emission(&self) -> &[Vec3] {
+        &self.emission
+    }
+
+    /// Triangles over the lighting mesh's vertices, counter-clockwise seen
+    /// from the front.
+    pub fn triangles(&self) -> &[[u32; 3]] {
+        &self.triangles
+    }
+
+    /// Sky light, if any.
+    pub fn sky(&self) -> Option<&Sky> {
+        self.sky.as_ref()
+    }
+
+    /// Zero-area triangles dropped during preparation.
+    pub fn dropped_triangles(&self) -> usize {
+        self.dropped_triangles
+    }
 }
 
 fn geom_err(name: &str, message: String) -> Error {
@@ -555,7 +611,7 @@ impl PreparedScene {
 
     /// A per-vertex result (`values[v]` for solver vertex `v`, e.g.
     /// `Solution::e_indirect`) read on input mesh `mesh`'s own positions,
-    /// in their order ([`MeshRange::input_vertex`]); `None` where no kept
+    /// in their order (`MeshRange::input_vertex`); `None` where no kept
     /// triangle uses the position; empty if there is no mesh `mesh`.
     pub fn on_input<T: Copy>(&self, mesh: usize, values: &[T]) -> Vec<Option<T>> {
         self.meshes.get(mesh).map_or_else(Vec::new, |m| {

@@ -239,10 +239,10 @@ fn split(t: [u32; 3], m: [Option<u32>; 3], positions: &[Vec3]) -> Vec<[u32; 3]> 
 pub struct RefineSettings {
     /// `Auto` refines meshes with edges longer than the target (a priori,
     /// in [`crate::scene::prep::prepare`]) and then where the light needs it
-    /// ([`crate::solver::adaptive`]); `Off` keeps every mesh as it is.
+    /// (`crate::solver::adaptive`); `Off` keeps every mesh as it is.
     pub mode: RefineMode,
     /// Longest edge kept a priori, metres; 0 (the default) takes
-    /// [`AUTO_EDGE_SHARE`] of the scene's bounding-box diagonal. Shorter:
+    /// `AUTO_EDGE_SHARE` of the scene's bounding-box diagonal. Shorter:
     /// more vertices (rays and links grow with them), finer light.
     pub max_edge: f32,
     /// Error-driven splits: an edge of a coarse mesh splits where the
@@ -297,7 +297,7 @@ impl RefineSettings {
     }
 
     /// The a-priori target length for `scene`, metres (`max_edge`, or
-    /// [`AUTO_EDGE_SHARE`] of its diagonal).
+    /// `AUTO_EDGE_SHARE` of its diagonal).
     pub fn target_edge(&self, scene: &SceneDesc) -> f32 {
         if self.max_edge > 0.0 {
             self.max_edge
@@ -425,6 +425,7 @@ pub fn split_world_edges(
 }
 
 /// Every mesh of `scene` refined; the stats per mesh.
+#[cfg(any(test, feature = "internals"))]
 pub fn refine_scene(scene: &SceneDesc, params: &RefineParams) -> (SceneDesc, Vec<RefineStats>) {
     let mut out = scene.clone();
     let mut stats = Vec::with_capacity(scene.meshes.len());

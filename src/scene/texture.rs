@@ -244,7 +244,7 @@ impl TextureMap {
 pub struct MeshTextures {
     /// The texture maps the triangles use.
     pub maps: Vec<TextureMap>,
-    /// Map per triangle (index into `maps`), or [`NO_MAP`].
+    /// Map per triangle (index into `maps`), or `NO_MAP`.
     pub triangle_map: Vec<u32>,
     /// Texture coordinates per position (glTF's convention).
     pub uv: Vec<Vec2>,
@@ -282,7 +282,7 @@ impl MeshTextures {
 pub struct CornerTextures {
     /// The texture maps the triangles use.
     pub maps: Vec<TextureMap>,
-    /// Map per triangle (index into `maps`), or [`NO_MAP`].
+    /// Map per triangle (index into `maps`), or `NO_MAP`.
     pub triangle_map: Vec<u32>,
     /// Texture coordinates of each triangle's corners.
     pub uv: Vec<[Vec2; 3]>,

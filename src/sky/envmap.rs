@@ -168,6 +168,7 @@ fn read_hdr(path: &Path) -> Result<(usize, usize, Vec<Vec3>)> {
 }
 
 /// Writes `map` as an OpenEXR file (tests and examples make sky images with it).
+#[cfg(any(test, feature = "internals"))]
 pub fn write_exr(map: &EnvMap, path: &Path) -> Result<()> {
     exr::prelude::write_rgb_file(path, map.width, map.height, |x, y| {
         let p = map.pixels[y * map.width + x];

@@ -92,13 +92,13 @@ pub struct Sky {
     pub model: SkyModel,
     /// Rotation about +y, degrees: counter-clockwise seen from above (+x
     /// toward -z, the right-hand rule, as a mesh's `rotate_deg` turns it).
-    /// An image's columns run the other way ([`envmap`]), so what faced the
+    /// An image's columns run the other way (`envmap`), so what faced the
     /// direction of column `c` of `w` faces that of `c - w rotate_deg / 360`:
     /// seen from inside, the sky slides to the left as the angle grows.
     pub rotate_deg: f32,
     /// Multiplier of the model's radiance (unitless, >= 0).
     pub intensity: f32,
-    /// Openings through which the scene sees this sky ([`portal`]); none:
+    /// Openings through which the scene sees this sky (`portal`); none:
     /// the link rays alone find it.
     pub portals: Vec<Portal>,
 }

@@ -170,7 +170,7 @@ pub fn through_any(portals: &[Portal], p: Vec3, d: Vec3) -> bool {
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct PortalParams {
     /// Samples per vertex and portal, `side^2` (rounded down to a square,
-    /// at most [`MAX_SIDE`]^2); 0 turns portals off (the link rays alone
+    /// at most `MAX_SIDE`^2); 0 turns portals off (the link rays alone
     /// then integrate every direction). [`PortalParams::for_link_rays`]
     /// scales it with the link rays; 64 by default.
     pub rays: u32,
@@ -357,6 +357,7 @@ impl PortalSamples {
     }
 
     /// Bytes held.
+    #[cfg(any(feature = "cli", feature = "internals"))]
     pub fn bytes(&self) -> u64 {
         std::mem::size_of_val(self.masks.as_slice()) as u64
     }

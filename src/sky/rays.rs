@@ -163,8 +163,4 @@ impl SkyRays {
         self.portals.validate(n)
     }
 
-    /// Rays traced and their time, ms.
-    pub fn rays_and_ms(&self) -> (u64, f64) {
-        (self.refine.rays + self.portals.rays, self.refine.ms + self.portals.ms)
-    }
 }

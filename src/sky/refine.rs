@@ -58,9 +58,9 @@ use std::time::Instant;
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SkyRefineParams {
     /// Sub-cells a side of a refined cell: `sub * sub` fresh rays replace
-    /// its one ray (at most [`MAX_SUB`]); 0 turns refinement off.
+    /// its one ray (at most `MAX_SUB`); 0 turns refinement off.
     pub sub: u32,
-    /// Rays from each vertex toward each of the sky's portals ([`super::portal`]).
+    /// Rays from each vertex toward each of the sky's portals (`super::portal`).
     pub portal: super::PortalParams,
 }
 
@@ -281,6 +281,7 @@ impl SkyRefinement {
     }
 
     /// Bytes held.
+    #[cfg(any(feature = "cli", feature = "internals"))]
     pub fn bytes(&self) -> u64 {
         self.cells.bytes()
     }

@@ -134,12 +134,8 @@ impl SkyVisibility {
         }
     }
 
-    /// Rays that missed, over all vertices.
-    pub fn missed_rays(&self) -> u64 {
-        self.masks.iter().map(|m| m.count_ones() as u64).sum()
-    }
-
     /// Bytes held.
+    #[cfg(any(feature = "cli", feature = "internals"))]
     pub fn bytes(&self) -> u64 {
         std::mem::size_of_val(self.masks.as_slice()) as u64
     }
@@ -148,6 +144,7 @@ impl SkyVisibility {
     /// `pi / n_rays * sum_{missed} L(w_k)` with the directions of `frames`
     /// (zero everywhere without visibility or sky), leaving the directions
     /// through `frames.portals` to their samples.
+    #[cfg(any(test, feature = "internals"))]
     pub fn irradiance(&self, sky: Option<&Sky>, frames: &RayFrames, n: usize) -> Vec<Vec3> {
         self.irradiance_and_moment(sky, frames, n).into_iter().map(|(e, _)| e).collect()
     }

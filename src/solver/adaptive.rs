@@ -101,15 +101,13 @@ pub const MIN_GAIN: f32 = 0.02;
 pub struct Round {
     /// Solver vertices and triangles of the scene solved in this round.
     pub vertices: usize,
-    /// Triangles of the scene solved in this round.
-    pub triangles: usize,
     /// Edges this round's solution marked and split (0 in the last).
     pub marked: usize,
     /// Edges this round's solution marked; more than [`Round::marked`]
     /// where the budget cut the round (a note says so).
     pub wanted: usize,
     /// Link rays traced in this round, and carried over from the round
-    /// before without tracing ([`crate::links::reassign`]; 0 in the first).
+    /// before without tracing (`crate::links::reassign`; 0 in the first).
     pub rays_traced: u64,
     /// Link rays carried over without tracing (0 in the first round).
     pub rays_carried: u64,
@@ -228,7 +226,6 @@ pub fn solve_planned_with(
         let s = solver.scene();
         let mut round = Round {
             vertices: s.vertex_count(),
-            triangles: s.triangles.len(),
             rays_traced: carried.rays_traced,
             rays_carried: carried.rays_carried,
             links_ms: carried.ms,
@@ -323,7 +320,6 @@ pub fn solve_planned_with(
             let traced = all_traced(&solver);
             rounds.push(Round {
                 vertices: solver.scene.vertex_count(),
-                triangles: solver.scene.triangles.len(),
                 rays_traced: traced.rays_traced,
                 links_ms: traced.ms,
                 solve_ms: ts.elapsed().as_secs_f64() * 1e3,

@@ -22,7 +22,7 @@ use glam::Vec3;
 impl Solver {
     /// Sets the lights and brings their light links and near-field columns
     /// up to date: only lights at a new position or direction are traced
-    /// ([`crate::exchange::LightLinks::update_with`]); a new intensity
+    /// (`crate::exchange::LightLinks::update_with`); a new intensity
     /// traces nothing, and preview columns are replaced by full ones.
     pub fn set_lights(&mut self, lights: Vec<Light>) {
         self.scene.lights = lights;
@@ -30,7 +30,7 @@ impl Solver {
     }
 
     /// As [`Solver::set_lights`], but lights that need tracing get quick
-    /// preview columns ([`crate::exchange::LightLinks::preview_with`]) and
+    /// preview columns (`crate::exchange::LightLinks::preview_with`) and
     /// the near field's columns are left stale (its correction waits for
     /// the full update). Returns true if it traced any; then
     /// [`Solver::set_lights`] with the same lights refines them.

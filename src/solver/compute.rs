@@ -51,7 +51,7 @@ pub struct GpuCompute {
 }
 
 impl GpuCompute {
-    /// The GPU path on `devices` (from [`gpu::open_all`] or a caller's own
+    /// The GPU path on `devices` (from `gpu::open_all` or a caller's own
     /// device, [`GpuDevice::from_wgpu`]), one logical device each, default schedule.
     pub fn new(devices: Vec<Arc<GpuDevice>>) -> GpuCompute {
         GpuCompute { devices, logical_per_device: 1, delays: Vec::new(), schedule: ScheduleParams::default() }
@@ -63,9 +63,9 @@ impl GpuCompute {
         self
     }
 
-    /// Test hook (feature `test-hooks`): extra time per vertex for each
+    /// Test hook (feature `internals`): extra time per vertex for each
     /// logical device, in order, so the scheduler meets devices of unequal speed.
-    #[cfg(feature = "test-hooks")]
+    #[cfg(feature = "internals")]
     #[doc(hidden)]
     pub fn with_delays(mut self, delays: Vec<Duration>) -> GpuCompute {
         self.delays = delays;

@@ -177,7 +177,7 @@ impl Solver {
     /// the refit's SAH cost has grown past `rebuild_factor`; the kd-tree
     /// rebuilt; the GPU's copy or the driver's structure brought along),
     /// then links and every traced part are traced anew, on the GPU on the
-    /// GPU path. Anything else builds from scratch ([`Solver::new_on`]).
+    /// GPU path. Anything else builds from scratch (`Solver::new_on`).
     /// Returns the solver and whether the BVH was refitted.
     pub fn deformed(
         mut self,

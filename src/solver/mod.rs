@@ -34,6 +34,7 @@ use crate::sky::SkyRays;
 use crate::trace::{Accel, TracerKind};
 use compute::Tracers;
 use std::sync::{Arc, Mutex};
+#[cfg(any(test, feature = "internals"))]
 use std::time::Instant;
 use traced::{Change, Inputs, Part, Traced};
 
@@ -52,6 +53,7 @@ pub use compute::{Compute, GpuCompute, GpuState};
 pub use decide::TermDecision;
 pub use deform::{DeformStats, Preview, PREVIEW_RAYS};
 pub use params::SolveParams;
+#[cfg(any(test, feature = "internals"))]
 pub use solve::Sources;
 pub use stats::{Solution, SolveStats};
 pub use traced::PartCost;
@@ -161,17 +163,19 @@ impl Solver {
         s
     }
 
-    /// Builds everything on `compute`: on a GPU, the structure
-    /// `params.tracer` names ([`GpuWalk::choose`]) on the CPU and uploaded to each
-    /// logical device, the links on the GPU's logical devices, and every
-    /// traced part on the GPU tracer.
-    pub fn new_on(
-        scene: PreparedScene,
-        params: SolveParams,
-        compute: &Compute,
-        progress: &(dyn Fn(usize, usize) + Sync),
-    ) -> crate::Result<Solver> {
-        Solver::new_tracing(scene, params, compute, progress, &Part::ALL)
+    internal! {
+        /// Builds everything on `compute`: on a GPU, the structure
+        /// `params.tracer` names ([`GpuWalk::choose`]) on the CPU and uploaded to each
+        /// logical device, the links on the GPU's logical devices, and every
+        /// traced part on the GPU tracer.
+        pub fn new_on(
+            scene: PreparedScene,
+            params: SolveParams,
+            compute: &Compute,
+            progress: &(dyn Fn(usize, usize) + Sync),
+        ) -> crate::Result<Solver> {
+            Solver::new_tracing(scene, params, compute, progress, &Part::ALL)
+        }
     }
 
     /// [`Solver::new_on`] with only the traced `parts` traced.
@@ -270,35 +274,42 @@ impl Solver {
         }
     }
 
-    /// Checks every traced part against a fresh trace of it from this
-    /// solver's scene, links and parameters (on the CPU structure): equal
-    /// bit for bit in what a solve reads, whatever updates brought it here
-    /// (a refinement round's split, a deformation). Parts never traced
-    /// (the near field of a marking round) are left out. Returns the parts
-    /// checked (or which one differs). Costs a fresh trace of each part: for tests.
-    pub fn check_traced(&self) -> Result<usize, String> {
-        let parts: Vec<Part> = Part::ALL.into_iter().filter(|&p| self.traced.cost(p).traced).collect();
-        let mut fresh = Traced::default();
-        let no_gpu = None;
-        let t = Tracers::of(&no_gpu, &self.accel);
-        let inputs = Inputs { scene: &self.scene, links: &self.links, near: &self.links.near, params: &self.params };
-        fresh.update(&parts, &Change::Fresh, inputs, t);
-        match parts.iter().find_map(|&p| self.traced.differs(&fresh, p)) {
-            Some(name) => Err(format!("the {name} differ from a fresh trace")),
-            None => Ok(parts.len()),
+    internal! {
+        /// Checks every traced part against a fresh trace of it from this
+        /// solver's scene, links and parameters (on the CPU structure): equal
+        /// bit for bit in what a solve reads, whatever updates brought it here
+        /// (a refinement round's split, a deformation). Parts never traced
+        /// (the near field of a marking round) are left out. Returns the parts
+        /// checked (or which one differs). Costs a fresh trace of each part: for tests.
+        #[cfg(any(test, feature = "internals"))]
+        pub fn check_traced(&self) -> Result<usize, String> {
+            let parts: Vec<Part> = Part::ALL.into_iter().filter(|&p| self.traced.cost(p).traced).collect();
+            let mut fresh = Traced::default();
+            let no_gpu = None;
+            let t = Tracers::of(&no_gpu, &self.accel);
+            let inputs = Inputs { scene: &self.scene, links: &self.links, near: &self.links.near, params: &self.params };
+            fresh.update(&parts, &Change::Fresh, inputs, t);
+            match parts.iter().find_map(|&p| self.traced.differs(&fresh, p)) {
+                Some(name) => Err(format!("the {name} differ from a fresh trace")),
+                None => Ok(parts.len()),
+            }
         }
     }
 
-    /// Per traced part, its name and what its last update did (a
-    /// refinement round's or a deformation's update, or a fresh trace).
-    pub fn part_costs(&self) -> Vec<(&'static str, PartCost)> {
-        Part::ALL.iter().map(|&p| (p.name(), self.traced.cost(p))).collect()
+    internal! {
+        /// Per traced part, its name and what its last update did (a
+        /// refinement round's or a deformation's update, or a fresh trace).
+        pub fn part_costs(&self) -> Vec<(&'static str, PartCost)> {
+            Part::ALL.iter().map(|&p| (p.name(), self.traced.cost(p))).collect()
+        }
     }
 
-    /// What the solve decided about the near-field terms it may leave out
-    /// (empty: none decided: no near hits, every such term off or forced, or `pay_share` 0).
-    pub fn term_decisions(&self) -> &[TermDecision] {
-        self.decisions.as_deref().unwrap_or(&[])
+    internal! {
+        /// What the solve decided about the near-field terms it may leave out
+        /// (empty: none decided: no near hits, every such term off or forced, or `pay_share` 0).
+        pub fn term_decisions(&self) -> &[TermDecision] {
+            self.decisions.as_deref().unwrap_or(&[])
+        }
     }
 
     /// Drops what was derived from the links (the hidden vertices'
@@ -325,49 +336,68 @@ impl Solver {
         &self.params
     }
 
-    /// The CPU acceleration structure.
-    pub fn accel(&self) -> &Accel {
-        &self.accel
+    internal! {
+        /// The CPU acceleration structure.
+        pub fn accel(&self) -> &Accel {
+            &self.accel
+        }
     }
 
-    /// The vertex links.
-    pub fn links(&self) -> &Links {
-        &self.links
+    internal! {
+        /// The vertex links.
+        pub fn links(&self) -> &Links {
+            &self.links
+        }
     }
 
-    /// The light links.
-    pub fn light_links(&self) -> &LightLinks {
-        &self.traced.light_links
+    internal! {
+        /// The light links.
+        pub fn light_links(&self) -> &LightLinks {
+            &self.traced.light_links
+        }
     }
 
-    /// The emitter links.
-    pub fn emitter_links(&self) -> &EmitterLinks {
-        &self.traced.emitter_links
+    internal! {
+        /// The emitter links.
+        pub fn emitter_links(&self) -> &EmitterLinks {
+            &self.traced.emitter_links
+        }
     }
 
-    /// The sky's refined cells and portal samples.
-    pub fn sky_rays(&self) -> &SkyRays {
-        &self.traced.sky
+    internal! {
+        /// The sky's refined cells and portal samples.
+        pub fn sky_rays(&self) -> &SkyRays {
+            &self.traced.sky
+        }
     }
 
-    /// The near-hit terms.
-    pub fn near(&self) -> &NearField {
-        &self.traced.near
+    internal! {
+        /// The near-hit terms.
+        pub fn near(&self) -> &NearField {
+            &self.traced.near
+        }
     }
 
-    /// The noise check.
-    pub fn noise_check(&self) -> &NoiseCheck {
-        &self.traced.noise_check
+    internal! {
+        /// The noise check.
+        pub fn noise_check(&self) -> &NoiseCheck {
+            &self.traced.noise_check
+        }
     }
 
-    /// The GPU state, when links and bounces run on a GPU.
-    pub fn gpu(&self) -> Option<&GpuState> {
-        self.gpu.as_ref()
+    internal! {
+        /// The GPU state, when links and bounces run on a GPU.
+        pub fn gpu(&self) -> Option<&GpuState> {
+            self.gpu.as_ref()
+        }
     }
 
-    /// Where the solver computes.
-    pub fn compute(&self) -> &Compute {
-        &self.compute
+    internal! {
+        /// Where the solver computes.
+        #[cfg(any(test, feature = "internals"))]
+        pub fn compute(&self) -> &Compute {
+            &self.compute
+        }
     }
 
     /// Checks every structure and table against the scene (the tests call it).
@@ -389,14 +419,19 @@ impl Solver {
         self.traced.noise_check.validate(n).map_err(|e| format!("noise check: {e}"))
     }
 
-    /// Every link ray's hit id (CPU path, scenes with dynamic meshes only).
-    pub fn ray_hits(&self) -> Option<&RayHits> {
-        self.ray_hits.as_ref()
+    internal! {
+        /// Every link ray's hit id (CPU path, scenes with dynamic meshes only).
+        #[cfg(any(test, feature = "internals"))]
+        pub fn ray_hits(&self) -> Option<&RayHits> {
+            self.ray_hits.as_ref()
+        }
     }
 
-    /// Bytes of the per-ray state kept for selective updates.
-    pub fn ray_state_bytes(&self) -> u64 {
-        self.ray_hits.as_ref().map_or(0, |h| h.bytes())
+    internal! {
+        /// Bytes of the per-ray state kept for selective updates.
+        pub fn ray_state_bytes(&self) -> u64 {
+            self.ray_hits.as_ref().map_or(0, |h| h.bytes())
+        }
     }
 
     /// The tracer the rays go through: "bvh" or "kd" on the CPU path;
@@ -408,14 +443,18 @@ impl Solver {
         }
     }
 
-    /// Build time of the CPU wide BVH, ms; NaN when this solver has none.
-    pub fn bvh_build_ms(&self) -> f64 {
-        self.accel.bvh().map_or(f64::NAN, |b| b.stats.build_ms)
+    internal! {
+        /// Build time of the CPU wide BVH, ms; NaN when this solver has none.
+        pub fn bvh_build_ms(&self) -> f64 {
+            self.accel.bvh().map_or(f64::NAN, |b| b.stats.build_ms)
+        }
     }
 
-    /// Build time of the acceleration structure the rays went through, ms.
-    pub fn accel_build_ms(&self) -> f64 {
-        self.accel.build_ms()
+    internal! {
+        /// Build time of the acceleration structure the rays went through, ms.
+        pub fn accel_build_ms(&self) -> f64 {
+            self.accel.build_ms()
+        }
     }
 
     /// Figures of the built structures and of `solution`.
@@ -471,6 +510,7 @@ impl Solver {
 }
 
 /// Convenience: build and solve in one call, timing smoothing too.
+#[cfg(any(test, feature = "internals"))]
 pub fn solve(scene: PreparedScene, params: SolveParams) -> (Solver, Solution, SolveStats) {
     let solver = Solver::new(scene, params, &|_, _| {});
     let t = Instant::now();

@@ -51,23 +51,23 @@ pub struct SolveParams {
     /// Light links: the lights' visibility at the vertices, optional
     /// one-ring oversampling, the bounce source.
     pub light: LightLinkParams,
-    /// Next-event estimation toward emissive surfaces ([`crate::exchange::sources::emitter_links`]).
+    /// Next-event estimation toward emissive surfaces (`crate::exchange::sources::emitter_links`).
     pub emitter: EmitterLinkParams,
-    /// The emitters' light at near hits ([`crate::exchange::near::emitters`]).
+    /// The emitters' light at near hits (`crate::exchange::near::emitters`).
     pub near_emitter: NearEmitterParams,
-    /// The sky's light at near hits ([`crate::exchange::near::sky`]).
+    /// The sky's light at near hits (`crate::exchange::near::sky`).
     pub near_sky: NearSkyParams,
-    /// The later bounces' light at near hits ([`crate::exchange::near::gather`]).
+    /// The later bounces' light at near hits (`crate::exchange::near::gather`).
     pub near_gather: NearGatherParams,
     /// The bounces: count or `auto` with its tolerance.
     pub gather: GatherParams,
-    /// Correction of hidden vertices as link targets ([`crate::exchange::bounce::hidden`]).
+    /// Correction of hidden vertices as link targets (`crate::exchange::bounce::hidden`).
     pub hidden: HiddenParams,
-    /// More rays where a vertex's view of the sky has an edge ([`crate::sky::refine`]).
+    /// More rays where a vertex's view of the sky has an edge (`crate::sky::refine`).
     pub sky: crate::sky::SkyRefineParams,
     /// Feature angle of smoothing, degrees; 0: off.
     pub smoothing_angle_deg: f32,
-    /// The smoothing filter (noise-aware by default, [`crate::exchange::denoise::smooth`]).
+    /// The smoothing filter (noise-aware by default, `crate::exchange::denoise::smooth`).
     pub smoothing: SmoothParams,
 }
 
@@ -199,7 +199,7 @@ impl SolveParams {
     }
 
     /// What a refinement round that may still mark edges traces with
-    /// ([`crate::solver::adaptive`]): these parameters with half the link
+    /// (`crate::solver::adaptive`): these parameters with half the link
     /// directions along each axis (a quarter of the rays, at least 16) and
     /// a quarter of the emitter links' samples (at least 16). A round's
     /// marks compare an edge's ends to a tolerance of 25%, above the noise

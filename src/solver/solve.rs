@@ -48,20 +48,24 @@ pub struct Sources {
 }
 
 impl Sources {
-    /// `E_i` gathered over the links (W/m^2) with the first bounce's
-    /// control variate `e_cv` added: what the smoothing smooths.
-    pub fn add_control_variate(&self, e_gathered: &mut [Vec3]) {
-        if !self.e_cv.is_empty() {
-            e_gathered.iter_mut().zip(&self.e_cv).for_each(|(e, d)| *e += *d);
+    internal! {
+        /// `E_i` gathered over the links (W/m^2) with the first bounce's
+        /// control variate `e_cv` added: what the smoothing smooths.
+        pub fn add_control_variate(&self, e_gathered: &mut [Vec3]) {
+            if !self.e_cv.is_empty() {
+                e_gathered.iter_mut().zip(&self.e_cv).for_each(|(e, d)| *e += *d);
+            }
         }
     }
 
-    /// Completes gathered `E_i` (W/m^2) in place: adds the parts not
-    /// gathered over the links, the emitters' direct light and the near-hit
-    /// correction, and keeps every channel at least 0.
-    pub fn add_outside_links(&self, e_gathered: &mut [Vec3]) {
-        for ((i, m), d) in e_gathered.iter_mut().zip(&self.e_emitter).zip(&self.e_near) {
-            *i = (*i + *m + *d).max(Vec3::ZERO);
+    internal! {
+        /// Completes gathered `E_i` (W/m^2) in place: adds the parts not
+        /// gathered over the links, the emitters' direct light and the near-hit
+        /// correction, and keeps every channel at least 0.
+        pub fn add_outside_links(&self, e_gathered: &mut [Vec3]) {
+            for ((i, m), d) in e_gathered.iter_mut().zip(&self.e_emitter).zip(&self.e_near) {
+                *i = (*i + *m + *d).max(Vec3::ZERO);
+            }
         }
     }
 }
@@ -120,35 +124,37 @@ impl Solver {
         }
     }
 
-    /// Stage 1: the direct irradiances of the current lights, sky and
-    /// emission, the first bounce's near field and control variate, and
-    /// what the bounces start from.
-    pub fn sources(&self) -> Sources {
-        let s = &self.scene;
-        let n = s.vertex_count();
-        let e_sky = self.e_sky();
-        let e_emitter = self.e_emitter();
-        let mut e_source = self.traced.light_links.bounce_source(&s.lights, n);
-        let e_near = self.near_first(&e_source, &e_sky);
-        for (e, ((k, m), d)) in e_source.iter_mut().zip(e_sky.iter().zip(&e_emitter).zip(&e_near)) {
-            *e += *k + *m + *d;
-        }
-        let cv = self.emitter_cv();
-        let e_cv = if cv.is_empty() {
-            Vec::new()
-        } else {
-            let d = cv.correction(&cv.group_means(&s.albedo, &e_source), n);
-            e_source.iter_mut().zip(&d).for_each(|(e, d)| *e += *d);
-            d
-        };
-        Sources {
-            e_direct: self.traced.light_links.direct(&s.lights, n),
-            e_sky,
-            e_emitter,
-            e_near,
-            e_cv,
-            e_source,
-            emission: self.traced.emitter_links.carried_emission(&s.emission).into_owned(),
+    internal! {
+        /// Stage 1: the direct irradiances of the current lights, sky and
+        /// emission, the first bounce's near field and control variate, and
+        /// what the bounces start from.
+        pub fn sources(&self) -> Sources {
+            let s = &self.scene;
+            let n = s.vertex_count();
+            let e_sky = self.e_sky();
+            let e_emitter = self.e_emitter();
+            let mut e_source = self.traced.light_links.bounce_source(&s.lights, n);
+            let e_near = self.near_first(&e_source, &e_sky);
+            for (e, ((k, m), d)) in e_source.iter_mut().zip(e_sky.iter().zip(&e_emitter).zip(&e_near)) {
+                *e += *k + *m + *d;
+            }
+            let cv = self.emitter_cv();
+            let e_cv = if cv.is_empty() {
+                Vec::new()
+            } else {
+                let d = cv.correction(&cv.group_means(&s.albedo, &e_source), n);
+                e_source.iter_mut().zip(&d).for_each(|(e, d)| *e += *d);
+                d
+            };
+            Sources {
+                e_direct: self.traced.light_links.direct(&s.lights, n),
+                e_sky,
+                e_emitter,
+                e_near,
+                e_cv,
+                e_source,
+                emission: self.traced.emitter_links.carried_emission(&s.emission).into_owned(),
+            }
         }
     }
 
@@ -190,28 +196,30 @@ impl Solver {
         near.correction(Bounce::First, &fields).unwrap_or_else(|| vec![Vec3::ZERO; s.vertex_count()])
     }
 
-    /// Stage 2: the bounces from `src` with `gather`'s bounce count (on the
-    /// GPU kernel when the solver has one; the CPU's when it fails), hidden
-    /// vertices replaced as link targets in every bounce
-    /// ([`crate::exchange::bounce::hidden`]; not when `quick`), with the
-    /// control variate and the later bounces' near field added (not when `quick`).
-    pub fn gathered(&self, src: &Sources, gather: &GatherParams, quick: bool) -> Gathered {
-        let s = &self.scene;
-        let reconstruction = self.reconstruction();
-        let b0 = self.links_source(&src.e_source, &src.e_emitter, &src.emission);
-        let stand_ins = if quick { Arc::default() } else { self.stand_ins() };
-        let on_gpu = self.gpu.as_ref().map(|g| {
-            g.links
-                .kernel_from_radiosity(&b0, &s.albedo)
-                .and_then(|k| k.with_reconstruction(reconstruction.as_ref()))
-                .and_then(|k| exchange::bounce::gather::drive(&mut k.with_stand_ins(stand_ins.to_vec()), gather))
-        });
-        let bounces = gpu_else_cpu("gathering", on_gpu, || self.gather_cpu(&b0, &stand_ins, gather));
-        let mut e = bounces.e_indirect.clone();
-        src.add_control_variate(&mut e);
-        let e_near_gather = if quick { Vec::new() } else { self.near_later(src, &e, &stand_ins) };
-        e.iter_mut().zip(&e_near_gather).for_each(|(g, d)| *g += *d);
-        Gathered { bounces, e_near_gather, e }
+    internal! {
+        /// Stage 2: the bounces from `src` with `gather`'s bounce count (on the
+        /// GPU kernel when the solver has one; the CPU's when it fails), hidden
+        /// vertices replaced as link targets in every bounce
+        /// ([`crate::exchange::bounce::hidden`]; not when `quick`), with the
+        /// control variate and the later bounces' near field added (not when `quick`).
+        pub fn gathered(&self, src: &Sources, gather: &GatherParams, quick: bool) -> Gathered {
+            let s = &self.scene;
+            let reconstruction = self.reconstruction();
+            let b0 = self.links_source(&src.e_source, &src.e_emitter, &src.emission);
+            let stand_ins = if quick { Arc::default() } else { self.stand_ins() };
+            let on_gpu = self.gpu.as_ref().map(|g| {
+                g.links
+                    .kernel_from_radiosity(&b0, &s.albedo)
+                    .and_then(|k| k.with_reconstruction(reconstruction.as_ref()))
+                    .and_then(|k| exchange::bounce::gather::drive(&mut k.with_stand_ins(stand_ins.to_vec()), gather))
+            });
+            let bounces = gpu_else_cpu("gathering", on_gpu, || self.gather_cpu(&b0, &stand_ins, gather));
+            let mut e = bounces.e_indirect.clone();
+            src.add_control_variate(&mut e);
+            let e_near_gather = if quick { Vec::new() } else { self.near_later(src, &e, &stand_ins) };
+            e.iter_mut().zip(&e_near_gather).for_each(|(g, d)| *g += *d);
+            Gathered { bounces, e_near_gather, e }
+        }
     }
 
     /// The later bounces' near field ([`exchange::near::gather`]), W/m^2,
@@ -243,21 +251,23 @@ impl Solver {
         self.traced.near.correction(Bounce::Later, &fields).unwrap_or_default()
     }
 
-    /// The radiosity the first bounce gathers, W/(m^2 sr): `rho/pi E + M/pi`
-    /// for the source irradiance `e_source` and the emission the links
-    /// carry, with `e_source` less the emitters' direct light `e_emitter`
-    /// (empty: none) gradient-corrected when the correction is on
-    /// ([`exchange::bounce::reconstruct`]).
-    pub fn links_source(&self, e_source: &[Vec3], e_emitter: &[Vec3], emission: &[Vec3]) -> Vec<Vec3> {
-        let s = &self.scene;
-        let Some(r) = self.reconstruction() else {
-            return exchange::bounce::operator::source_radiosity(e_source, &s.albedo, emission);
-        };
-        let em = |v: usize| e_emitter.get(v).copied().unwrap_or(Vec3::ZERO);
-        let rest: Vec<Vec3> = e_source.iter().enumerate().map(|(v, e)| *e - em(v)).collect();
-        let mut read = r.through_albedo(&s.albedo, &rest);
-        read.iter_mut().enumerate().for_each(|(v, e)| *e += em(v));
-        exchange::bounce::operator::source_radiosity(&read, &s.albedo, emission)
+    internal! {
+        /// The radiosity the first bounce gathers, W/(m^2 sr): `rho/pi E + M/pi`
+        /// for the source irradiance `e_source` and the emission the links
+        /// carry, with `e_source` less the emitters' direct light `e_emitter`
+        /// (empty: none) gradient-corrected when the correction is on
+        /// ([`exchange::bounce::reconstruct`]).
+        pub fn links_source(&self, e_source: &[Vec3], e_emitter: &[Vec3], emission: &[Vec3]) -> Vec<Vec3> {
+            let s = &self.scene;
+            let Some(r) = self.reconstruction() else {
+                return exchange::bounce::operator::source_radiosity(e_source, &s.albedo, emission);
+            };
+            let em = |v: usize| e_emitter.get(v).copied().unwrap_or(Vec3::ZERO);
+            let rest: Vec<Vec3> = e_source.iter().enumerate().map(|(v, e)| *e - em(v)).collect();
+            let mut read = r.through_albedo(&s.albedo, &rest);
+            read.iter_mut().enumerate().for_each(|(v, e)| *e += em(v));
+            exchange::bounce::operator::source_radiosity(&read, &s.albedo, emission)
+        }
     }
 
     /// The CPU bounces from radiosity `b0`, W/(m^2 sr).
@@ -269,28 +279,33 @@ impl Solver {
         exchange::bounce::gather::drive(&mut kernel, params).expect("the CPU kernel cannot fail")
     }
 
-    /// Gathered `E_i` with hidden vertices replaced as link targets by the
-    /// iteration after the bounces ([`crate::exchange::bounce::hidden::correct`]),
-    /// W/m^2: the oracle of the substitution [`Solver::solve`] runs inside
-    /// the bounces.
-    pub fn correct_hidden(&self, e_gathered: &[Vec3]) -> Vec<Vec3> {
-        let s = &self.scene;
-        let rays = self.params.links.rays_per_vertex;
-        exchange::bounce::hidden::correct(&self.links, rays, &s.albedo, e_gathered, &self.params.hidden).0
+    internal! {
+        /// Gathered `E_i` with hidden vertices replaced as link targets by the
+        /// iteration after the bounces ([`crate::exchange::bounce::hidden::correct`]),
+        /// W/m^2: the oracle of the substitution [`Solver::solve`] runs inside
+        /// the bounces.
+        #[cfg(any(test, feature = "internals"))]
+        pub fn correct_hidden(&self, e_gathered: &[Vec3]) -> Vec<Vec3> {
+            let s = &self.scene;
+            let rays = self.params.links.rays_per_vertex;
+            exchange::bounce::hidden::correct(&self.links, rays, &s.albedo, e_gathered, &self.params.hidden).0
+        }
     }
 
-    /// Stage 3: the gathered part of `E_i`, `e_gathered` (W/m^2,
-    /// [`Solution::e_gathered`]), smoothed at feature angle `angle_deg` (0:
-    /// unchanged) with the solver's filter, `e_source` the bounces' source.
-    pub fn smooth(&self, e_source: &[Vec3], e_gathered: &[Vec3], angle_deg: f32) -> Vec<Vec3> {
-        let s = &self.scene;
-        let p = &self.params.smoothing;
-        match p.mode {
-            _ if angle_deg <= 0.0 => e_gathered.to_vec(),
-            SmoothMode::Uniform => exchange::smooth(e_gathered, &s.rings, &s.normals, angle_deg),
-            SmoothMode::Adaptive => {
-                let var = self.noise_variance(e_source, e_gathered);
-                exchange::smooth_adaptive(e_gathered, &var, &s.rings, &s.normals, angle_deg, p.passes)
+    internal! {
+        /// Stage 3: the gathered part of `E_i`, `e_gathered` (W/m^2,
+        /// [`Solution::e_gathered`]), smoothed at feature angle `angle_deg` (0:
+        /// unchanged) with the solver's filter, `e_source` the bounces' source.
+        pub fn smooth(&self, e_source: &[Vec3], e_gathered: &[Vec3], angle_deg: f32) -> Vec<Vec3> {
+            let s = &self.scene;
+            let p = &self.params.smoothing;
+            match p.mode {
+                _ if angle_deg <= 0.0 => e_gathered.to_vec(),
+                SmoothMode::Uniform => exchange::smooth(e_gathered, &s.rings, &s.normals, angle_deg),
+                SmoothMode::Adaptive => {
+                    let var = self.noise_variance(e_source, e_gathered);
+                    exchange::smooth_adaptive(e_gathered, &var, &s.rings, &s.normals, angle_deg, p.passes)
+                }
             }
         }
     }

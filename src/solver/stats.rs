@@ -56,11 +56,11 @@ pub struct SolveStats {
     pub near_gather_rays: u64,
     /// Time of the near hits' gather rays, ms.
     pub near_gather_ms: f64,
-    /// Rays of the noise check ([`crate::exchange::denoise::noise_check`]) and their time, ms.
+    /// Rays of the noise check (`crate::exchange::denoise::noise_check`) and their time, ms.
     pub noise_check_rays: u64,
     /// Time of the noise check, ms.
     pub noise_check_ms: f64,
-    /// Near hits ([`crate::links::near`]) and the shadow rays and time of their light columns, ms.
+    /// Near hits (`crate::links::near`) and the shadow rays and time of their light columns, ms.
     pub near_hits: u64,
     /// Shadow rays of the near hits' light columns.
     pub near_rays: u64,
@@ -116,34 +116,34 @@ impl SolveStats {
 pub struct Solution {
     /// Direct irradiance, exact at the vertex (point visibility), W/m^2.
     pub e_direct: Vec<Vec3>,
-    /// Irradiance from the sky ([`crate::sky`]), W/m^2: direct light,
+    /// Irradiance from the sky (`crate::sky`), W/m^2: direct light,
     /// reported on its own (zero without a sky or where no ray missed).
     pub e_sky: Vec<Vec3>,
-    /// Direct irradiance from emissive surfaces ([`crate::exchange::sources::emitter_links`]),
+    /// Direct irradiance from emissive surfaces (`crate::exchange::sources::emitter_links`),
     /// W/m^2: part of `e_indirect` (light that left a surface), reported apart.
     pub e_emitter: Vec<Vec3>,
-    /// The first bounce's correction at near hits ([`crate::exchange::near::light`]),
+    /// The first bounce's correction at near hits (`crate::exchange::near::light`),
     /// W/m^2 (negative where the links brought light that is not there):
     /// part of `e_indirect`, reported apart.
     pub e_near: Vec<Vec3>,
     /// The emitter groups' control variate of the first bounce
-    /// ([`crate::exchange::sources::emitter_cv`]), W/m^2 (of either sign, zero in
+    /// (`crate::exchange::sources::emitter_cv`), W/m^2 (of either sign, zero in
     /// expectation): part of the gathered `E_i`, smoothed with it; empty
     /// without emitter groups.
     pub e_cv: Vec<Vec3>,
     /// The later bounces' correction at near hits
-    /// ([`crate::exchange::near::gather`]), W/m^2: part of the gathered
+    /// (`crate::exchange::near::gather`), W/m^2: part of the gathered
     /// `E_i`, smoothed with it; empty without near hits.
     pub e_near_gather: Vec<Vec3>,
     /// The direct irradiance the bounces started from (the light links'
     /// [`crate::exchange::BounceSource`] plus `e_sky`, `e_emitter`, `e_near` and `e_cv`),
     /// W/m^2. Emitters without emitter links add `M_e / pi` to the first
-    /// radiosity ([`crate::exchange::bounce::gather::source_radiosity`]).
+    /// radiosity (`crate::exchange::bounce::gather::source_radiosity`).
     pub e_source: Vec<Vec3>,
     /// The part of `E_i` gathered over the links, before smoothing: the
     /// bounces after the hidden-vertex correction, `e_cv` and
     /// `e_near_gather` (without `e_emitter` and `e_near`), W/m^2: what the
-    /// smoothing and the noise estimate read ([`super::Solver::smooth`]).
+    /// smoothing and the noise estimate read (`super::Solver::smooth`).
     pub e_gathered: Vec<Vec3>,
     /// Indirect irradiance after smoothing (the gathered bounces and
     /// `e_cv` smoothed, plus `e_emitter` and `e_near`, at least 0), W/m^2.

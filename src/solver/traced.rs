@@ -312,6 +312,7 @@ impl Traced {
     /// Where `part` of `self` and of `other` differ in what a solve reads
     /// (bit for bit; the figures of how it was traced are left out), named;
     /// `None` where they agree.
+    #[cfg(any(test, feature = "internals"))]
     pub fn differs(&self, other: &Traced, part: Part) -> Option<&'static str> {
         let (a, b) = (self, other);
         let same = match part {

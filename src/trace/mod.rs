@@ -78,6 +78,7 @@ impl OriginRays {
 /// several origins sharing a direction table.
 pub trait Tracer: Sync {
     /// Short name for figures ("bvh", "kd", "gpu-bvh", "gpu-kd", "gpu-rq").
+    #[cfg(any(test, feature = "internals"))]
     fn name(&self) -> &'static str;
 
     /// The nearest hit of every ray of `batch` (see [`OriginRays`]),
@@ -101,6 +102,7 @@ const RUN: usize = 64;
 /// tracer is a [`Tracer`] too: batches are split over rayon threads.
 pub trait CpuTracer: Sync {
     /// Short name for figures ("bvh", "kd").
+    #[cfg(any(test, feature = "internals"))]
     fn name(&self) -> &'static str;
 
     /// Nearest hit of one ray (see [`Tracer::closest_hits`]).
@@ -139,6 +141,7 @@ pub trait CpuTracer: Sync {
 }
 
 impl<T: CpuTracer> Tracer for T {
+    #[cfg(any(test, feature = "internals"))]
     fn name(&self) -> &'static str {
         CpuTracer::name(self)
     }
@@ -245,6 +248,7 @@ impl Accel {
 }
 
 impl CpuTracer for Accel {
+    #[cfg(any(test, feature = "internals"))]
     fn name(&self) -> &'static str {
         self.kind().name()
     }
@@ -288,6 +292,7 @@ impl CpuTracer for Accel {
 }
 
 impl CpuTracer for KdTree {
+    #[cfg(any(test, feature = "internals"))]
     fn name(&self) -> &'static str {
         "kd"
     }
@@ -340,6 +345,7 @@ fn kd_origin_avx2(kd: &KdTree, origin: Vec3, skip: u32, dirs: &[Vec3], out: &mut
 }
 
 impl CpuTracer for Bvh {
+    #[cfg(any(test, feature = "internals"))]
     fn name(&self) -> &'static str {
         "bvh"
     }

@@ -14,11 +14,11 @@
 //!
 //! The window title carries the figures in both modes.
 
+use crate::gpu::{Backend, GpuDevice};
+use crate::render::gpu::GpuRenderer;
+use crate::render::present::{offscreen_target, read_back_rgb8, ToneMapPass};
+use crate::render::{tone_map, Frame, RenderParams, Renderer};
 use anyhow::{anyhow, Context, Result};
-use linkgi::gpu::{Backend, GpuDevice};
-use linkgi::render::gpu::GpuRenderer;
-use linkgi::render::present::{offscreen_target, read_back_rgb8, ToneMapPass};
-use linkgi::render::{tone_map, Frame, RenderParams, Renderer};
 use std::num::NonZeroU32;
 use std::sync::Arc;
 use winit::window::Window;
@@ -294,7 +294,7 @@ impl Display {
 
     /// Renders `frame` offscreen at `params`' size (linear radiance), on the
     /// renderer that draws the window: the automatic exposure's probe.
-    pub fn probe(&mut self, frame: &Frame, params: &RenderParams) -> Result<linkgi::render::HdrImage> {
+    pub fn probe(&mut self, frame: &Frame, params: &RenderParams) -> Result<crate::render::HdrImage> {
         Ok(match self {
             Display::Surface(s) => s.renderer.render(frame, params)?.0,
             Display::Blit(b) => b.renderer.render(frame, params)?.0,

@@ -10,12 +10,12 @@
 
 use super::orbit::project;
 use super::Viewer;
+use crate::bvh::{Bvh, BvhBuildParams};
+use crate::engine::Change;
+use crate::kdtree::Ray;
+use crate::scene::Light;
 use anyhow::{bail, Result};
 use glam::{Vec2, Vec3};
-use linkgi::bvh::{Bvh, BvhBuildParams};
-use linkgi::engine::Change;
-use linkgi::kdtree::Ray;
-use linkgi::scene::Light;
 use winit::dpi::PhysicalSize;
 
 impl Viewer {
@@ -53,8 +53,8 @@ impl Viewer {
     /// centre of the view (so in free space and in sight), as strong as the
     /// selected light (or 1 W/sr).
     pub(super) fn add_light(&mut self) -> Result<()> {
-        if self.lights.len() >= linkgi::render::MAX_LIGHTS {
-            bail!("the renderer draws at most {} lights", linkgi::render::MAX_LIGHTS);
+        if self.lights.len() >= crate::render::MAX_LIGHTS {
+            bail!("the renderer draws at most {} lights", crate::render::MAX_LIGHTS);
         }
         let cam = self.orbit.camera();
         let dir = (cam.target - cam.position).normalize_or_zero();

@@ -12,10 +12,10 @@
 use super::orbit::cursor_on_plane;
 use super::panel::UiAction;
 use super::Viewer;
+use crate::render::View;
+use crate::scene::Light;
 use anyhow::Result;
 use glam::{Vec2, Vec3};
-use linkgi::render::View;
-use linkgi::scene::Light;
 use winit::event::{ElementState, MouseButton, MouseScrollDelta, WindowEvent};
 use winit::keyboard::{Key, NamedKey};
 
@@ -45,7 +45,7 @@ impl Viewer {
                 self.auto_exposure = None;
             }
             UiAction::AutoExposure(on) => {
-                self.auto_exposure = on.then(|| linkgi::render::exposure::AutoExposure::new(self.exposure));
+                self.auto_exposure = on.then(|| crate::render::exposure::AutoExposure::new(self.exposure));
             }
             UiAction::Screenshot => self.pending.scene = Some(self.screenshot_path(None)),
             UiAction::AddLight => self.add_light()?,

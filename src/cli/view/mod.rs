@@ -40,17 +40,17 @@ mod script;
 mod window;
 
 use super::setup::{compute, setup, Overrides, Setup};
+use crate::engine::{Engine, EngineParams};
+use crate::gpu::Backend;
+use crate::render::{Frame, View};
+use crate::scene::deform::has_deformers;
+use crate::scene::prep::PreparedScene;
+use crate::scene::{Light, Settings};
+use crate::solver::SolveParams;
 use anyhow::{bail, Context, Result};
 use display::Display;
 use glam::Vec3;
 use input::Drag;
-use linkgi::engine::{Engine, EngineParams};
-use linkgi::gpu::Backend;
-use linkgi::render::{Frame, View};
-use linkgi::scene::deform::has_deformers;
-use linkgi::scene::prep::PreparedScene;
-use linkgi::scene::{Light, Settings};
-use linkgi::solver::SolveParams;
 use orbit::Orbit;
 use script::{parse_script, Action, GiWait, ScriptLine};
 use std::path::PathBuf;
@@ -116,7 +116,7 @@ struct Viewer {
     /// The mesh the panel's emission slider edits.
     selected_mesh: usize,
     /// The sky as edited.
-    sky: Option<linkgi::sky::Sky>,
+    sky: Option<crate::sky::Sky>,
     settings: Settings,
     rays_k: u32,
     orbit: Orbit,
@@ -125,7 +125,7 @@ struct Viewer {
     /// The exposure shown.
     exposure: f32,
     /// Automatic exposure (`None`: fixed, from `--exposure` or the panel).
-    auto_exposure: Option<linkgi::render::exposure::AutoExposure>,
+    auto_exposure: Option<crate::render::exposure::AutoExposure>,
     playing: bool,
     anim_time: f32,
     last_tick: Instant,
@@ -154,7 +154,7 @@ struct Viewer {
     /// The error-driven rounds running in the background ([`refining`]), until the final one lands.
     refining: Option<crossbeam_channel::Receiver<refining::Landed>>,
     /// The light of the newest landed round, drawn until the engine has a result for its mesh.
-    round_gi: Option<Arc<linkgi::engine::GiResult>>,
+    round_gi: Option<Arc<crate::engine::GiResult>>,
     /// Rounds drawn so far.
     rounds_landed: usize,
     /// Each mesh's emission as loaded (edits differ from it and are sent again after a new mesh).
@@ -263,11 +263,11 @@ pub fn run(args: ViewArgs) -> Result<()> {
         orbit: Orbit::from_camera(camera),
         extent,
         view: View::Combined,
-        exposure: args.exposure.unwrap_or(linkgi::render::DEFAULT_EXPOSURE),
+        exposure: args.exposure.unwrap_or(crate::render::DEFAULT_EXPOSURE),
         auto_exposure: args
             .exposure
             .is_none()
-            .then(|| linkgi::render::exposure::AutoExposure::new(linkgi::render::DEFAULT_EXPOSURE)),
+            .then(|| crate::render::exposure::AutoExposure::new(crate::render::DEFAULT_EXPOSURE)),
         playing: false,
         anim_time: 0.0,
         last_tick: Instant::now(),

@@ -3,9 +3,9 @@
 //! window pixels, and the cursor ray's hit on a horizontal plane (dragging
 //! a light at its height).
 
+use crate::render::{camera_matrices, pixel_ray};
+use crate::scene::Camera;
 use glam::{Vec2, Vec3, Vec4};
-use linkgi::render::{camera_matrices, pixel_ray};
-use linkgi::scene::Camera;
 
 /// Orbit camera around a target.
 #[derive(Clone, Copy, Debug)]

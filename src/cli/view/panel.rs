@@ -10,9 +10,9 @@
 //! Units: intensity is the light's strongest channel (W/sr for point lights,
 //! W/m^2 for directional ones); ages and times in milliseconds.
 
+use crate::render::View;
+use crate::scene::Light;
 use glam::Vec2;
-use linkgi::render::View;
-use linkgi::scene::Light;
 
 /// What the panel shows.
 pub struct PanelModel<'a> {
@@ -33,7 +33,7 @@ pub struct PanelModel<'a> {
     /// The engine has changes it has not published yet.
     pub busy: bool,
     /// The last deformation update's figures, if any.
-    pub deform: Option<linkgi::solver::DeformStats>,
+    pub deform: Option<crate::solver::DeformStats>,
     pub last_error: Option<String>,
     pub view: View,
     pub playing: bool,
@@ -175,7 +175,7 @@ pub fn panel(ctx: &egui::Context, m: &PanelModel) -> Vec<UiAction> {
                 }
             });
             ui.horizontal(|ui| {
-                let can_add = m.lights.len() < linkgi::render::MAX_LIGHTS;
+                let can_add = m.lights.len() < crate::render::MAX_LIGHTS;
                 if ui.add_enabled(can_add, egui::Button::new("add light")).clicked() {
                     out.push(UiAction::AddLight);
                 }

@@ -13,13 +13,13 @@
 //! are bound to one mesh); `render` and `solve` refine them as before.
 
 use super::Viewer;
+use crate::engine::{Adopted, Change, GiResult};
+use crate::scene::prep::PreparedScene;
+use crate::scene::SceneDesc;
+use crate::solver::adaptive::{self, Plan};
+use crate::solver::{Compute, Solution, Solver};
 use crossbeam_channel::{Receiver, Sender};
 use glam::Vec3;
-use linkgi::engine::{Adopted, Change, GiResult};
-use linkgi::scene::prep::PreparedScene;
-use linkgi::scene::SceneDesc;
-use linkgi::solver::adaptive::{self, Plan};
-use linkgi::solver::{Compute, Solution, Solver};
 use std::sync::Arc;
 use std::time::Instant;
 

@@ -39,10 +39,10 @@
 //! wait or at a screenshot (written after that frame is drawn).
 
 use super::Viewer;
+use crate::render::View;
+use crate::scene::Light;
 use anyhow::{bail, Context, Result};
 use glam::Vec3;
-use linkgi::render::View;
-use linkgi::scene::Light;
 use std::path::Path;
 use std::time::{Duration, Instant};
 

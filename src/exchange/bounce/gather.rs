@@ -17,7 +17,9 @@
 //! mode it is only reported. Irradiances in W/m^2.
 
 use crate::exchange::bounce::operator::radiosity;
-pub use crate::exchange::bounce::operator::{gather_bounce, gather_bounce_padded, source_radiosity};
+pub use crate::exchange::bounce::operator::gather_bounce_padded;
+#[cfg(any(test, feature = "internals"))]
+pub use crate::exchange::bounce::operator::{gather_bounce, source_radiosity};
 use crate::links::Links;
 use crate::scene::Bounces;
 use glam::{Vec3, Vec4};
@@ -107,6 +109,7 @@ pub struct CpuBounces<'a> {
 
 impl<'a> CpuBounces<'a> {
     /// The kernel starting from direct irradiance `e_direct` (no emission).
+    #[cfg(any(test, feature = "internals"))]
     pub fn new(links: &'a Links, albedo: &'a [Vec3], e_direct: &[Vec3]) -> Self {
         Self::from_radiosity(links, albedo, &source_radiosity(e_direct, albedo, &[]))
     }
@@ -184,6 +187,7 @@ impl BounceKernel for CpuBounces<'_> {
 }
 
 /// Runs the bounces from direct irradiance `e_direct` with per-vertex `albedo` on the CPU.
+#[cfg(any(test, feature = "internals"))]
 pub fn gather(links: &Links, albedo: &[Vec3], e_direct: &[Vec3], params: &GatherParams) -> GatherResult {
     drive(&mut CpuBounces::new(links, albedo, e_direct), params).expect("the CPU kernel cannot fail")
 }

@@ -65,6 +65,7 @@
 //! auto bounces: the two agree within 8.3e-5 of the mean). Irradiance in
 //! W/m^2.
 
+#[cfg(any(test, feature = "internals"))]
 use crate::exchange::bounce::operator::radiosity;
 use crate::links::Links;
 use glam::Vec3;
@@ -79,7 +80,7 @@ pub struct HiddenParams {
     /// half covered). The term is switched off by
     /// [`crate::scene::terms::Terms::hidden`].
     pub threshold: f32,
-    /// The post-pass oracle ([`correct`]): stop once an iteration changes
+    /// The post-pass oracle (`correct`): stop once an iteration changes
     /// `E_i` by less than this share of the total change (unitless).
     pub tolerance: f32,
     /// The post-pass oracle: at most this many iterations.
@@ -174,6 +175,7 @@ pub fn hidden_vertices(links: &Links, rays_per_vertex: u32, params: &HiddenParam
 /// the module doc): `e_indirect` gathered over `links` (the direct light
 /// does not enter the change).
 /// Returns it and the iterations run (0: no hidden vertex that anybody links to).
+#[cfg(any(test, feature = "internals"))]
 pub fn correct(
     links: &Links,
     rays_per_vertex: u32,

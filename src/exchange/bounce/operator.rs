@@ -13,6 +13,7 @@ use std::f32::consts::PI;
 
 /// One bounce: `out[v] = sum_j w_vj * b[target_j]` (RGB). Pads `b` to
 /// [`Vec4`] and runs [`gather_bounce_padded`] (the kernel the solver uses).
+#[cfg(any(test, feature = "internals"))]
 pub fn gather_bounce(links: &Links, b: &[Vec3], out: &mut [Vec3]) {
     let padded: Vec<Vec4> = b.par_iter().map(|v| v.extend(0.0)).collect();
     gather_bounce_padded(links, &padded, out);

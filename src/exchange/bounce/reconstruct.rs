@@ -290,6 +290,7 @@ impl Reconstruction {
 
     /// Checks against `n` vertices: CSR offsets, neighbours in range,
     /// finite weights.
+    #[cfg(any(test, feature = "internals"))]
     pub fn validate(&self, n: usize) -> Result<(), String> {
         if self.rows.rows() != n {
             return Err(format!("reconstruction: {} rows for {n} vertices", self.rows.rows()));

@@ -61,7 +61,7 @@ pub struct NoiseParams {
     pub reference_rays: u32,
     /// How the ratio falls with the rays: `scale * (reference_rays / n_C)^exponent`, at most 1.
     pub exponent: f32,
-    /// Vertices of the noise check ([`crate::exchange::denoise::noise_check`]), whose measured
+    /// Vertices of the noise check (`crate::exchange::denoise::noise_check`), whose measured
     /// ratio replaces the model's; 0: the model alone.
     pub check_vertices: u32,
     /// The check's ratio around a sampled vertex is a Gaussian kernel
@@ -97,6 +97,7 @@ impl Default for NoiseParams {
 /// `emission` (W/m^2, may be empty), the direct
 /// irradiance the bounces started from and the gathered `E_i` (W/m^2),
 /// with the model's stratification ratio ([`NoiseParams::ratio`]).
+#[cfg(any(test, feature = "internals"))]
 pub fn variance(
     links: &Links,
     albedo: &[Vec3],

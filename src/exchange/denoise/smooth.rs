@@ -90,10 +90,10 @@ pub struct SmoothParams {
     /// weights (neighbours taken independent), so a second pass widens the
     /// support to the two-ring only where noise is still large.
     pub passes: u32,
-    /// Calibration of the noise estimate ([`crate::exchange::denoise::noise`]).
+    /// Calibration of the noise estimate (`crate::exchange::denoise::noise`).
     pub noise: crate::exchange::denoise::noise::NoiseParams,
     /// Smooth the sky's direct light `E_sky` too, by the same adaptive
-    /// filter with its own sampling variance ([`pooled_variance`]); adaptive
+    /// filter with its own sampling variance (`pooled_variance`); adaptive
     /// mode only.
     pub sky: bool,
 }
@@ -118,10 +118,10 @@ impl Default for SmoothParams {
 /// Which filter smooths `E_i`.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum SmoothMode {
-    /// Neighbour weight from the estimated noise ([`smooth_adaptive`]).
+    /// Neighbour weight from the estimated noise (`smooth_adaptive`).
     #[default]
     Adaptive,
-    /// The fixed one-ring average ([`smooth`]).
+    /// The fixed one-ring average (`smooth`).
     Uniform,
 }
 

@@ -104,7 +104,7 @@ pub struct EmitterLinkParams {
     /// Origin nudge of crease and border vertices (as in [`crate::links::LinkParams`]).
     pub nudge: f32,
     /// The share of `samples` every vertex traces first (the pilot, at
-    /// least [`MIN_PILOT`] rays): a vertex whose pilot rays all agree (all
+    /// least `MIN_PILOT` rays): a vertex whose pilot rays all agree (all
     /// reach their emitter points, or none does) keeps the pilot's answer
     /// (every group in full view, or hidden); the others, in penumbra,
     /// trace all `samples`. 1 traces all `samples` at every vertex. The

@@ -75,7 +75,7 @@ use std::time::Instant;
 /// Parameters of light-link computation.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct LightLinkParams {
-    /// Oversample visibility on the one-ring for [`LightLinks::factors`]
+    /// Oversample visibility on the one-ring for `LightLinks::factors`
     /// (false, the default: the vertex alone, and `factors` equal `point`).
     pub oversample: bool,
     /// Smallest light distance used in `1/r^2`, as a fraction of the mean edge length at the vertex.
@@ -102,10 +102,10 @@ impl Default for LightLinkParams {
 /// Which direct irradiance the bounces start from (`B_0 = rho/pi * E`).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum BounceSource {
-    /// The one-ring oversampled `G * V_avg` ([`LightLinks::factors`];
+    /// The one-ring oversampled `G * V_avg` (`LightLinks::factors`;
     /// needs [`LightLinkParams::oversample`] to differ from `Point`).
     Ring,
-    /// The exact point value `G * V(vertex)` ([`LightLinks::point`]).
+    /// The exact point value `G * V(vertex)` (`LightLinks::point`).
     #[default]
     Point,
 }
@@ -208,6 +208,7 @@ const CHUNK_VERTICES: usize = 16384;
 
 impl LightLinks {
     /// Computes the factors of every light with a CPU tracer (which cannot fail).
+    #[cfg(any(test, feature = "internals"))]
     pub fn compute(scene: &PreparedScene, tracer: &dyn Tracer, params: &LightLinkParams) -> LightLinks {
         Self::compute_with(scene, tracer, params).expect("a CPU tracer cannot fail")
     }

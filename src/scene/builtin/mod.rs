@@ -61,7 +61,9 @@ mod tearoom;
 #[cfg(test)]
 mod tests;
 
-pub use rooms::{closed_room, furnace};
+pub use rooms::furnace;
+#[cfg(any(test, feature = "internals"))]
+pub use rooms::closed_room;
 
 use conference::conference;
 use figure::{dancer, torso};

@@ -9,6 +9,7 @@ use glam::Vec3;
 /// A closed white-grey room 2 x 2 x 2 m (x, z in [-1, 1], y in [0, 2]) with
 /// inward faces, an `n x n` grid per face, albedo `albedo`, and one point
 /// light of intensity 1 W/sr at (0.2, 1.5, 0.1).
+#[cfg(any(test, feature = "internals"))]
 pub fn closed_room(n: u32, albedo: f32) -> SceneDesc {
     let mut b = MeshBuilder::new();
     let m = b.add_material("grey", Vec3::splat(albedo));

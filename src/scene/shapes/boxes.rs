@@ -6,6 +6,7 @@ use glam::Vec3;
 
 impl MeshBuilder {
     /// An axis-aligned box with `n_per_edge` quads along every edge.
+    #[cfg(any(test, feature = "internals"))]
     pub fn cuboid(&mut self, min: Vec3, max: Vec3, n_per_edge: u32, mat: u32, inward: bool) {
         self.cuboid_faces(min, max, [n_per_edge; 3], [mat; 6], inward);
     }

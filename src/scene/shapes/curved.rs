@@ -194,6 +194,7 @@ impl MeshBuilder {
     /// `radius_bottom` at the base, `radius_top` at `height`. Faces away
     /// from the axis, or towards it with `inward`.
     #[allow(clippy::too_many_arguments)]
+    #[cfg(test)]
     pub fn frustum(
         &mut self,
         base_center: Vec3,
@@ -219,6 +220,7 @@ impl MeshBuilder {
     /// of `radius`, an inner one of `radius - thickness`, joined by a flat
     /// rim ring at the top. Closed: the outer surface faces out, the inner
     /// one faces into the bowl. `rings` bands per half sphere.
+    #[cfg(test)]
     pub fn bowl(&mut self, rim_center: Vec3, radius: f32, thickness: f32, segments: u32, rings: u32, mat: u32) {
         let rings = rings.max(2);
         let inner = radius - thickness;

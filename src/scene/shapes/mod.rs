@@ -75,6 +75,7 @@ impl MeshBuilder {
     }
 
     /// Adds a position and returns its index.
+    #[cfg(any(test, feature = "internals"))]
     pub fn add_vertex(&mut self, p: Vec3) -> u32 {
         self.positions.push(p);
         (self.positions.len() - 1) as u32
@@ -108,6 +109,7 @@ impl MeshBuilder {
     }
 
     /// Reverses the winding of every triangle from index `first` on.
+    #[cfg(any(test, feature = "internals"))]
     pub fn flip_from(&mut self, first: usize) {
         for t in &mut self.triangles[first..] {
             t.swap(1, 2);
@@ -183,6 +185,7 @@ impl MeshBuilder {
     /// A flat grid of `nu x nv` quads (two triangles each) spanning
     /// `origin + s * edge_u + t * edge_v`, s, t in [0, 1]; the front faces
     /// along `edge_u x edge_v`.
+    #[cfg(any(test, feature = "internals"))]
     pub fn quad_grid(&mut self, origin: Vec3, edge_u: Vec3, edge_v: Vec3, nu: u32, nv: u32, mat: u32) {
         let (nu, nv) = (nu.max(1), nv.max(1));
         let base = self.positions.len() as u32;
