@@ -18,7 +18,7 @@ use std::path::{Path, PathBuf};
 
 const MAGIC: &[u8; 8] = b"LGIREF02";
 /// Bump when the estimator changes, so old cached results are not reused.
-const VERSION: u64 = 4;
+const VERSION: u64 = 5;
 /// Per-vertex Vec3 parts stored: E_d, E_sky, E_i, stderr of E_i, stderr of E_sky + E_i.
 const PARTS: usize = 5;
 

@@ -19,6 +19,7 @@ use super::path::Tracer;
 use super::ReferenceParams;
 use crate::render::exposure::luminance;
 use crate::render::{pixel_ray, HdrImage};
+use crate::sampling::Stream;
 use crate::scene::prep::PreparedScene;
 use crate::scene::Camera;
 use crate::trace::CpuTracer;
@@ -63,7 +64,7 @@ pub fn render(
                 .map(|x| {
                     let ray = pixel_ray(camera, w, h, extent, x, y);
                     let i = (y * w + x) as u64;
-                    tracer.pixel(&ray, spp, params.seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) ^ (i << 20) ^ 0x5eed)
+                    tracer.pixel(&ray, spp, Stream::REFERENCE_PIXELS.hash(params.seed, &[i]))
                 })
                 .collect();
             progress();

@@ -5,13 +5,14 @@
 
 use super::ReferenceParams;
 use crate::kdtree::traverse::{Ray, NO_SKIP};
+use crate::sampling::{basis, cosine_hemisphere, Stream};
 use crate::scene::prep::PreparedScene;
 use crate::scene::Light;
 use crate::trace::CpuTracer;
-use glam::{DVec3, Vec3};
+use glam::{DVec3, Vec2, Vec3};
+use std::f32::consts::PI;
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64Mcg;
-use std::f32::consts::PI;
 
 /// Where a path currently is: at the vertex it started from, or at a point on a triangle.
 #[derive(Clone, Copy, Debug)]
@@ -31,14 +32,6 @@ pub struct Tracer<'a> {
     tri_offsets: Vec<f32>,
 }
 
-/// An orthonormal frame `(t, b)` around unit `n` (Duff et al. 2017).
-fn frame(n: Vec3) -> (Vec3, Vec3) {
-    let s = if n.z >= 0.0 { 1.0 } else { -1.0 };
-    let a = -1.0 / (s + n.z);
-    let b = n.x * n.y * a;
-    (Vec3::new(1.0 + s * n.x * n.x * a, s * b, -s * n.x), Vec3::new(b, s + n.y * n.y * a, -n.y))
-}
-
 /// Sample `i`'s point in `[0, 1)^2`: jittered in cell `i` of a `k x k`
 /// grid when `stratified`, else uniform; two draws of `rng` either way.
 fn jittered(i: u32, k: u32, stratified: bool, rng: &mut Pcg64Mcg) -> (f32, f32) {
@@ -50,13 +43,13 @@ fn jittered(i: u32, k: u32, stratified: bool, rng: &mut Pcg64Mcg) -> (f32, f32) 
     }
 }
 
-/// Cosine-distributed direction around `n` from `(u1, u2)` in `[0, 1)^2` (pdf `cos / pi`).
+/// Cosine-distributed direction around `n` from `(u1, u2)` in `[0, 1)^2`
+/// (pdf `cos / pi`): the links' warp ([`cosine_hemisphere`]) in the links'
+/// frame ([`basis`]).
 fn cosine_direction(n: Vec3, u1: f32, u2: f32) -> Vec3 {
-    let r = u1.sqrt();
-    let phi = 2.0 * PI * u2;
-    let z = (1.0 - u1).max(0.0).sqrt();
-    let (t, b) = frame(n);
-    (t * (r * phi.cos()) + b * (r * phi.sin()) + n * z).normalize()
+    let l = cosine_hemisphere(Vec2::new(u1, u2));
+    let (t, b) = basis(n);
+    (t * l.x + b * l.y + n * l.z).normalize()
 }
 
 /// A few ulps of the coordinates of `p`, so an offset survives rounding.
@@ -119,10 +112,9 @@ impl<'a> Tracer<'a> {
                     let rc = r.max(self.params.min_distance);
                     let to = position - origin;
                     let len = to.length();
-                    let visible = len <= 2.0 * offset || {
-                        let ray = Ray { origin, dir: to / len, tmin: 0.0, tmax: len - offset, skip: NO_SKIP };
-                        !self.kd.occluded(&ray)
-                    };
+                    // The links' segment rule: nothing between a touching point and the origin.
+                    let visible = Ray::shadow_checked(origin, to / len, len, offset, 0.0, NO_SKIP)
+                        .is_none_or(|ray| !self.kd.occluded(&ray));
                     if visible {
                         e += intensity * (cos / (rc * rc));
                     }
@@ -133,7 +125,7 @@ impl<'a> Tracer<'a> {
                     if cos <= 0.0 {
                         continue;
                     }
-                    let ray = Ray { origin, dir: w, tmin: 0.0, tmax: f32::INFINITY, skip: NO_SKIP };
+                    let ray = Ray::new(origin, w);
                     if !self.kd.occluded(&ray) {
                         e += irradiance * cos;
                     }
@@ -150,9 +142,7 @@ impl<'a> Tracer<'a> {
         let n = s.normals[v];
         let e_d = self.direct(s.positions[v], n, origin, offset);
         let samples = self.params.samples_per_vertex.max(1);
-        let mut rng = Pcg64Mcg::seed_from_u64(self.params.seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) ^ v as u64);
-        // Warm the stream so nearby seeds decorrelate.
-        let _: u64 = rng.random();
+        let mut rng = Pcg64Mcg::seed_from_u64(Stream::REFERENCE.hash(self.params.seed, &[v as u64]));
         let k = (samples as f64).sqrt() as u32;
         let stratified = k * k == samples;
         // Per estimate (indirect, sky, both): sum, sum of squares, sum of
@@ -222,7 +212,7 @@ impl<'a> Tracer<'a> {
                 At::Vertex => v_origin,
                 At::Triangle { origin, .. } => origin,
             };
-            let ray = Ray { origin, dir, tmin: 0.0, tmax: f32::INFINITY, skip: NO_SKIP };
+            let ray = Ray::new(origin, dir);
             let Some(hit) = self.kd.intersect(&ray) else {
                 // Left the scene: sky radiance, pi L per cosine-sampled direction.
                 if let Some(sky) = &s.sky {
@@ -308,7 +298,6 @@ impl Tracer<'_> {
         let k = (spp as f64).sqrt() as u32;
         let stratified = k * k == spp;
         let mut rng = Pcg64Mcg::seed_from_u64(seed);
-        let _: u64 = rng.random();
         let mut e = DVec3::ZERO;
         for i in 0..spp {
             let (u1, u2) = jittered(i, k, stratified, &mut rng);

@@ -19,7 +19,7 @@ use crate::csr::Csr;
 
 pub mod stream;
 mod warp;
-pub use stream::{splitmix64, Stream};
+pub use stream::Stream;
 pub use warp::{basis, cosine_hemisphere};
 #[cfg(test)]
 use warp::{concentric_disk, concentric_disk_inverse, cosine_hemisphere_inverse, cosine_hemisphere_pdf};

@@ -49,6 +49,14 @@ pub fn cosine_direction(x: u64, normal: Vec3) -> Option<Vec3> {
     (dir != Vec3::ZERO && local.z > 0.0).then_some(dir)
 }
 
+/// `h` folded with each of `indices` in turn: `h = splitmix64(h ^ index)`.
+/// A sample's hash from its stream's key (or from a key already folded,
+/// such as a near hit's) and its indices.
+#[inline]
+pub fn fold(h: u64, indices: &[u64]) -> u64 {
+    indices.iter().fold(h, |h, &i| splitmix64(h ^ i))
+}
+
 /// One use of random numbers: its salt, XORed into the seed.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Stream(u64);
@@ -60,10 +68,8 @@ impl Stream {
     /// The vertices drawn for the noise check and their second ray set
     /// ([`crate::exchange::denoise::noise_check`]).
     pub const NOISE_CHECK: Stream = Stream(0xd1b5_4a32_d192_ed03);
-    /// Jitter of the sub-cells of the sky's refined cells
-    /// ([`crate::sky::refine`]); salt 0: those hash the seed itself, as
-    /// they did before streams were named (their results are kept).
-    pub const SKY_CELLS: Stream = Stream(0);
+    /// Jitter of the sub-cells of the sky's refined cells ([`crate::sky::refine`]).
+    pub const SKY_CELLS: Stream = Stream(0x629a_292a_367c_d507);
     /// The emitter links' per-vertex sample offsets
     /// ([`crate::exchange::sources::emitter_links`], a PCG seeded with
     /// [`Stream::point_seed`]). It shared salt 0 with [`Stream::SKY_CELLS`]
@@ -83,6 +89,10 @@ impl Stream {
     /// Which near hits a vertex with more than its share keeps
     /// ([`crate::links::near::NearRule`]).
     pub const NEAR_KEEP: Stream = Stream(0x1f83_d9ab_fb41_bd6b);
+    /// The reference path tracer's per-vertex paths ([`crate::reference`]).
+    pub const REFERENCE: Stream = Stream(0x5be0_cd19_1f83_d9ab);
+    /// The reference path tracer's per-pixel paths ([`crate::reference`]).
+    pub const REFERENCE_PIXELS: Stream = Stream(0xcbbb_9d5d_c105_9ed8);
 
     /// `seed` with the stream's salt: the seed of this stream.
     #[inline]
@@ -112,11 +122,21 @@ impl Stream {
         splitmix64(self.seed(seed))
     }
 
+    /// The hash of one sample of this stream: its [`Stream::key`] folded
+    /// with the sample's indices in order ([`fold`]). The one layout of
+    /// every stream's samples: indices are never packed into bit fields,
+    /// so no index can spill into another's bits however large.
+    #[inline]
+    pub fn hash(self, seed: u64, indices: &[u64]) -> u64 {
+        fold(self.key(seed), indices)
+    }
+
     /// The key of near hit `rank` (among vertex `v`'s hits on triangle
-    /// `tri`) of vertex `v`: its samples are `splitmix64(hit_key ^ index)`.
+    /// `tri`) of vertex `v`: [`Stream::hash`] of `(v, tri | rank << 32)`
+    /// (`tri` is 32 bits); its samples fold their own indices into it.
     #[inline]
     pub fn hit_key(self, seed: u64, v: usize, tri: u32, rank: usize) -> u64 {
-        splitmix64(splitmix64(self.key(seed) ^ v as u64) ^ (u64::from(tri) | (rank as u64) << 32))
+        self.hash(seed, &[v as u64, u64::from(tri) | (rank as u64) << 32])
     }
 }
 
@@ -145,6 +165,19 @@ mod tests {
         assert!((mean_cos / m as f64 - 2.0 / 3.0).abs() < 0.01, "{}", mean_cos / m as f64);
     }
 
+    /// The packed layout this replaced (`v << 20 ^ p << 8 ^ j`) gave sample
+    /// 256 of portal 0 the hash of sample 0 of portal 1; folded indices
+    /// keep every index apart, and the near hits' key is the same fold.
+    #[test]
+    fn indices_never_share_bits() {
+        let s = Stream::PORTALS;
+        assert_ne!(s.hash(1, &[0, 0, 256]), s.hash(1, &[0, 1, 0]));
+        assert_ne!(s.hash(1, &[1 << 12, 0]), s.hash(1, &[0, 1 << 32]));
+        assert_ne!(s.hash(1, &[0]), s.hash(1, &[0, 0]));
+        assert_eq!(s.hit_key(7, 3, 5, 2), fold(s.key(7), &[3, 5 | 2 << 32]));
+        assert_eq!(fold(fold(9, &[1]), &[2]), fold(9, &[1, 2]));
+    }
+
     #[test]
     fn streams_differ() {
         let all = [
@@ -158,6 +191,8 @@ mod tests {
             Stream::NEAR_GATHER,
             Stream::TERM_SAMPLE,
             Stream::NEAR_KEEP,
+            Stream::REFERENCE,
+            Stream::REFERENCE_PIXELS,
         ];
         for (i, a) in all.iter().enumerate() {
             for b in &all[i + 1..] {

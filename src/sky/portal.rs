@@ -60,7 +60,7 @@
 
 use crate::kdtree::Ray;
 use crate::links::RaySetup;
-use crate::sampling::stream::{splitmix64, Stream};
+use crate::sampling::stream::Stream;
 use crate::scene::prep::PreparedScene;
 use crate::trace::Tracer;
 use glam::{Vec2, Vec3};
@@ -253,8 +253,7 @@ struct Receiver {
 /// receiver, or a direction of an earlier portal).
 fn sample(portals: &[Portal], p: usize, side: u32, j: u32, r: Receiver, seed: u64) -> Option<Sample> {
     let Receiver { v, x, n } = r;
-    // The seed hashed on its own first: seeds differing in low bits must not share jitters.
-    let h = splitmix64(Stream::PORTALS.key(seed) ^ ((v as u64) << 20) ^ ((p as u64) << 8) ^ u64::from(j));
+    let h = Stream::PORTALS.hash(seed, &[v as u64, p as u64, u64::from(j)]);
     sample_jittered(portals, p, side, j, x, n, h)
 }
 

@@ -47,7 +47,7 @@ use crate::csr::{Csr, RowBuilder};
 use crate::kdtree::Ray;
 use crate::links::RaySetup;
 use crate::sampling::stream::Stream;
-use crate::sampling::{block_order, cosine_hemisphere, splitmix64, vertex_frame, world_direction};
+use crate::sampling::{block_order, cosine_hemisphere, vertex_frame, world_direction};
 use crate::scene::prep::PreparedScene;
 use crate::trace::Tracer;
 use glam::{Vec2, Vec3};
@@ -98,8 +98,7 @@ pub struct SkyRefinement {
 /// grid with `sub x sub` sub-cells, jittered by a hash of `seed`, the
 /// direction set and the cell.
 fn sub_point(k: u32, sub: u32, x: u32, y: u32, j: u32, set: u32, seed: u64) -> Vec2 {
-    let h =
-        splitmix64(Stream::SKY_CELLS.seed(seed) ^ (u64::from(set) << 56) ^ (u64::from(y * k + x) << 8) ^ u64::from(j));
+    let h = Stream::SKY_CELLS.hash(seed, &[u64::from(set), u64::from(y * k + x), u64::from(j)]);
     let jitter = Vec2::new((h as u32) as f32, (h >> 32) as u32 as f32) * (1.0 / 4294967296.0);
     let jitter = jitter.clamp(Vec2::splat(1e-4), Vec2::splat(1.0 - 1e-4));
     let (jx, jy) = (j % sub, j / sub);

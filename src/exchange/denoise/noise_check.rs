@@ -122,7 +122,7 @@ pub fn sample_vertices(n: usize, m: usize, seed: u64) -> Vec<u32> {
     let lo = |i: usize| (i as u64 * n as u64 / m as u64) as u32;
     (0..m)
         .map(|i| {
-            let h = crate::sampling::splitmix64(Stream::NOISE_CHECK.seed(seed) ^ ((i as u64) << 20));
+            let h = Stream::NOISE_CHECK.hash(seed, &[i as u64]);
             let width = u64::from(lo(i + 1) - lo(i));
             lo(i) + (((h >> 32) * width) >> 32) as u32
         })

@@ -52,7 +52,7 @@ use crate::exchange::sources::emitter_links::{emitters_of, EmitterLinks};
 use crate::kdtree::traverse::{Ray, NO_SKIP};
 use crate::links::near::triangle_ranks;
 use crate::links::{NearHit, NearHits};
-use crate::sampling::stream::{splitmix64, unit, Stream};
+use crate::sampling::stream::{fold, splitmix64, unit, Stream};
 use crate::scene::prep::PreparedScene;
 use crate::trace::{Tracer, RAY_OFFSET};
 use glam::{Vec2, Vec3};
@@ -245,7 +245,7 @@ impl NearEmitters {
             let per_hit: Vec<HitValues> = (0..hits.len())
                 .map(|i| {
                     let (p, normal, l) = hit_frame(scene, &hits[i]);
-                    let key = Stream::NEAR_EMITTERS.hit_key(seed, v, hits[i].tri, ranks[i] as usize) << 20;
+                    let key = Stream::NEAR_EMITTERS.hit_key(seed, v, hits[i].tri, ranks[i] as usize);
                     let m = params.samples;
                     point_samples(&lights, p, normal, RAY_OFFSET * l, m, key, &mut scratch, &mut rays)
                 })
@@ -373,7 +373,7 @@ fn point_samples(
     if m == 0 || !(sum > 0.0 && sum.is_finite()) {
         return out;
     }
-    let xi = unit(splitmix64(key ^ CLUSTER_DRAW));
+    let xi = unit(fold(key, &[0]));
     let width = |cdf: &[f32], i: usize| cdf[i] - if i == 0 { 0.0 } else { cdf[i - 1] };
     let mut inner_of = usize::MAX;
     for j in 0..m {
@@ -397,7 +397,7 @@ fn point_samples(
         if !(isum > 0.0 && isum.is_finite()) {
             continue;
         }
-        let hash = splitmix64(key ^ u64::from(j));
+        let hash = fold(key, &[1 + u64::from(j)]);
         let ti = pick(inner, unit(hash));
         let p_t = (width(cdf, ci) / sum) as f64 * (width(inner, ti) / isum) as f64;
         let t = &tris[ti];
@@ -451,10 +451,6 @@ fn triangle_sample(t: &Tri, p: Vec3, n: Vec3, u: Vec2) -> Option<(Vec3, f64)> {
     (f > 0.0 && f.is_finite()).then_some((y, f))
 }
 
-/// Salt of a hit's cluster draws (bit 63: apart from the triangles' and
-/// points' hashes, which XOR the ray's index into bits 0-19).
-const CLUSTER_DRAW: u64 = 1 << 63;
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -480,7 +476,7 @@ mod tests {
         let (mut sum, mut max) = (0f64, 0f64);
         for key in 0..n {
             let (mut scratch, mut rays) = (Scratch::default(), Vec::new());
-            let s = point_samples(lights, p, normal, 1e-5, 2, splitmix64(key) << 20, &mut scratch, &mut rays);
+            let s = point_samples(lights, p, normal, 1e-5, 2, splitmix64(key), &mut scratch, &mut rays);
             assert_eq!(rays.len(), s.len());
             let total: f64 = s.iter().map(|&(_, v)| v as f64).sum();
             sum += total;

@@ -57,7 +57,7 @@ use crate::csr::{Csr, RowBuilder};
 use crate::kdtree::traverse::{Ray, NO_SKIP};
 use crate::links::near::triangle_ranks;
 use crate::links::{NearHit, NearHits};
-use crate::sampling::stream::{cosine_direction, splitmix64, Stream};
+use crate::sampling::stream::{cosine_direction, fold, Stream};
 use crate::scene::prep::PreparedScene;
 use crate::sky::{portal, Portal};
 use crate::trace::{Tracer, RAY_OFFSET};
@@ -243,7 +243,7 @@ fn candidates(
     rank: usize,
 ) -> Vec<Candidate> {
     let (origin, normal) = hit_origin(scene, h, RAY_OFFSET);
-    let key = Stream::NEAR_SKY.hit_key(seed, v, h.tri, rank) << 20;
+    let key = Stream::NEAR_SKY.hit_key(seed, v, h.tri, rank);
     let mut out = Vec::new();
     // From t = 0 (with `tmin = eps` rays from the floor's edge left the
     // room through its one-sided walls: `window` at 1024 rays 1.24 / 1.30 /
@@ -252,7 +252,7 @@ fn candidates(
     if params.samples > 0 {
         let w = std::f32::consts::PI / params.samples as f32;
         for j in 0..params.samples {
-            let Some(dir) = cosine_direction(splitmix64(key ^ u64::from(j)), normal) else { continue };
+            let Some(dir) = cosine_direction(fold(key, &[0, u64::from(j)]), normal) else { continue };
             // A direction through a portal is the portals' samples'.
             if portal::through_any(portals, origin, dir) {
                 continue;
@@ -264,7 +264,7 @@ fn candidates(
     let m = side * side;
     for pi in 0..portals.len() {
         for j in 0..m {
-            let hash = splitmix64(key ^ (1 << 12) ^ ((pi as u64) << 8) ^ u64::from(j));
+            let hash = fold(key, &[1 + pi as u64, u64::from(j)]);
             let Some(s) = portal::sample_jittered(portals, pi, side, j, origin, normal, hash) else { continue };
             out.push(Candidate { ray: ray(s.dir), weight: s.cos_x / s.density / m as f32 });
         }
