@@ -13,9 +13,10 @@ use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use linkgi::bvh::{Bvh, BvhBuildParams};
 use linkgi::exchange::bounce::gather::BounceKernel;
 use linkgi::gpu::{self, schedule, GpuLinks, GpuTracer, GpuWalk};
-use linkgi::kdtree::{KdBuildParams, KdTree, Ray};
+use linkgi::kdtree::{KdBuildParams, KdTree};
 use linkgi::links::{shoot_links, LinkParams, RaySetup};
 use linkgi::scene::{builtin, prep};
+use linkgi::trace::ray::Ray;
 use linkgi::trace::Accel;
 use std::time::Duration;
 

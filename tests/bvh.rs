@@ -7,7 +7,8 @@ use glam::Vec3;
 use linkgi::bvh::refit::Update;
 use linkgi::bvh::{Bvh, BvhBuildParams, Isa};
 use linkgi::kdtree::traverse::brute_force;
-use linkgi::kdtree::{Hit, KdBuildParams, KdTree, Ray};
+use linkgi::kdtree::{KdBuildParams, KdTree};
+use linkgi::trace::ray::{Hit, Ray};
 use rand::SeedableRng;
 use rand_pcg::Pcg32;
 

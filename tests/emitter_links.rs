@@ -6,10 +6,10 @@
 mod common;
 
 use glam::Vec3;
-use linkgi::kdtree::traverse::Ray;
 use linkgi::scene::shapes::MeshBuilder;
 use linkgi::scene::{prep, Bounces, SceneDesc};
 use linkgi::solver::{SolveParams, Solver};
+use linkgi::trace::ray::Ray;
 use linkgi::trace::CpuTracer;
 
 const M_E: Vec3 = Vec3::new(10.0, 5.0, 2.0);

@@ -3,7 +3,8 @@
 
 use glam::Vec3;
 use linkgi::kdtree::traverse::brute_force;
-use linkgi::kdtree::{Hit, KdBuildParams, KdTree, Ray};
+use linkgi::kdtree::{KdBuildParams, KdTree};
+use linkgi::trace::ray::{Hit, Ray};
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg32;
 

@@ -8,10 +8,11 @@
 
 use glam::Vec3;
 use linkgi::gpu::{self, GpuDevice};
-use linkgi::kdtree::{KdBuildParams, KdTree, Ray};
+use linkgi::kdtree::{KdBuildParams, KdTree};
 use linkgi::render::{self, cpu::render_cpu, gpu::GpuRenderer, Frame, HdrImage, RenderParams, View};
 use linkgi::scene::{builtin, prep, Light};
 use linkgi::solver::{Solution, SolveParams, Solver};
+use linkgi::trace::ray::Ray;
 use linkgi::trace::CpuTracer;
 use std::sync::{Arc, OnceLock};
 

@@ -8,10 +8,10 @@
 use linkgi::bvh::{Bvh, BvhBuildParams};
 use linkgi::exchange::LightLinks;
 use linkgi::kdtree::traverse::brute_force;
-use linkgi::kdtree::Ray;
 use linkgi::links::{RaySetup, HIT_BACK, HIT_MISS};
 use linkgi::scene::{builtin, prep, TracerKind};
 use linkgi::solver::{SolveParams, Solver};
+use linkgi::trace::ray::Ray;
 
 fn agree_on(name: &str) {
     let desc = builtin::builtin(name).expect("built-in");

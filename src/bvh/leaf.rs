@@ -1,7 +1,7 @@
 //! Leaf blocks of the BVH: eight triangles as structure of arrays, tested
 //! in one pass of 8-lane operations (AVX2 / AVX-512 builds) with exactly
 //! the operations, in the same order, of the scalar watertight test
-//! ([`crate::kdtree::triangle::intersect`], Woop, Benthin & Wald 2013), so
+//! ([`crate::trace::ray::intersect`], Woop, Benthin & Wald 2013), so
 //! every lane's `t`, `u`, `v` and facing are bit for bit the scalar ones
 //! (Rust never fuses a multiply and an add; division is correctly rounded
 //! in both). Lanes whose edge functions hit exactly zero are redone in f64,
@@ -11,8 +11,8 @@
 //! Unused lanes have NaN corners (no comparison with NaN holds, so they
 //! never hit) and vertex and triangle ids `u32::MAX`. Lengths in metres.
 
-use crate::kdtree::triangle::{intersect, RayShear};
-use crate::kdtree::KdTriangle;
+use crate::trace::ray::{RayShear, intersect};
+use crate::trace::ray::KdTriangle;
 use glam::Vec3;
 
 /// Triangles per block.

@@ -21,7 +21,7 @@
 //! fallback, all with the same arithmetic and so the same hits). Leaves
 //! hold their triangles in blocks of eight ([`Block8`], tested in one pass
 //! of 8-lane operations, [`leaf`]) with the same watertight test as the
-//! kd-tree ([`crate::kdtree::triangle::intersect`]); hits equal the
+//! kd-tree ([`crate::trace::ray::intersect`]); hits equal the
 //! kd-tree's and brute force's (nearest `t`, ties by triangle id).
 //!
 //! Deforming meshes ([`refit`]): with unchanged topology the boxes are

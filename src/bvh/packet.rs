@@ -25,8 +25,8 @@ use super::traverse::{Avx2, Avx512};
 use super::traverse::{NodeTest, Portable, Walker, CULL, ROBUST, STACK};
 use super::{is_leaf, Bvh, Isa, EMPTY};
 use crate::kdtree::traverse::closer;
-use crate::kdtree::triangle::{Hit, RayShear};
-use crate::kdtree::Ray;
+use crate::trace::ray::{Hit, RayShear};
+use crate::trace::ray::Ray;
 use glam::Vec3;
 
 /// Rays walked together: a 4x4 block of a vertex's direction set.

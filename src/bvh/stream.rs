@@ -14,7 +14,7 @@
 use super::traverse::{Avx2, Avx512};
 use super::traverse::{NodeTest, Portable, Walker};
 use super::{Bvh, Isa, EMPTY};
-use crate::kdtree::{Hit, Ray};
+use crate::trace::ray::{Hit, Ray};
 use glam::Vec3;
 
 /// Rays walked at once. Measured on this project's 2-core Zen 4 VM,

@@ -28,8 +28,8 @@
 use super::leaf::{intersect8_portable, Block8, Hits8};
 use super::{is_leaf, leaf_range, Bvh, Node8};
 use crate::kdtree::traverse::closer;
-use crate::kdtree::triangle::{Hit, RayShear};
-use crate::kdtree::Ray;
+use crate::trace::ray::{Hit, RayShear};
+use crate::trace::ray::Ray;
 use glam::Vec3;
 use std::mem::MaybeUninit;
 

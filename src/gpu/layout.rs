@@ -10,7 +10,9 @@
 #[cfg(any(test, feature = "internals"))]
 use crate::bvh::{Block8, Node8};
 #[cfg(any(test, feature = "internals"))]
-use crate::kdtree::{KdLeaf, KdNode, KdTriangle};
+use crate::kdtree::{KdLeaf, KdNode};
+#[cfg(any(test, feature = "internals"))]
+use crate::trace::ray::KdTriangle;
 #[cfg(any(test, feature = "internals"))]
 use crate::links::HitRecord;
 use bytemuck::{Pod, Zeroable};

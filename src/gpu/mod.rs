@@ -33,7 +33,7 @@ pub use gather::GpuLinks;
 pub use schedule::{shoot_links_gpu, DeviceShare, LogicalDevice, ScheduleParams};
 pub use tracer::{GpuTracer, GpuWalk};
 
-use crate::kdtree::{Hit, Ray};
+use crate::trace::ray::{Hit, Ray};
 use crate::links::HitRecord;
 use crate::trace::{OriginRays, Tracer};
 use layout::ShadowRay;

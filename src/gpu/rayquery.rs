@@ -24,7 +24,7 @@
 use super::buffers::checked;
 use super::context::GpuDevice;
 use crate::error::{Error, Result};
-use crate::kdtree::KdTriangle;
+use crate::trace::ray::KdTriangle;
 use glam::Vec3;
 use wgpu::util::DeviceExt;
 

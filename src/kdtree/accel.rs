@@ -16,7 +16,8 @@
 //!   bytes per started block of four references.
 
 use super::triangle::Tri4;
-use super::{KdLeaf, KdNode, KdTriangle, LEAF, NO_ROPE};
+use super::{KdLeaf, KdNode, LEAF, NO_ROPE};
+use crate::trace::ray::KdTriangle;
 
 /// Flag of a CPU rope that names a leaf (index in the low bits) instead of a node.
 pub const ROPE_LEAF: u32 = 0x8000_0000;

@@ -19,7 +19,8 @@
 //!   their indices shifted.
 
 use super::accel::ROPE_LEAF;
-use super::{ropes, Aabb, CpuAccel, KdBuildParams, KdLeaf, KdNode, KdStats, KdTree, KdTriangle, LEAF, NO_ROPE};
+use super::{ropes, Aabb, CpuAccel, KdBuildParams, KdLeaf, KdNode, KdStats, KdTree, LEAF, NO_ROPE};
+use crate::trace::ray::KdTriangle;
 use glam::Vec3;
 use rayon::prelude::*;
 use std::time::Instant;

@@ -58,10 +58,9 @@ pub mod validate;
 
 pub use accel::CpuAccel;
 use bytemuck::{Pod, Zeroable};
+use crate::trace::ray::KdTriangle;
 use glam::Vec3;
 
-pub use traverse::Ray;
-pub use triangle::Hit;
 
 /// `KdNode::kind` of a leaf; 0, 1 and 2 are the split axis of an inner node.
 pub const LEAF: u32 = 3;
@@ -98,27 +97,6 @@ pub struct KdLeaf {
     pub ropes: [u32; 6],
     /// Padding to 64 bytes.
     pub _pad: [u32; 2],
-}
-
-/// A triangle: its corners `v0, v1, v2` (counter-clockwise from the front;
-/// stored as corners, not edges, so triangles sharing an edge see the same
-/// floats and the watertight test leaves no cracks) and the solver vertex
-/// ids of its corners (48 bytes).
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
-pub struct KdTriangle {
-    /// Corner 0, metres.
-    pub v0: [f32; 3],
-    /// Solver vertex id of corner 0.
-    pub ia: u32,
-    /// Corner 1, metres.
-    pub v1: [f32; 3],
-    /// Solver vertex id of corner 1.
-    pub ib: u32,
-    /// Corner 2, metres.
-    pub v2: [f32; 3],
-    /// Solver vertex id of corner 2.
-    pub ic: u32,
 }
 
 /// Build parameters of the SAH kd-tree.

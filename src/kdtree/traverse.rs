@@ -14,68 +14,12 @@
 //! returns the same hit.
 
 use super::accel::{CpuLeaf, ROPE_LEAF};
-use super::triangle::{intersect4, Hit, RayShear};
+use super::triangle::intersect4;
+use crate::trace::ray::{Hit, Ray, RayShear};
 #[cfg(any(test, feature = "internals"))]
-use super::triangle::intersect;
+use crate::trace::ray::intersect;
 use super::{KdTree, LEAF, NO_ROPE};
 use glam::Vec3;
-
-/// No vertex to skip.
-pub const NO_SKIP: u32 = u32::MAX;
-
-/// A ray segment `origin + t * dir`, `t` in `[tmin, tmax]`.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Ray {
-    /// Origin, metres.
-    pub origin: Vec3,
-    /// Unit direction.
-    pub dir: Vec3,
-    /// Start of the segment along `dir`, metres.
-    pub tmin: f32,
-    /// End of the segment along `dir`, metres (infinite: unbounded).
-    pub tmax: f32,
-    /// Solver vertex whose incident triangles are ignored, or [`NO_SKIP`].
-    pub skip: u32,
-}
-
-impl Ray {
-    /// An unbounded ray from `origin` along the unit `dir` (`tmin` 0, no vertex skipped).
-    pub fn new(origin: Vec3, dir: Vec3) -> Ray {
-        Ray { origin, dir, tmin: 0.0, tmax: f32::INFINITY, skip: NO_SKIP }
-    }
-
-    /// The shadow segment from `origin` toward a point `dist` away along the
-    /// unit `dir`, from `tmin` (0, or a small offset off a vertex's own
-    /// surface) to `max(eps, 1e-4 dist)` short of the point, never below
-    /// `tmin`: the one rule of every shadow ray (light links, emitter links,
-    /// the near field's, the CPU renderer's). The relative margin keeps the
-    /// point's own surface off the segment where f32 rounding of a far
-    /// point exceeds `eps` (metres); an infinite `dist` (a directional
-    /// light) gives an unbounded segment; `skip` as in [`Ray::skip`].
-    #[inline]
-    pub fn shadow(origin: Vec3, dir: Vec3, dist: f32, eps: f32, tmin: f32, skip: u32) -> Ray {
-        let tmax = if dist.is_finite() { (dist - eps.max(1e-4 * dist)).max(tmin) } else { f32::INFINITY };
-        Ray { origin, dir, tmin, tmax, skip }
-    }
-
-    /// [`Ray::shadow`], or `None` where the point touches the origin
-    /// (`dist <= 2 eps`) or the direction is not finite: nothing can lie in
-    /// between, so the point counts as seen without a ray. The one home of
-    /// that guard (light links, emitter links, the near field's lights and
-    /// emitters).
-    #[inline]
-    pub fn shadow_checked(origin: Vec3, dir: Vec3, dist: f32, eps: f32, tmin: f32, skip: u32) -> Option<Ray> {
-        (dist > 2.0 * eps && dir.is_finite()).then(|| Ray::shadow(origin, dir, dist, eps, tmin, skip))
-    }
-
-    /// A segment of no length from `origin` along the unit `dir`, which
-    /// every tracer reports unoccluded: where [`Ray::shadow_checked`] finds
-    /// a touching point and the caller keeps one ray per sample.
-    #[inline]
-    pub fn touching(origin: Vec3, dir: Vec3, skip: u32) -> Ray {
-        Ray { origin, dir, tmin: 0.0, tmax: 0.0, skip }
-    }
-}
 
 /// The start leaves of rays leaving one origin, by direction octant
 /// (the leaf holding the origin depends on the direction only where the
@@ -437,6 +381,7 @@ pub fn brute_force(kd: &KdTree, ray: &Ray) -> Option<Hit> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::trace::ray::NO_SKIP;
 
     #[test]
     fn shadow_segments_stop_short_by_the_larger_margin() {

@@ -1,134 +1,10 @@
-//! Watertight ray-triangle intersection (Woop, Benthin & Wald 2013,
-//! "Watertight Ray/Triangle Intersection", JCGT 2(1)): the triangle is
-//! sheared into the ray's frame and the three edge functions are evaluated
-//! on the shared corner coordinates, falling back to f64 when one is exactly
-//! zero. A ray through a shared edge or vertex hits at least one of the
-//! triangles, so closed meshes have no cracks (Möller-Trumbore lets about
-//! one ray in 10^3-10^4 slip through edges of a regular grid).
-//!
-//! [`intersect4`] tests four triangles at once (SIMD lanes, structure of
-//! arrays) with exactly the operations of [`intersect`] in each lane, so
-//! every lane's result is bit for bit the scalar one.
-//!
-//! Two-sided: the hit records whether the ray met the front
-//! (counter-clockwise) face. A back face blocks the ray and brings no light
-//! (docs/DESIGN.md, units and conventions).
+//! Four triangles at once against one ray (SIMD lanes, structure of
+//! arrays) for the kd-tree's leaves: exactly the operations of the
+//! watertight test ([`crate::trace::ray::intersect`]) in each lane, so every
+//! lane's result is bit for bit the scalar one.
 
-use super::KdTriangle;
+use crate::trace::ray::RayShear;
 use glam::{Vec3, Vec4};
-
-/// Nearest hit of a ray: triangle id, barycentrics of corners 1 and 2
-/// (`1 - u - v` for corner 0), distance `t` in metres along a unit
-/// direction, and which face was met.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Hit {
-    /// The triangle's id.
-    pub tri: u32,
-    /// Barycentric weight of corner 1.
-    pub u: f32,
-    /// Barycentric weight of corner 2.
-    pub v: f32,
-    /// Distance along the ray, metres.
-    pub t: f32,
-    /// True if the ray met the front face (counter-clockwise side).
-    pub front: bool,
-}
-
-impl Hit {
-    /// Barycentric weights of the triangle's three corners.
-    #[inline]
-    pub fn barycentrics(&self) -> [f32; 3] {
-        [1.0 - self.u - self.v, self.u, self.v]
-    }
-}
-
-/// Per-ray constants of the watertight test: the permuted axes and shear.
-#[derive(Clone, Copy, Debug)]
-pub struct RayShear {
-    kx: usize,
-    ky: usize,
-    kz: usize,
-    sx: f32,
-    sy: f32,
-    sz: f32,
-}
-
-impl RayShear {
-    /// The permuted axes `(kx, ky, kz)`: `kz` is the direction's largest component.
-    #[inline(always)]
-    pub fn axes(&self) -> (usize, usize, usize) {
-        (self.kx, self.ky, self.kz)
-    }
-
-    /// Shear along x: `d[kx] / d[kz]`.
-    #[inline(always)]
-    pub fn sx(&self) -> f32 {
-        self.sx
-    }
-
-    /// Shear along y: `d[ky] / d[kz]`.
-    #[inline(always)]
-    pub fn sy(&self) -> f32 {
-        self.sy
-    }
-
-    /// Scale along z: `1 / d[kz]`.
-    #[inline(always)]
-    pub fn sz(&self) -> f32 {
-        self.sz
-    }
-
-    /// The shear constants of a ray with direction `d`.
-    #[inline]
-    pub fn new(d: Vec3) -> RayShear {
-        let kz = d.abs().max_position();
-        // An array: glam indexes a `Vec3` through a branching `match`.
-        let d = d.to_array();
-        let mut kx = (kz + 1) % 3;
-        let mut ky = (kx + 1) % 3;
-        if d[kz] < 0.0 {
-            std::mem::swap(&mut kx, &mut ky);
-        }
-        RayShear { kx, ky, kz, sx: d[kx] / d[kz], sy: d[ky] / d[kz], sz: 1.0 / d[kz] }
-    }
-}
-
-/// Intersects a ray (origin `o`, shear of its direction) with `tri`;
-/// returns `(t, u, v, front)` for `t` in `[tmin, tmax]`.
-#[inline(always)]
-pub fn intersect(tri: &KdTriangle, o: Vec3, s: &RayShear, tmin: f32, tmax: f32) -> Option<(f32, f32, f32, bool)> {
-    let a = Vec3::from(tri.v0) - o;
-    let b = Vec3::from(tri.v1) - o;
-    let c = Vec3::from(tri.v2) - o;
-    let (ax, ay) = (a[s.kx] - s.sx * a[s.kz], a[s.ky] - s.sy * a[s.kz]);
-    let (bx, by) = (b[s.kx] - s.sx * b[s.kz], b[s.ky] - s.sy * b[s.kz]);
-    let (cx, cy) = (c[s.kx] - s.sx * c[s.kz], c[s.ky] - s.sy * c[s.kz]);
-    let mut u = cx * by - cy * bx;
-    let mut v = ax * cy - ay * cx;
-    let mut w = bx * ay - by * ax;
-    if u == 0.0 || v == 0.0 || w == 0.0 {
-        let (ax, ay, bx, by, cx, cy) = (ax as f64, ay as f64, bx as f64, by as f64, cx as f64, cy as f64);
-        u = (cx * by - cy * bx) as f32;
-        v = (ax * cy - ay * cx) as f32;
-        w = (bx * ay - by * ax) as f32;
-    }
-    if (u < 0.0 || v < 0.0 || w < 0.0) && (u > 0.0 || v > 0.0 || w > 0.0) {
-        return None;
-    }
-    let det = u + v + w;
-    if det == 0.0 {
-        return None;
-    }
-    let t_scaled = s.sz * (u * a[s.kz] + v * b[s.kz] + w * c[s.kz]);
-    let inv = 1.0 / det;
-    let t = t_scaled * inv;
-    if !(t >= tmin && t <= tmax) {
-        return None;
-    }
-    // det > 0: the corners run counter-clockwise as seen along the ray, i.e.
-    // the ray meets the front face.
-    Some((t, v * inv, w * inv, det > 0.0))
-}
 
 /// Four triangles' corners as structure of arrays, `v[corner][axis][lane]`
 /// (the CPU walk's leaf blocks; unused lanes are zero).
@@ -201,6 +77,7 @@ pub fn intersect4(tri: &Tri4, lanes: u32, o: Vec3, s: &RayShear, tmin: f32, tmax
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::trace::ray::{intersect, KdTriangle};
     use rand::{Rng, SeedableRng};
 
     fn tri(a: Vec3, b: Vec3, c: Vec3) -> KdTriangle {

@@ -28,7 +28,7 @@
 //! and the probe looks through dynamic meshes (what moves could uncover a
 //! vertex), so a deformation needs no new probe. Lengths in metres.
 
-use crate::kdtree::traverse::Ray;
+use crate::trace::ray::Ray;
 use crate::sampling::stream::{cosine_direction, splitmix64};
 use crate::scene::prep::PreparedScene;
 use crate::trace::{CpuTracer, RAY_OFFSET};

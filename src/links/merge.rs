@@ -43,7 +43,7 @@ pub struct HitRecord {
 impl HitRecord {
     /// The record of a traced ray's hit ([`HIT_MISS`] with `t = inf` for none).
     #[inline]
-    pub fn of(hit: Option<crate::kdtree::Hit>) -> HitRecord {
+    pub fn of(hit: Option<crate::trace::ray::Hit>) -> HitRecord {
         match hit {
             None => HitRecord { tri: HIT_MISS, u: 0.0, v: 0.0, t: f32::INFINITY },
             Some(h) => HitRecord { tri: if h.front { h.tri } else { h.tri | HIT_BACK }, u: h.u, v: h.v, t: h.t },
@@ -53,8 +53,8 @@ impl HitRecord {
     /// The hit this record names (`None` for a miss or a record that is
     /// not a traced hit): the inverse of [`HitRecord::of`].
     #[inline]
-    pub fn hit(self) -> Option<crate::kdtree::Hit> {
-        (self.tri != HIT_MISS).then(|| crate::kdtree::Hit {
+    pub fn hit(self) -> Option<crate::trace::ray::Hit> {
+        (self.tri != HIT_MISS).then(|| crate::trace::ray::Hit {
             tri: self.tri & !HIT_BACK,
             u: self.u,
             v: self.v,

@@ -8,7 +8,7 @@
 //! whose origin and direction did not change meets what it met before, on
 //! the piece that holds the old hit point. The piece is found by the one
 //! watertight triangle test every tracer uses
-//! ([`crate::kdtree::triangle::intersect`]) on the old triangle's pieces
+//! ([`crate::trace::ray::intersect`]) on the old triangle's pieces
 //! (the nearest, the first in piece order on an exact tie), which gives
 //! the tracer's `(u, v, t)` bit for bit; the records then go through the
 //! one merge every link build uses (`links::shoot::links_from_records`),

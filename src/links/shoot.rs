@@ -23,7 +23,7 @@ use super::assemble::{CsrBuilder, GroupRun};
 use super::merge::RayHits;
 use super::merge::{HitRecord, HIT_BACK};
 use super::Links;
-use crate::kdtree::Hit;
+use crate::trace::ray::Hit;
 use crate::sampling::{vertex_frame, vertex_rotations_and_sets, world_direction, DirectionSet};
 use crate::scene::prep::PreparedScene;
 use crate::trace::{CpuTracer, OriginRays, Tracer};

@@ -4,7 +4,7 @@
 //! sampling, Russian roulette. Irradiance in W/m^2, lengths in metres.
 
 use super::ReferenceParams;
-use crate::kdtree::traverse::{Ray, NO_SKIP};
+use crate::trace::ray::{NO_SKIP, Ray};
 use crate::sampling::{basis, cosine_hemisphere, Stream};
 use crate::scene::prep::PreparedScene;
 use crate::scene::Light;

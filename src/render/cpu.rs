@@ -11,8 +11,8 @@
 use super::{pixel_ray, Frame, HdrImage, RenderParams, RenderStats, View};
 use crate::bvh::{Bvh, BvhBuildParams};
 use crate::exchange::bounce::operator::radiosity;
-use crate::kdtree::traverse::NO_SKIP;
-use crate::kdtree::Ray;
+use crate::trace::ray::NO_SKIP;
+use crate::trace::ray::Ray;
 use crate::scene::Light;
 use crate::trace::CpuTracer;
 use glam::Vec3;

@@ -35,7 +35,7 @@
 //! it moves toward the target (to 70% of its offset, up to eight times).
 //! Distances are metres; angles degrees.
 
-use crate::kdtree::Ray;
+use crate::trace::ray::Ray;
 use crate::scene::prep::PreparedScene;
 use crate::scene::Camera;
 use crate::trace::CpuTracer;

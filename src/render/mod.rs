@@ -222,14 +222,14 @@ pub fn camera_matrices(c: &Camera, aspect: f32, far: f32) -> (Mat4, Mat4) {
 
 /// The primary ray through the centre of pixel `(x, y)` (rows top to bottom)
 /// of a `width` x `height` image; `extent` is the scene's diagonal (sets the far plane).
-pub fn pixel_ray(c: &Camera, width: u32, height: u32, extent: f32, x: u32, y: u32) -> crate::kdtree::Ray {
+pub fn pixel_ray(c: &Camera, width: u32, height: u32, extent: f32, x: u32, y: u32) -> crate::trace::ray::Ray {
     let (view, proj) = camera_matrices(c, width as f32 / height as f32, extent * 4.0);
     let inv = (proj * view).inverse();
     let ndc_x = (x as f32 + 0.5) / width as f32 * 2.0 - 1.0;
     let ndc_y = 1.0 - (y as f32 + 0.5) / height as f32 * 2.0;
     let far = inv * glam::Vec4::new(ndc_x, ndc_y, 1.0, 1.0);
     let dir = (far.truncate() / far.w - c.position).normalize();
-    crate::kdtree::Ray::new(c.position, dir)
+    crate::trace::ray::Ray::new(c.position, dir)
 }
 
 /// +y, or +z when looking straight up or down.

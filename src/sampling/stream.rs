@@ -90,8 +90,10 @@ impl Stream {
     /// ([`crate::links::near::NearRule`]).
     pub const NEAR_KEEP: Stream = Stream(0x1f83_d9ab_fb41_bd6b);
     /// The reference path tracer's per-vertex paths ([`crate::reference`]).
+    #[cfg(any(test, feature = "cli", feature = "internals"))]
     pub const REFERENCE: Stream = Stream(0x5be0_cd19_1f83_d9ab);
     /// The reference path tracer's per-pixel paths ([`crate::reference`]).
+    #[cfg(any(test, feature = "cli", feature = "internals"))]
     pub const REFERENCE_PIXELS: Stream = Stream(0xcbbb_9d5d_c105_9ed8);
 
     /// `seed` with the stream's salt: the seed of this stream.

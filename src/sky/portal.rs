@@ -58,7 +58,7 @@
 //! renderers' name for the same thing (pbrt-v4's portal of an image
 //! light, Cycles' portal lights).
 
-use crate::kdtree::Ray;
+use crate::trace::ray::Ray;
 use crate::links::RaySetup;
 use crate::sampling::stream::Stream;
 use crate::scene::prep::PreparedScene;

@@ -44,7 +44,7 @@ use super::portal::{through_any, Portal};
 use super::visibility::{RayFrames, SkyVisibility};
 use super::Sky;
 use crate::csr::{Csr, RowBuilder};
-use crate::kdtree::Ray;
+use crate::trace::ray::Ray;
 use crate::links::RaySetup;
 use crate::sampling::stream::Stream;
 use crate::sampling::{block_order, cosine_hemisphere, vertex_frame, world_direction};

@@ -11,16 +11,21 @@
 //! [`Accel`] is the CPU structure a solver built, chosen by
 //! [`TracerKind`] (`tracer = "auto" | "bvh" | "kd" | "rq"` in the scene TOML, `--tracer`).
 //!
-//! Every tracer uses the same watertight triangle test
-//! ([`crate::kdtree::triangle`]) and orders hits with equal `t` by triangle
+//! The core every tracer shares lives in [`ray`]: the ray segment and its
+//! one shadow-segment rule, the hit, the triangle as traced and the
+//! watertight triangle test; the kd-tree and the BVH import it, and only
+//! this module's [`Accel`] imports them. Every tracer orders hits with equal `t` by triangle
 //! id, so they return the same hit for the same ray (up to the documented
 //! rope-walk ties of [`crate::kdtree`]). Distances are metres along unit
 //! directions.
 
 use crate::bvh::Bvh;
-use crate::kdtree::{Hit, KdTree, Ray};
+use crate::kdtree::KdTree;
+use crate::trace::ray::{Hit, Ray};
 use glam::Vec3;
 use rayon::prelude::*;
+
+pub mod ray;
 
 pub use crate::scene::TracerKind;
 

@@ -116,7 +116,7 @@ pub fn grid(n: u32, axis: usize, at: f32, pos: &mut Vec<Vec3>, tris: &mut Vec<[u
 /// Random rays over the unit cube: every 7th axis-parallel, every 3rd a
 /// segment, every 4th with a positive `tmin`, every 5th skipping a vertex
 /// below `skip_max`.
-pub fn random_rays(rng: &mut rand_pcg::Pcg32, count: usize, skip_max: u32) -> Vec<linkgi::kdtree::Ray> {
+pub fn random_rays(rng: &mut rand_pcg::Pcg32, count: usize, skip_max: u32) -> Vec<linkgi::trace::ray::Ray> {
     use rand::Rng;
     (0..count)
         .map(|i| {
@@ -129,7 +129,7 @@ pub fn random_rays(rng: &mut rand_pcg::Pcg32, count: usize, skip_max: u32) -> Ve
             } else {
                 rvec(rng, -1.0, 1.0).normalize()
             };
-            let mut r = linkgi::kdtree::Ray::new(origin, dir);
+            let mut r = linkgi::trace::ray::Ray::new(origin, dir);
             if i % 3 == 0 {
                 r.tmax = rng.random_range(0.1..2.0);
             }

@@ -49,7 +49,7 @@ use super::{hit_albedo, hit_frame, trace_by_vertex, Bounce, Cost, Fields, NearTe
 use crate::csr::{Csr, RowBuilder};
 use crate::exchange::sources::emitter_geometry::{form_factor, polygon_point, Emitter};
 use crate::exchange::sources::emitter_links::{emitters_of, EmitterLinks};
-use crate::kdtree::traverse::{Ray, NO_SKIP};
+use crate::trace::ray::{NO_SKIP, Ray};
 use crate::links::near::triangle_ranks;
 use crate::links::{NearHit, NearHits};
 use crate::sampling::stream::{fold, splitmix64, unit, Stream};

@@ -39,8 +39,8 @@
 //! the links' interpolation is known to fail (near hits).
 
 use super::{correct_by_hits, hit_origin, trace_by_vertex, Bounce, Cost, Fields, NearChange, NearTerm, Shape};
-use crate::kdtree::traverse::{Ray, NO_SKIP};
-use crate::kdtree::Hit;
+use crate::trace::ray::{NO_SKIP, Ray};
+use crate::trace::ray::Hit;
 use crate::links::near::triangle_ranks;
 use crate::links::{NearHit, NearHits};
 use crate::sampling::stream::{cosine_direction, splitmix64, Stream};

@@ -37,7 +37,7 @@
 
 use super::{correct_by_hits, hit_frame, Bounce, Cost, Fields, NearChange, NearTerm, Shape, BATCH_HITS};
 use crate::exchange::sources::light_links::{geometry, same_column, toward, LightLinkParams};
-use crate::kdtree::traverse::{Ray, NO_SKIP};
+use crate::trace::ray::{NO_SKIP, Ray};
 use crate::links::{NearHit, NearHits};
 use crate::scene::{prep::PreparedScene, Light};
 use crate::trace::{Tracer, RAY_OFFSET};

@@ -35,7 +35,7 @@
 //! ([`crate::links::near::triangle_ranks`], [`crate::sampling::Stream::hit_key`]) and the
 //! interpolated term ([`albedo_and_interpolated`]). Lengths in metres.
 
-use crate::kdtree::{Hit, Ray};
+use crate::trace::ray::{Hit, Ray};
 use crate::links::{NearHit, NearHits};
 use crate::scene::motion::Motion;
 use crate::scene::prep::PreparedScene;

@@ -54,7 +54,7 @@
 use super::{albedo_and_interpolated, hit_albedo, hit_origin, trace_by_vertex};
 use super::{Bounce, Cost, Fields, NearTerm, Shape};
 use crate::csr::{Csr, RowBuilder};
-use crate::kdtree::traverse::{Ray, NO_SKIP};
+use crate::trace::ray::{NO_SKIP, Ray};
 use crate::links::near::triangle_ranks;
 use crate::links::{NearHit, NearHits};
 use crate::sampling::stream::{cosine_direction, fold, Stream};

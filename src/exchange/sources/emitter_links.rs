@@ -81,7 +81,7 @@
 use super::emitter_geometry::{Emitter, EmitterMesh};
 use super::emitter_rays::{finish_vertex, vertex_rays, Scratch, VertexRays};
 use crate::csr::{Csr, RowBuilder};
-use crate::kdtree::traverse::Ray;
+use crate::trace::ray::Ray;
 use crate::links::Lineage;
 use crate::scene::prep::PreparedScene;
 use crate::trace::Tracer;

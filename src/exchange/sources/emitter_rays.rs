@@ -8,7 +8,7 @@
 //! rays' visibility. Unitless factors; positions in metres.
 
 use super::emitter_geometry::{polygon_point, seen_polygon, Emitter, EmitterMesh, FormFactorScratch};
-use crate::kdtree::traverse::Ray;
+use crate::trace::ray::Ray;
 use crate::links::shoot::ray_origin;
 use crate::sampling::stream::Stream;
 use crate::scene::prep::PreparedScene;

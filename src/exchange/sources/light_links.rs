@@ -62,7 +62,7 @@
 //! (`cos = 0`) and lights that vertex not at all; one just above it gives
 //! at most `I / (min_distance * l)^2`.
 
-use crate::kdtree::traverse::Ray;
+use crate::trace::ray::Ray;
 use crate::links::shoot::ray_origin;
 use crate::links::Lineage;
 use crate::scene::motion::Motion;

@@ -6,8 +6,8 @@
 //! few rays ([`shoot_groups`]), traced the same way.
 
 use super::{Context, Scratch};
-use crate::kdtree::traverse::Ray;
-use crate::kdtree::Hit;
+use crate::trace::ray::Ray;
+use crate::trace::ray::Hit;
 use crate::links::merge::{merge_vertex, HitRecord, MergeScratch};
 use crate::links::shoot::RaySetup;
 use crate::links::LinkParams;

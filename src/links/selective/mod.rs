@@ -10,7 +10,7 @@
 //! `HIT_MISS`), 4 bytes a ray, and every link's fixed-point sum
 //! ([`super::merge`]), 4 bytes a link. Barycentrics and distances are not
 //! stored: an old hit is recomputed with one watertight triangle test
-//! ([`crate::kdtree::triangle::intersect`], the test every tracer uses) on
+//! ([`crate::trace::ray::intersect`], the test every tracer uses) on
 //! the triangle where it was (old positions for a moved triangle), so it
 //! is bit for bit the traced one.
 //!
@@ -49,9 +49,9 @@ use super::near::{push_near, NearHit, NearHits, NearRule};
 use super::shoot::{RaySetup, TraceScratch};
 use super::{LinkParams, Links};
 use crate::bvh::{Bvh, BvhBuildParams};
-use crate::kdtree::traverse::Ray;
-use crate::kdtree::triangle::{intersect, RayShear};
-use crate::kdtree::{Hit, KdTriangle};
+use crate::trace::ray::Ray;
+use crate::trace::ray::{RayShear, intersect};
+use crate::trace::ray::{Hit, KdTriangle};
 use crate::sampling::world_direction;
 use crate::scene::motion::Motion;
 use crate::scene::prep::PreparedScene;
