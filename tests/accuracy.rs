@@ -240,17 +240,27 @@ fn hidden_substitution_in_the_bounces_equals_the_post_pass() {
 /// Cornell box comes out dark on average, by more than the reference's
 /// noise allows; the gradient correction moves the mean at least half of
 /// the way to the reference's and not past it. 1024 rays a vertex,
-/// unsmoothed, against a 1024-path reference (measured: -0.21% without,
-/// +0.00% with, the reference's mean good to 0.07%; the difference of the
-/// two does not depend on the reference).
+/// unsmoothed, against the mean of three 1024-path references (seeds 1-3).
+/// One reference is not enough: their means spread by 0.23% (24744.8,
+/// 24721.4, 24688.4 summed over the vertices) where each one's stratum
+/// pairs claim 0.07%, and against seed 1 alone the correction's move
+/// (0.21%, which does not depend on the reference) fell just short of half
+/// the bias (-0.41% without, -0.21% with). The noise used is the larger of
+/// the pairs' and the seeds' spread.
 #[test]
 fn gradient_correction_shrinks_the_dark_bias() {
     let scene = prep::prepare(&builtin::builtin("cornell").unwrap()).unwrap();
-    let params = ReferenceParams { samples_per_vertex: 1024, ..Default::default() };
-    let r = reference::compute_cached(&scene, &params, &reference::cache::default_dir());
     let sum = |x: &[Vec3]| x.iter().map(|v| v.element_sum() as f64).sum::<f64>();
-    let reference = sum(&r.e_indirect);
-    let sd = r.e_indirect_stderr.iter().map(|s| s.length_squared() as f64).sum::<f64>().sqrt() / reference;
+    let (mut means, mut pair_var) = (Vec::new(), 0.0);
+    for seed in 1..=3 {
+        let params = ReferenceParams { samples_per_vertex: 1024, seed, ..Default::default() };
+        let r = reference::compute_cached(&scene, &params, &reference::cache::default_dir());
+        means.push(sum(&r.e_indirect));
+        pair_var += r.e_indirect_stderr.iter().map(|s| s.length_squared() as f64).sum::<f64>();
+    }
+    let reference = means.iter().sum::<f64>() / 3.0;
+    let spread = (means.iter().map(|m| (m - reference).powi(2)).sum::<f64>() / 2.0).sqrt();
+    let sd = (pair_var.sqrt() / 3.0).max(spread / 3f64.sqrt()) / reference;
     let mut s = scene.settings;
     s.rays_per_vertex = 1024;
     s.bounces = Bounces::Auto;
