@@ -168,7 +168,25 @@ impl Plan {
 
 /// Prepares and solves `desc` (as loaded), refining its coarse meshes
 /// where the light needs it (by `desc.settings.refine`; once, unrefined,
-/// when it is off or nothing is coarse).
+/// when it is off or nothing is coarse): what `linkgi solve` does.
+///
+/// ```no_run
+/// use linkgi::{export_solution, load_scene, solve, Compute};
+/// use std::path::Path;
+///
+/// let desc = load_scene("cornell")?;
+/// let linkgi::Refined { mut solver, solution, rounds, .. } = solve(&desc, &Compute::Cpu, &|_, _| {})?;
+/// let stats = solver.stats(&solution, 0.0);
+/// println!("{} rounds, {} vertices, {} bounces", rounds.len(), stats.vertices, stats.bounces);
+/// export_solution(Path::new("out/export"), solver.scene(), &solution, &stats)?;
+///
+/// // Move a light: only its shadow rays are traced again.
+/// let mut lights = solver.scene().lights().to_vec();
+/// lights[0] = lights[0].moved(glam::Vec3::new(0.2, 0.0, 0.0));
+/// solver.set_lights(lights);
+/// println!("vertex 0 now: {:?} W/m^2", solver.solve().total()[0]);
+/// # Ok::<(), linkgi::Error>(())
+/// ```
 pub fn solve(desc: &SceneDesc, compute: &Compute, progress: &(dyn Fn(usize, usize) + Sync)) -> crate::Result<Refined> {
     let plan = Plan::of(desc);
     let current = if plan.refining { refine::apriori(desc, &desc.settings.refine).0 } else { desc.clone() };

@@ -36,18 +36,22 @@ pub enum Compute {
     Gpu(GpuCompute),
 }
 
-/// The GPU devices of a solve and how to split them.
-#[derive(Clone, Debug)]
-pub struct GpuCompute {
-    /// The opened adapters.
-    pub devices: Vec<Arc<GpuDevice>>,
-    /// Logical devices per adapter (`--devices N`: the scheduler splits work between them).
-    pub logical_per_device: usize,
-    /// Artificial extra time per vertex for each logical device, in order
-    /// (the scheduler's tests: [`GpuCompute::with_delays`]).
-    delays: Vec<Duration>,
-    /// How vertex batches are split between the logical devices.
-    pub schedule: ScheduleParams,
+internal_fields! {
+    /// The GPU devices of a solve and how to split them (built with
+    /// [`GpuCompute::new`] and its `with_` methods, which keep at least one
+    /// logical device an adapter).
+    #[derive(Clone, Debug)]
+    pub struct GpuCompute {
+        /// The opened adapters.
+        pub devices: Vec<Arc<GpuDevice>>,
+        /// Logical devices per adapter (`--devices N`: the scheduler splits work between them).
+        pub logical_per_device: usize,
+        /// Artificial extra time per vertex for each logical device, in order
+        /// (the scheduler's tests: `GpuCompute::with_delays`).
+        pub delays: Vec<Duration>,
+        /// How vertex batches are split between the logical devices.
+        pub schedule: ScheduleParams,
+    }
 }
 
 impl GpuCompute {
@@ -57,10 +61,21 @@ impl GpuCompute {
         GpuCompute { devices, logical_per_device: 1, delays: Vec::new(), schedule: ScheduleParams::default() }
     }
 
-    /// `logical` logical devices per adapter (`--devices N`).
+    /// `logical` logical devices per adapter (`--devices N`; at least 1).
     pub fn with_logical(mut self, logical: usize) -> GpuCompute {
         self.logical_per_device = logical.max(1);
         self
+    }
+
+    /// Vertex batches split between the logical devices by `schedule`.
+    pub fn with_schedule(mut self, schedule: ScheduleParams) -> GpuCompute {
+        self.schedule = schedule;
+        self
+    }
+
+    /// The adapters it runs on.
+    pub fn devices(&self) -> &[Arc<GpuDevice>] {
+        &self.devices
     }
 
     /// Test hook (feature `internals`): extra time per vertex for each

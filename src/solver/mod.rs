@@ -163,19 +163,18 @@ impl Solver {
         s
     }
 
-    internal! {
-        /// Builds everything on `compute`: on a GPU, the structure
-        /// `params.tracer` names ([`GpuWalk::choose`]) on the CPU and uploaded to each
-        /// logical device, the links on the GPU's logical devices, and every
-        /// traced part on the GPU tracer.
-        pub fn new_on(
-            scene: PreparedScene,
-            params: SolveParams,
-            compute: &Compute,
-            progress: &(dyn Fn(usize, usize) + Sync),
-        ) -> crate::Result<Solver> {
-            Solver::new_tracing(scene, params, compute, progress, &Part::ALL)
-        }
+    /// Builds everything on `compute`: on a GPU, the structure
+    /// `params.tracer` names on the CPU and uploaded to each logical
+    /// device, the links on the GPU's logical devices, and every traced
+    /// part on the GPU tracer. Fails where the GPU does (no device, a
+    /// driver that cannot build the structure).
+    pub fn new_on(
+        scene: PreparedScene,
+        params: SolveParams,
+        compute: &Compute,
+        progress: &(dyn Fn(usize, usize) + Sync),
+    ) -> crate::Result<Solver> {
+        Solver::new_tracing(scene, params, compute, progress, &Part::ALL)
     }
 
     /// [`Solver::new_on`] with only the traced `parts` traced.
