@@ -513,3 +513,16 @@ fn window_draws_emitters_and_sky() {
     let (img, _) = render_cpu(&Frame::of(&dark, &zeros, camera), &p, None).unwrap();
     assert!(img.pixels.iter().all(|px| *px == Vec3::ZERO));
 }
+
+/// An image's size is its pixels': `HdrImage::new` refuses a buffer of
+/// another length (the pixel lookup and the PNG and EXR writers index by
+/// the size), and keeps one of the right length as given.
+#[test]
+fn hdr_images_hold_width_times_height_pixels() {
+    let px: Vec<Vec3> = (0..6).map(|i| Vec3::splat(i as f32)).collect();
+    assert!(HdrImage::new(2, 2, px.clone()).is_none());
+    assert!(HdrImage::new(4, 2, px.clone()).is_none());
+    let img = HdrImage::new(3, 2, px.clone()).expect("3 x 2 pixels");
+    assert_eq!((img.width(), img.height(), img.pixels()), (3, 2, px.as_slice()));
+    assert_eq!(img.at(2, 1), Vec3::splat(5.0));
+}

@@ -241,18 +241,41 @@ pub fn up_for(forward: Vec3) -> Vec3 {
     }
 }
 
-/// Linear radiance per pixel, rows top to bottom.
-#[derive(Clone, Debug, PartialEq)]
-pub struct HdrImage {
-    /// Width in pixels.
-    pub width: u32,
-    /// Height in pixels.
-    pub height: u32,
-    /// Linear radiance per pixel before exposure and tone mapping, `width * height` of them, rows top to bottom.
-    pub pixels: Vec<Vec3>,
+internal_fields! {
+    /// Linear radiance per pixel, rows top to bottom.
+    #[derive(Clone, Debug, PartialEq)]
+    pub struct HdrImage {
+        /// Width in pixels.
+        pub width: u32,
+        /// Height in pixels.
+        pub height: u32,
+        /// Linear radiance per pixel before exposure and tone mapping, `width * height` of them, rows top to bottom.
+        pub pixels: Vec<Vec3>,
+    }
 }
 
 impl HdrImage {
+    /// An image of `width x height` pixels of linear radiance, rows top to
+    /// bottom; `None` where `pixels` does not hold `width * height` of them.
+    pub fn new(width: u32, height: u32, pixels: Vec<Vec3>) -> Option<HdrImage> {
+        (pixels.len() as u64 == u64::from(width) * u64::from(height)).then_some(HdrImage { width, height, pixels })
+    }
+
+    /// Width in pixels.
+    pub fn width(&self) -> u32 {
+        self.width
+    }
+
+    /// Height in pixels.
+    pub fn height(&self) -> u32 {
+        self.height
+    }
+
+    /// Linear radiance per pixel, W/(m^2 sr), rows top to bottom.
+    pub fn pixels(&self) -> &[Vec3] {
+        &self.pixels
+    }
+
     /// The pixel at column `x`, row `y` (row 0 at the top).
     pub fn at(&self, x: u32, y: u32) -> Vec3 {
         self.pixels[(y * self.width + x) as usize]
