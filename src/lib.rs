@@ -9,10 +9,14 @@
 //!   [`Material`], [`Light`], [`Sky`], [`Camera`], [`Settings`]);
 //!   [`SceneBuilder`] builds one from the caller's own arrays; [`prepare`]
 //!   turns it into the lighting mesh, a [`PreparedScene`].
-//! - **Solving**: a [`Solver`] holds the scene, its ray tracer and links
-//!   ([`SolveParams`] and its presets, [`Terms`], [`TracerKind`],
-//!   [`Backend`]); [`Solver::solve`] gives a [`Solution`] (irradiance per
-//!   lighting-mesh vertex, W/m^2). [`Engine`] runs a solver on its own
+//! - **Solving**: [`solve`] prepares a scene, refines its coarse meshes
+//!   where the light needs it and solves it, as `linkgi solve` does. A
+//!   [`Solver`] holds the scene, its ray tracer and links ([`SolveParams`]
+//!   and its presets, the stages' parameters in [`params`], [`Terms`],
+//!   [`TracerKind`], [`Backend`], [`Compute`]); [`Solver::solve`] gives a
+//!   [`Solution`] (irradiance per lighting-mesh vertex, W/m^2;
+//!   [`export_solution`] writes it), [`Solver::stats`] its figures
+//!   ([`SolveStats`], [`stats`]). [`Engine`] runs a solver on its own
 //!   thread and takes [`Change`]s (lights moved, meshes deformed) while the
 //!   caller draws the newest [`GiResult`].
 //! - **Pictures**: [`Renderer`] draws a [`Frame`] into an [`HdrImage`];
