@@ -77,7 +77,8 @@
 
 /// Methods the API does not offer but the integration tests and benches
 /// call: `pub(crate)`, or `pub` and hidden from the docs with the
-/// `internals` feature.
+/// `internals` feature. Some are read only by the CLI's harnesses, so
+/// without the `cli` feature they are allowed to be unused.
 macro_rules! internal {
     ($($(#[$attr:meta])* pub fn $name:ident ($($args:tt)*) $(-> $ret:ty)? $body:block)*) => {$(
         $(#[$attr])*

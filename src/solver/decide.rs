@@ -35,7 +35,7 @@ use crate::csr::RowBuilder;
 use crate::exchange::near::{Bounce, NearField};
 use crate::links::NearHits;
 use crate::render::exposure::luminance;
-use crate::sampling::stream::{splitmix64, unit, Stream};
+use crate::sampling::stream::{unit, Stream};
 use crate::scene::terms::Terms;
 use glam::Vec3;
 
@@ -198,10 +198,9 @@ impl Solver {
 fn sample(near: &NearHits, n: usize, seed: u64) -> (NearHits, usize) {
     let with_hits = (0..n).filter(|&v| !near.of(v).is_empty()).count();
     let share = SAMPLE_SHARE.max(SAMPLE_MIN as f32 / with_hits.max(1) as f32).min(1.0);
-    let key = Stream::TERM_SAMPLE.key(seed);
     let mut rows = RowBuilder::new();
     for v in 0..n {
-        if unit(splitmix64(key ^ v as u64)) < share {
+        if unit(Stream::TERM_SAMPLE.hash(seed, &[v as u64])) < share {
             rows.extend(near.of(v).iter().copied());
         }
         rows.end_row();

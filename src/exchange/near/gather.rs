@@ -43,7 +43,7 @@ use crate::trace::ray::{NO_SKIP, Ray};
 use crate::trace::ray::Hit;
 use crate::links::near::triangle_ranks;
 use crate::links::{NearHit, NearHits};
-use crate::sampling::stream::{cosine_direction, splitmix64, Stream};
+use crate::sampling::stream::{cosine_direction, fold, Stream};
 use crate::scene::prep::PreparedScene;
 use crate::trace::{Tracer, RAY_OFFSET};
 use glam::Vec3;
@@ -350,7 +350,7 @@ fn gather_rays(
     let key = Stream::NEAR_GATHER.hit_key(seed, v, h.tri, rank);
     (0..params.rays)
         .map(|j| {
-            cosine_direction(splitmix64(key ^ u64::from(j)), normal).map(|dir| Ray {
+            cosine_direction(fold(key, &[u64::from(j)]), normal).map(|dir| Ray {
                 origin,
                 dir,
                 tmin: 0.0,
