@@ -39,7 +39,7 @@ use std::time::{Duration, Instant};
 fn solver_of(desc: &SceneDesc) -> Solver {
     let scene = prep::prepare(desc).unwrap();
     let params = SolveParams::from_settings(&scene.settings);
-    Solver::new(scene, params, &|_, _| {})
+    Solver::new(scene, params, &|_, _| {}).unwrap()
 }
 
 fn light_move(c: &mut Criterion) {
@@ -130,7 +130,7 @@ fn deform(c: &mut Criterion) {
     };
     let poses = [at(0.0), at(linkgi::bench::DEFORM_TIME_S)];
     let params = SolveParams::from_settings(&rest.settings);
-    let mut solver = Some(Solver::new(poses[0].clone(), params, &|_, _| {}));
+    let mut solver = Some(Solver::new(poses[0].clone(), params, &|_, _| {}).unwrap());
     let mut g = c.benchmark_group("deform/dancer");
     g.sample_size(10).measurement_time(Duration::from_secs(30)).warm_up_time(Duration::from_secs(2));
     // Back and forth between the poses; the scenes are cloned outside the timing.
@@ -161,7 +161,8 @@ fn deform(c: &mut Criterion) {
 }
 
 fn refine_round(c: &mut Criterion) {
-    use linkgi::links::{reassign_links, shoot_links_recording, Lineage};
+    use linkgi::links::{reassign_links, shoot_links_recording, Lineage, Recording};
+    const KEEP: Recording = Recording { near: true, ray_hits: true };
     use linkgi::scene::refine::{apriori, split_world_edges, world_edge};
     let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../shared/scenes/cornell-mcguire/CornellBox-Original.obj");
     let Ok(desc) = linkgi::scene::load(path) else {
@@ -172,7 +173,7 @@ fn refine_round(c: &mut Criterion) {
     let scene0 = prep::prepare(&desc0).unwrap();
     let params = SolveParams::from_settings(&scene0.settings).links;
     let bvh0 = linkgi::bvh::Bvh::build(&scene0.positions, &scene0.triangles, &Default::default());
-    let (_, hits0) = shoot_links_recording(&scene0, &bvh0, &params, true, &|_, _| {});
+    let (_, hits0) = shoot_links_recording(&scene0, &bvh0, &params, KEEP, &|_, _| {});
     let hits0 = hits0.unwrap();
     let mut marks = std::collections::HashSet::new();
     for m in &desc0.meshes {
@@ -190,8 +191,8 @@ fn refine_round(c: &mut Criterion) {
     let mut scene1 = prep::prepare(&desc1).unwrap();
     let lineage = Lineage::new(&scene0, &mut scene1, &parents, params.nudge);
     let bvh1 = linkgi::bvh::Bvh::build(&scene1.positions, &scene1.triangles, &Default::default());
-    let carried = reassign_links(&scene0, &hits0, &scene1, &lineage, &bvh1, &params, &|_, _| {});
-    let traced = shoot_links_recording(&scene1, &bvh1, &params, true, &|_, _| {});
+    let carried = reassign_links(&scene0, &hits0, &scene1, &lineage, &bvh1, &params, true, &|_, _| {});
+    let traced = shoot_links_recording(&scene1, &bvh1, &params, KEEP, &|_, _| {});
     assert!(carried.0.offsets == traced.0.offsets && carried.0.weights == traced.0.weights, "carried != traced");
     eprintln!(
         "refine_round: {} -> {} vertices, {} kept; {} rays carried, {} traced",
@@ -204,9 +205,9 @@ fn refine_round(c: &mut Criterion) {
     let mut g = c.benchmark_group("refine_round/mcguire");
     g.sample_size(20).measurement_time(Duration::from_secs(10)).warm_up_time(Duration::from_secs(2));
     g.bench_function("carried", |b| {
-        b.iter(|| reassign_links(&scene0, &hits0, &scene1, &lineage, &bvh1, &params, &|_, _| {}))
+        b.iter(|| reassign_links(&scene0, &hits0, &scene1, &lineage, &bvh1, &params, true, &|_, _| {}))
     });
-    g.bench_function("traced", |b| b.iter(|| shoot_links_recording(&scene1, &bvh1, &params, true, &|_, _| {})));
+    g.bench_function("traced", |b| b.iter(|| shoot_links_recording(&scene1, &bvh1, &params, KEEP, &|_, _| {})));
     g.finish();
 }
 

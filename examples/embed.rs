@@ -36,7 +36,7 @@ fn main() -> linkgi::Result<()> {
         .mesh(MeshInput::new("wall", &wall_p, &wall_i).albedo(Vec3::new(0.7, 0.1, 0.1)))
         .light(lamp(1.0))
         .build()?;
-    let mut solver = Solver::new(prepare(&scene)?, SolveParams::from_settings(&scene.settings), &|_, _| {});
+    let mut solver = Solver::new(prepare(&scene)?, SolveParams::from_settings(&scene.settings), &|_, _| {})?;
     // The floor's vertex nearest the wall's foot, in the caller's numbering.
     let probe = (0..floor_p.len())
         .min_by(|&a, &b| floor_p[a].z.total_cmp(&floor_p[b].z).then(floor_p[a].x.abs().total_cmp(&floor_p[b].x.abs())))

@@ -59,7 +59,7 @@
 //!     .light(light)
 //!     .build()?;
 //! let prepared = prepare(&scene)?;
-//! let mut solver = Solver::new(prepared, SolveParams::from_settings(&scene.settings), &|_, _| {});
+//! let mut solver = Solver::new(prepared, SolveParams::from_settings(&scene.settings), &|_, _| {})?;
 //! let before = solver.solve();
 //! // Indirect irradiance (W/m^2) at the caller's vertex 12 (the floor's middle).
 //! let e = solver.scene().on_input(0, &before.e_indirect)[12].unwrap();

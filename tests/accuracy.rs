@@ -55,7 +55,7 @@ fn solve(scene: &prep::PreparedScene, rays: u32) -> (Vec<Vec3>, Vec<Vec3>, Vec<V
     s.rays_per_vertex = rays;
     s.bounces = Bounces::Auto;
     s.smoothing_angle_deg = 30.0;
-    let solver = Solver::new(scene.clone(), SolveParams::from_settings(&s), &|_, _| {});
+    let solver = Solver::new(scene.clone(), SolveParams::from_settings(&s), &|_, _| {}).unwrap();
     let sol = solver.solve();
     assert!(sol.smoothed);
     let uniform = linkgi::exchange::smooth(&sol.e_indirect_raw, &scene.rings, &scene.normals, 30.0);
@@ -162,7 +162,7 @@ fn noise_estimate_matches_the_spread_between_seeds() {
                 s.rays_per_vertex = rays;
                 s.seed = seed;
                 s.bounces = Bounces::Auto;
-                let solver = Solver::new(scene.clone(), SolveParams::from_settings(&s), &|_, _| {});
+                let solver = Solver::new(scene.clone(), SolveParams::from_settings(&s), &|_, _| {}).unwrap();
                 solver.links().validate().expect("links valid");
                 solver.noise_check().validate(solver.scene().vertex_count()).expect("noise check valid");
                 solver
@@ -219,7 +219,7 @@ fn hidden_substitution_in_the_bounces_equals_the_post_pass() {
     // The plain gather below reads the radiosity as it is.
     let mut params = SolveParams::from_settings(&desc.settings);
     params.terms.reconstruct = false;
-    let solver = Solver::new(scene, params, &|_, _| {});
+    let solver = Solver::new(scene, params, &|_, _| {}).unwrap();
     let n = solver.scene().vertex_count();
     let src = solver.light_links().bounce_source(&solver.scene().lights, n);
     let plain = linkgi::exchange::gather(&solver.links(), &solver.scene().albedo, &src, &solver.params().gather);
@@ -275,7 +275,8 @@ fn gradient_correction_shrinks_the_dark_bias() {
                     p
                 },
                 &|_, _| {},
-            );
+            )
+            .unwrap();
             if let Some(c) = solver.reconstruction() {
                 c.validate(solver.scene().vertex_count()).expect("correction valid");
             }

@@ -135,7 +135,7 @@ fn refitted_deformation_equals_a_fresh_solve() {
     let mut s = prep::prepare(&desc).unwrap();
     s.settings.rays_per_vertex = 64;
     let params = SolveParams::from_settings(&s.settings);
-    let mut solver = Solver::new(s.clone(), params, &|_, _| {});
+    let mut solver = Solver::new(s.clone(), params, &|_, _| {}).unwrap();
     let mut refits = 0;
     for t in [0.1f32, 0.25, 0.5] {
         let (positions, normals) = deform_scene(&s, &s.positions, &s.normals, t);
@@ -146,7 +146,7 @@ fn refitted_deformation_equals_a_fresh_solve() {
         refits += refitted as usize;
         next.accel().validate().expect("refitted BVH valid");
         next.links().validate().expect("links valid");
-        let fresh = Solver::new(moved, params, &|_, _| {});
+        let fresh = Solver::new(moved, params, &|_, _| {}).unwrap();
         assert_eq!(next.links().offsets, fresh.links().offsets, "t = {t}");
         assert_eq!(next.links().packed, fresh.links().packed, "t = {t}");
         assert_eq!(next.links().weights, fresh.links().weights, "t = {t}");

@@ -66,16 +66,20 @@ fn panel_form_factor(px: f64, pz: f64) -> f64 {
     f
 }
 
+/// The solver of `desc` with `samples` emitter samples (`Some(0)`: the
+/// `emitter_links` term off) and `max_pairs`, where given.
 fn solver(desc: &SceneDesc, samples: Option<u32>, max_pairs: Option<u64>) -> Solver {
     let scene = prep::prepare(desc).expect("scene prepares");
     let mut params = SolveParams::from_settings(&scene.settings);
-    if let Some(s) = samples {
-        params.emitter.samples = s;
+    match samples {
+        Some(0) => params.terms.emitter_links = false,
+        Some(s) => params.emitter.samples = s,
+        None => {}
     }
     if let Some(m) = max_pairs {
         params.emitter.max_pairs = m;
     }
-    let s = Solver::new(scene, params, &|_, _| {});
+    let s = Solver::new(scene, params, &|_, _| {}).unwrap();
     s.accel().validate().expect("acceleration structure valid");
     s.links().validate().expect("links valid");
     s.emitter_links().validate(s.scene().vertex_count()).expect("emitter links valid");

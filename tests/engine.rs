@@ -275,7 +275,8 @@ fn deformation_preview_then_selective_full_result() {
         assert!(c.preview_ms > 0.0 && c.preview_ms <= c.update_ms + 1e-9, "{} vs {}", c.preview_ms, c.update_ms);
         let latest = e.latest().unwrap();
         assert!(!latest.preview, "wait_idle returned on a preview");
-        let fresh = Solver::new(prep::PreparedScene { positions, normals, ..rest.clone() }, params, &|_, _| {});
+        let fresh =
+            Solver::new(prep::PreparedScene { positions, normals, ..rest.clone() }, params, &|_, _| {}).unwrap();
         let sol = fresh.solve();
         for (a, b) in latest.e_indirect.iter().zip(&sol.e_indirect) {
             assert!((*a - *b).abs().max_element() <= 1e-5 * b.max_element().max(1e-12), "{a} vs {b}");
@@ -304,7 +305,7 @@ fn a_sky_on_a_scene_without_one_traces_its_rays_once() {
     assert!(e.wait_idle(WAIT));
     let c0 = e.counters();
     let fresh = |scene: &prep::PreparedScene| {
-        let s = Solver::new(scene.clone(), params, &|_, _| {});
+        let s = Solver::new(scene.clone(), params, &|_, _| {}).unwrap();
         s.validate().expect("every structure valid");
         assert!(s.near().sky.traced && s.near().sky.cost.rays > 0);
         s.solve()
@@ -339,7 +340,7 @@ fn emission_and_sky_edits_are_gather_only() {
     let c0 = e.counters();
     let lamp = scene.meshes.iter().position(|m| m.name.contains("lamp")).unwrap();
     let fresh = |scene: &prep::PreparedScene| {
-        Solver::new(scene.clone(), SolveParams::from_settings(&scene.settings), &|_, _| {}).solve()
+        Solver::new(scene.clone(), SolveParams::from_settings(&scene.settings), &|_, _| {}).unwrap().solve()
     };
     let mut edited = scene.clone();
     // The whole lamp glows blue.
@@ -451,7 +452,7 @@ fn an_adopted_refined_solver_keeps_the_edits_and_equals_a_fresh_one() {
     assert_eq!(got.e_indirect.len(), n);
     assert_eq!(got.lights, vec![light(0.6)]);
     oracle_scene.lights = vec![light(0.6)];
-    let want = Solver::new(oracle_scene, params, &|_, _| {}).solve();
+    let want = Solver::new(oracle_scene, params, &|_, _| {}).unwrap().solve();
     assert!(got.e_direct == want.e_direct, "direct light differs from a fresh solver's");
     assert!(got.e_indirect == want.e_indirect, "indirect light differs from a fresh solver's");
     // A solver is adopted once.

@@ -46,7 +46,7 @@ fn solve_hashes(name: &str, tracer: TracerKind, rays: u32, seed: u64) -> [u64; 4
     desc.settings.tracer = tracer;
     let scene = prep::prepare(&desc).expect("scene prepares");
     let params = SolveParams::from_settings(&scene.settings);
-    let solver = Solver::new(scene, params, &|_, _| {});
+    let solver = Solver::new(scene, params, &|_, _| {}).unwrap();
     let sol = solver.solve();
     let arrays = [&sol.e_direct, &sol.e_indirect, &sol.e_indirect_raw, &sol.e_sky];
     // `GOLDEN_DUMP=dir`: the arrays as little-endian f32, to measure by how

@@ -151,7 +151,7 @@ fn agree_on_within(name: &str, share: f64, kind: TracerKind) {
         GpuWalk::Kd => SolveParams { kd: params.kd_gpu, tracer: TracerKind::Kd, ..params },
         _ => SolveParams { tracer: TracerKind::Bvh, ..params },
     };
-    let cpu = Solver::new(scene.clone(), cpu_params, &|_, _| {});
+    let cpu = Solver::new(scene.clone(), cpu_params, &|_, _| {}).unwrap();
     gpu.accel().validate().expect("structure valid");
     gpu.links().validate().expect("GPU links valid");
     match (cpu.accel(), gpu.accel()) {
@@ -626,7 +626,7 @@ fn cpu_traced_rays_count_what_the_cpu_traced() {
     let desc = common::with_settings(scene::load("cornell").expect("built-in"), 64, Bounces::Fixed(2), 30.0);
     let scene = prep::prepare(&desc).expect("prepares");
     let params = SolveParams::from_settings(&scene.settings);
-    let cpu = Solver::new(scene.clone(), params, &|_, _| {});
+    let cpu = Solver::new(scene.clone(), params, &|_, _| {}).unwrap();
     let s = cpu.stats(&cpu.solve(), 0.0);
     assert!(s.links.rays > 0 && s.near_gather_rays > 0 && s.noise_check_rays > 0 && s.shadow_rays > 0);
     assert_eq!(s.cpu_traced_rays, s.traced_rays(), "CPU path: every ray");
@@ -666,7 +666,7 @@ fn gpu_deformation_equals_fresh(kind: TracerKind) {
     assert!(solver.ray_hits().is_some(), "the GPU path keeps per-ray state for dynamic meshes");
     // The CPU path's update of the same motion, for the rays it re-traces.
     let cpu_params = SolveParams { tracer: TracerKind::Bvh, ..params };
-    let mut cpu = Solver::new(at(0.3), cpu_params, &|_, _| {});
+    let mut cpu = Solver::new(at(0.3), cpu_params, &|_, _| {}).unwrap();
     for t in [0.9f32, 1.7] {
         let (next, stats) = solver.deform(at(t), params, None, &|_, _| {});
         let (next_cpu, cpu_stats) = cpu.deform(at(t), cpu_params, None, &|_, _| {});

@@ -1,6 +1,6 @@
 //! Work a scene does not need is left out, observably: auto bounces stop as
 //! soon as a bounce adds less than the tolerance, and smoothing is skipped
-//! at a feature angle of 0.
+//! at a feature angle of 0; a switched-off term traces nothing.
 
 mod common;
 
@@ -66,4 +66,59 @@ fn smoothing_skipped_at_zero_angle() {
     assert!(sol_on.smoothed);
     assert_eq!(sol_on.e_indirect_raw, sol.e_indirect_raw, "same links and gather");
     assert!(sol_on.e_indirect != sol_on.e_indirect_raw, "smoothing at 30 degrees changes E_i");
+}
+
+/// A term is switched off one way, through `Terms`, and each traced term
+/// so switched off traces none of its rays while the others trace theirs
+/// (`window`: emitters, a sky and a portal; its sky's refined cells
+/// without the portal, which otherwise takes every direction they would
+/// refine); a count of 0, the old way, is refused by name.
+#[test]
+fn a_switched_off_term_traces_nothing_and_a_zero_count_is_refused() {
+    use linkgi::scene::terms::Terms;
+    use linkgi::solver::{SolveParams, SolveStats, Solver};
+    let desc = common::with_settings(builtin::builtin("window").unwrap(), 64, Bounces::Fixed(2), 30.0);
+    let scene = linkgi::scene::prep::prepare(&desc).unwrap();
+    let base = SolveParams { pay_share: 0.0, ..SolveParams::from_settings(&scene.settings) };
+    let mut no_portal = scene.clone();
+    no_portal.sky.as_mut().unwrap().portals.clear();
+    let stats_of = |scene: &linkgi::scene::prep::PreparedScene, terms: Terms| -> SolveStats {
+        let s = Solver::new(scene.clone(), SolveParams { terms, ..base }, &|_, _| {}).unwrap();
+        s.validate().unwrap();
+        let sol = s.solve();
+        assert!(sol.total().iter().all(|e| e.is_finite()));
+        s.stats(&sol, 0.0)
+    };
+    let stats = |terms: Terms| stats_of(&scene, terms);
+    type Rays = fn(&SolveStats) -> u64;
+    let parts: [(&str, Rays); 6] = [
+        ("emitter_links", |s| s.emitter_rays),
+        ("near", |s| s.near_hits),
+        ("near_emitters", |s| s.near_emitter_rays),
+        ("near_sky", |s| s.near_sky_rays),
+        ("near_gather", |s| s.near_gather_rays),
+        ("sky_portals", |s| s.portal_rays),
+    ];
+    let all = stats(Terms::ALL);
+    assert!(all.noise_check_rays > 0);
+    for (name, rays) in parts {
+        assert!(rays(&all) > 0, "{name} traces something with every term on");
+        let off = stats(Terms::with_off([name]).unwrap());
+        assert_eq!(rays(&off), 0, "{name} off");
+        assert_eq!(off.links.rays, all.links.rays, "{name} off: the link rays are the same");
+    }
+    assert_eq!(stats(Terms::with_off(["noise_check"]).unwrap()).noise_check_rays, 0);
+    assert!(stats_of(&no_portal, Terms::ALL).sky_rays > 0);
+    assert_eq!(stats_of(&no_portal, Terms::with_off(["sky_refine"]).unwrap()).sky_rays, 0);
+    // The near field goes with `near`.
+    let no_near = stats(Terms::with_off(["near"]).unwrap());
+    assert_eq!((no_near.near_emitter_rays, no_near.near_sky_rays, no_near.near_gather_rays), (0, 0, 0));
+
+    let mut zero = base;
+    zero.near_gather.rays = 0;
+    let e = Solver::new(scene.clone(), zero, &|_, _| {}).err().expect("a count of 0 is refused").to_string();
+    assert!(e.contains("near_gather.rays"), "{e}");
+    let mut s = Solver::new(scene, base, &|_, _| {}).unwrap();
+    assert!(s.set_params(zero).is_err());
+    assert_eq!(s.params().near_gather.rays, base.near_gather.rays, "a refused change changes nothing");
 }

@@ -136,7 +136,13 @@ fn stored_links_keep_the_exact_weights_light() {
         let kd = KdTree::build(&scene.positions, &scene.triangles, &KdBuildParams::default());
         kd.validate().unwrap();
         let params = LinkParams { rays_per_vertex: rays, ..Default::default() };
-        let (links, hits) = linkgi::links::shoot_links_recording(&scene, &kd, &params, true, &|_, _| {});
+        let (links, hits) = linkgi::links::shoot_links_recording(
+            &scene,
+            &kd,
+            &params,
+            linkgi::links::Recording { near: true, ray_hits: true },
+            &|_, _| {},
+        );
         links.validate().unwrap();
         let sums = hits.expect("recorded").sums;
         let unit = PI / rays as f64 / linkgi::links::merge::fixed_scale(rays as usize);

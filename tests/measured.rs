@@ -46,7 +46,7 @@ use rayon::prelude::*;
 fn solver(name: &str) -> Solver {
     let s = scene(name, 256, 1);
     let params = SolveParams::from_settings(&s.settings);
-    Solver::new(s, params, &|_, _| {})
+    Solver::new(s, params, &|_, _| {}).unwrap()
 }
 
 // The near-hit terms and the bounces' corrections.

@@ -34,11 +34,12 @@ fn plate_scene(rays: u32) -> SceneDesc {
     )
 }
 
-fn solver(desc: &SceneDesc, near_factor: f32) -> Solver {
+/// The solver of `desc` with the `near` term on or off.
+fn solver(desc: &SceneDesc, near: bool) -> Solver {
     let scene = prep::prepare(desc).expect("scene prepares");
     let mut params = SolveParams::from_settings(&scene.settings);
-    params.links.near.factor = near_factor;
-    let s = Solver::new(scene, params, &|_, _| {});
+    params.terms.near = near;
+    let s = Solver::new(scene, params, &|_, _| {}).unwrap();
     s.accel().validate().expect("acceleration structure valid");
     s.links().validate().expect("links valid");
     s.links().near.validate(s.scene().vertex_count(), s.scene().triangles.len()).expect("near hits valid");
@@ -80,8 +81,8 @@ fn underside_means(s: &Solver, with: &linkgi::solver::Solution, without: &linkgi
 #[test]
 fn plate_underside_agrees_with_the_reference() {
     let desc = plate_scene(256);
-    let with = solver(&desc, 1.0);
-    let without = solver(&desc, 0.0);
+    let with = solver(&desc, true);
+    let without = solver(&desc, false);
     assert!(!with.links().near.is_empty() && without.links().near.is_empty());
     let (a, b) = (with.solve(), without.solve());
     let (m_ref, m_with, m_without) = underside_means(&with, &a, &b);
@@ -118,12 +119,12 @@ fn plate_underside_under_an_emitter_agrees_with_the_reference() {
     e.quad_grid(Vec3::new(0.05, 2.0, 0.35), Vec3::new(0.0, 0.0, -0.5), Vec3::new(0.5, 0.0, 0.0), 1, 1, glow);
     desc.meshes.push(e.finish("panel", 30.0));
     let scene = prep::prepare(&desc).expect("scene prepares");
-    let solve = |samples: u32| {
+    let solve = |on: bool| {
         let mut params = SolveParams::from_settings(&scene.settings);
-        params.near_emitter.samples = samples;
+        (params.near_emitter.samples, params.terms.near_emitters) = (4, on);
         common::solve_with(scene.clone(), params)
     };
-    let ((with, a), (without, b)) = (solve(4), solve(0));
+    let ((with, a), (without, b)) = (solve(true), solve(false));
     assert!(!with.near().emitters.is_empty() && without.near().emitters.is_empty());
     assert!(with.near().emitters.cost.rays > 0);
     let (m_ref, m_with, m_without) = underside_means(&with, &a, &b);
@@ -164,9 +165,7 @@ fn plate_underside_under_the_sky_agrees_with_the_reference() {
     let scene = prep::prepare(&desc).expect("scene prepares");
     let solve = |on: bool| {
         let mut params = SolveParams::from_settings(&scene.settings);
-        if !on {
-            (params.near_sky.samples, params.near_sky.portal_samples) = (0, 0);
-        }
+        params.terms.near_sky = on;
         common::solve_with(scene.clone(), params)
     };
     let ((with, a), (without, b)) = (solve(true), solve(false));
@@ -202,12 +201,12 @@ fn plate_underside_under_the_sky_agrees_with_the_reference() {
 fn the_final_gather_at_near_hits_brings_the_light_in_the_gap() {
     let desc = plate_scene(256);
     let scene = prep::prepare(&desc).expect("scene prepares");
-    let solve = |rays: u32| {
+    let solve = |on: bool| {
         let mut params = SolveParams::from_settings(&scene.settings);
-        params.near_gather.rays = rays;
+        (params.near_gather.rays, params.terms.near_gather) = (4, on);
         common::solve_with(scene.clone(), params)
     };
-    let ((with, a), (without, b)) = (solve(4), solve(0));
+    let ((with, a), (without, b)) = (solve(true), solve(false));
     assert!(with.near().gather.per_hit > 0 && without.near().gather.per_hit == 0);
     assert!(a.e_near_gather.iter().any(|d| *d != Vec3::ZERO) && b.e_near_gather.is_empty());
     let (m_ref, m_with, m_without) = underside_means(&with, &a, &b);
@@ -236,14 +235,14 @@ fn the_final_gather_at_near_hits_brings_the_light_in_the_gap() {
 #[test]
 fn light_moves_update_the_near_columns() {
     let desc = plate_scene(64);
-    let mut s = solver(&desc, 1.0);
+    let mut s = solver(&desc, true);
     let _ = s.solve();
     let moved = Light::Point { position: Vec3::new(-0.6, 1.5, 0.4), intensity: Vec3::splat(10.0) };
     s.set_lights(vec![moved]);
     assert!(s.near().light.cost.rays > 0);
     let mut fresh_desc = desc.clone();
     fresh_desc.lights[0] = moved;
-    let fresh = solver(&fresh_desc, 1.0);
+    let fresh = solver(&fresh_desc, true);
     assert_eq!(s.near().light.columns, fresh.near().light.columns);
     assert_eq!(s.solve().e_near, fresh.solve().e_near);
     s.set_lights(vec![Light::Point { position: Vec3::new(-0.6, 1.5, 0.4), intensity: Vec3::splat(30.0) }]);
@@ -266,10 +265,10 @@ fn near_hits_follow_the_budget_and_the_seed() {
     let scene = prep::prepare(&desc).unwrap();
     let mut params = SolveParams::from_settings(&scene.settings);
     params.links.near.max_rays = 100;
-    let s = Solver::new(scene, params, &|_, _| {});
+    let s = Solver::new(scene, params, &|_, _| {}).unwrap();
     assert!(s.links().near.is_empty());
     assert!(s.solve().e_near.iter().all(|e| *e == Vec3::ZERO));
-    let (a, b) = (solver(&desc, 1.0), solver(&desc, 1.0));
+    let (a, b) = (solver(&desc, true), solver(&desc, true));
     assert_eq!(a.links().near, b.links().near);
     assert_eq!(a.near().light.columns, b.near().light.columns);
 }
@@ -311,7 +310,7 @@ fn many_emitters_near_field_is_unbiased_and_budgeted() {
     let at = |samples: u32| {
         let mut params = SolveParams::from_settings(&scene.settings);
         params.near_emitter.samples = samples;
-        let s = Solver::new(scene.clone(), params, &|_, _| {});
+        let s = Solver::new(scene.clone(), params, &|_, _| {}).unwrap();
         s.validate().unwrap();
         assert_eq!(s.emitter_links().group_vertex.len(), 3, "three emitter groups");
         let hits = s.links().near.hits().len() as u64;
@@ -343,9 +342,9 @@ fn a_kept_sample_of_near_hits_keeps_the_correction() {
         let scene = prep::prepare(&desc).unwrap();
         let mut params = SolveParams::from_settings(&scene.settings);
         params.links.near.max_share = 1.0;
-        Solver::new(scene, params, &|_, _| {})
+        Solver::new(scene, params, &|_, _| {}).unwrap()
     };
-    let kept = solver(&desc, 1.0);
+    let kept = solver(&desc, true);
     let under = plate_underside(&kept);
     let (mut near, mut weighted) = (0f64, 0f64);
     for &v in &under {

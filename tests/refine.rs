@@ -335,7 +335,7 @@ fn carried_equals_fresh(mut desc: SceneDesc) {
     // The scene's own settings, as the rounds started from (the solver's
     // parameters hold the terms it decided off).
     let params = linkgi::solver::SolveParams::from_settings(&scene.settings);
-    let fresh = linkgi::solver::Solver::new(scene.clone(), params, &|_, _| {});
+    let fresh = linkgi::solver::Solver::new(scene.clone(), params, &|_, _| {}).unwrap();
     assert_eq!(fresh.params(), r.solver.params(), "the same parameters");
     let (a, b) = (r.solver.links(), fresh.links());
     let differing: Vec<usize> = (0..scene.vertex_count()).filter(|&v| a.group(v) != b.group(v)).collect();
@@ -429,7 +429,8 @@ fn marking_rounds_trace_a_quarter_of_the_rays() {
     assert!(last.rays_traced + last.rays_carried == last.vertices as u64 * 64 || last.rays_traced == full, "{last:?}");
     let scene = r.solver.scene().clone();
     let fresh =
-        linkgi::solver::Solver::new(scene, linkgi::solver::SolveParams::from_settings(&desc.settings), &|_, _| {});
+        linkgi::solver::Solver::new(scene, linkgi::solver::SolveParams::from_settings(&desc.settings), &|_, _| {})
+            .unwrap();
     assert_eq!(r.solution.e_indirect, fresh.solve().e_indirect, "a fresh solve of the final mesh");
 }
 
@@ -594,7 +595,8 @@ fn terms_that_do_not_pay_are_left_out_and_forced_ones_stay() {
     use linkgi::exchange::near::NearTerm;
     let (desc, _) = coarse_cornell(RefineSettings::off());
     let scene = linkgi::scene::prep::prepare(&desc).unwrap();
-    let build = |params: linkgi::solver::SolveParams| linkgi::solver::Solver::new(scene.clone(), params, &|_, _| {});
+    let build =
+        |params: linkgi::solver::SolveParams| linkgi::solver::Solver::new(scene.clone(), params, &|_, _| {}).unwrap();
     let base = linkgi::solver::SolveParams::from_settings(&scene.settings);
     let (a, b) = (build(base), build(base));
     assert_eq!(a.term_decisions(), b.term_decisions(), "deterministic");

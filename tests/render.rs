@@ -47,7 +47,7 @@ fn cornell() -> &'static Cornell {
         let mut desc = builtin::builtin("cornell").unwrap();
         desc.settings.rays_per_vertex = 64;
         let scene = prep::prepare(&desc).unwrap();
-        let solver = Solver::new(scene, SolveParams::from_settings(&desc.settings), &|_, _| {});
+        let solver = Solver::new(scene, SolveParams::from_settings(&desc.settings), &|_, _| {}).unwrap();
         let sol = solver.solve();
         // Higher and steeper than the scene's camera, so the floor beside both walls is in view.
         let camera = linkgi::scene::Camera {
@@ -477,7 +477,8 @@ fn window_draws_emitters_and_sky() {
         scene.clone(),
         linkgi::solver::SolveParams::from_settings(&scene.settings),
         &|_, _| {},
-    );
+    )
+    .unwrap();
     let sol = solver.solve();
     let camera = desc.camera.unwrap();
     let p = RenderParams { width: 96, height: 72, ..params(View::Combined) };

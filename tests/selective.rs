@@ -40,7 +40,7 @@ fn moved_by(scene: &PreparedScene, f: impl Fn(Vec3) -> Vec3) -> PreparedScene {
 fn assert_equals_fresh(updated: &Solver, what: &str) {
     updated.accel().validate().expect("acceleration structure valid");
     updated.links().validate().expect("links valid");
-    let fresh = Solver::new(updated.scene().clone(), *updated.params(), &|_, _| {});
+    let fresh = Solver::new(updated.scene().clone(), *updated.params(), &|_, _| {}).unwrap();
     let (a, b) = (&updated.links(), &fresh.links());
     assert_eq!(a.offsets.len(), b.offsets.len());
     for v in 0..a.vertex_count() {
@@ -93,7 +93,7 @@ fn deform(solver: Solver, scene: PreparedScene) -> (Solver, DeformStats) {
 #[test]
 fn deformer_sequence_on_torso_equals_full_solves() {
     let rest = prepared("torso", 64);
-    let mut solver = Solver::new(at_time(&rest, 0.3), SolveParams::from_settings(&rest.settings), &|_, _| {});
+    let mut solver = Solver::new(at_time(&rest, 0.3), SolveParams::from_settings(&rest.settings), &|_, _| {}).unwrap();
     assert!(solver.ray_state_bytes() > 0, "a scene with a dynamic mesh keeps per-ray state");
     let mut selective_rays = 0;
     for t in [0.45f32, 0.9, 1.7, 3.1] {
@@ -110,7 +110,7 @@ fn deformer_sequence_on_torso_equals_full_solves() {
 #[test]
 fn deformer_sequence_on_dancer_equals_full_solves() {
     let rest = prepared("dancer", 16);
-    let mut solver = Solver::new(at_time(&rest, 0.5), SolveParams::from_settings(&rest.settings), &|_, _| {});
+    let mut solver = Solver::new(at_time(&rest, 0.5), SolveParams::from_settings(&rest.settings), &|_, _| {}).unwrap();
     for t in [0.8f32, 2.2] {
         let (next, stats) = deform(solver, at_time(&rest, t));
         assert!(stats.selective);
@@ -127,7 +127,7 @@ fn large_motion_through_the_room_equals_a_full_solve() {
     // old hit was on the figure now meet the far wall, rays that passed
     // where the figure now stands meet it.
     let rest = prepared("torso", 16);
-    let mut solver = Solver::new(rest.clone(), SolveParams::from_settings(&rest.settings), &|_, _| {});
+    let mut solver = Solver::new(rest.clone(), SolveParams::from_settings(&rest.settings), &|_, _| {}).unwrap();
     let there = moved_by(&rest, |p| Vec3::new(p.x + 1.3, p.y, p.z - 1.3));
     let (next, stats) = deform(solver, there);
     assert!(stats.selective && stats.links.static_rays_reshot > 0);
@@ -143,7 +143,7 @@ fn large_motion_through_the_room_equals_a_full_solve() {
 #[test]
 fn motion_of_a_hair_equals_a_full_solve() {
     let rest = prepared("torso", 16);
-    let solver = Solver::new(rest.clone(), SolveParams::from_settings(&rest.settings), &|_, _| {});
+    let solver = Solver::new(rest.clone(), SolveParams::from_settings(&rest.settings), &|_, _| {}).unwrap();
     let hair = moved_by(&rest, |p| p + Vec3::new(3e-6, -2e-6, 1e-6));
     let (next, stats) = deform(solver, hair);
     assert!(stats.selective);
@@ -155,7 +155,7 @@ fn motion_of_a_hair_equals_a_full_solve() {
 fn scenes_without_dynamic_meshes_keep_no_ray_state() {
     let scene = prepared("cornell", 16);
     assert!(scene.meshes.iter().all(|m| !m.dynamic));
-    let solver = Solver::new(scene, SolveParams::from_settings(&prepared("cornell", 16).settings), &|_, _| {});
+    let solver = Solver::new(scene, SolveParams::from_settings(&prepared("cornell", 16).settings), &|_, _| {}).unwrap();
     assert!(solver.ray_hits().is_none());
     assert_eq!(solver.ray_state_bytes(), 0);
     let sol = solver.solve();
@@ -165,7 +165,7 @@ fn scenes_without_dynamic_meshes_keep_no_ray_state() {
 #[test]
 fn preview_shows_remade_vertices_at_few_rays() {
     let rest = prepared("torso", 64);
-    let solver = Solver::new(rest.clone(), SolveParams::from_settings(&rest.settings), &|_, _| {});
+    let solver = Solver::new(rest.clone(), SolveParams::from_settings(&rest.settings), &|_, _| {}).unwrap();
     let before = solver.links().clone();
     let moved = at_time(&rest, 0.7);
     let figure = rest.meshes.iter().find(|m| m.dynamic).unwrap().vertices.clone();
@@ -241,7 +241,7 @@ fn kd_tracer_and_a_light_moved_with_the_deformation() {
     rest.settings.tracer = TracerKind::Kd;
     let params = SolveParams::from_settings(&rest.settings);
     assert_eq!(params.tracer, TracerKind::Kd);
-    let solver = Solver::new(rest.clone(), params, &|_, _| {});
+    let solver = Solver::new(rest.clone(), params, &|_, _| {}).unwrap();
     let mut moved = at_time(&rest, 0.6);
     if let Light::Point { position, .. } = &mut moved.lights[0] {
         *position += Vec3::new(-0.3, 0.0, 0.2);
@@ -266,7 +266,7 @@ fn deforming_in_an_open_scene_updates_the_sky_visibility() {
     desc.settings.rays_per_vertex = 64;
     desc.settings.bounces = Bounces::Fixed(3);
     let rest = prep::prepare(&desc).unwrap();
-    let mut solver = Solver::new(rest.clone(), SolveParams::from_settings(&rest.settings), &|_, _| {});
+    let mut solver = Solver::new(rest.clone(), SolveParams::from_settings(&rest.settings), &|_, _| {}).unwrap();
     assert!(!solver.links().sky.is_empty());
     let before = solver.links().sky.clone();
     for t in [0.6, 1.7] {

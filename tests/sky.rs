@@ -145,7 +145,8 @@ fn sky_refinement_sharpens_the_opening_without_bias() {
     let errors = |sub: u32| {
         let mut params = linkgi::solver::SolveParams::from_settings(&scene.settings);
         params.smoothing_angle_deg = 0.0;
-        params.sky.sub = sub;
+        // 0: the `sky_refine` term off.
+        (params.sky.sub, params.terms.sky_refine) = (sub.max(1), sub > 0);
         let (solver, sol) = common::solve_with(scene.clone(), params);
         let (mut n, mut sum, mut sum2, mut sum_f) = (0, 0f64, 0f64, 0f64);
         for (f, d) in bottom_form_factors(&solver, &sol, l, h) {
@@ -238,7 +239,7 @@ fn rotated_image_sky_equals_reshooting() {
     // The link rays' misses alone (no refined cells) against their re-trace.
     let scene = linkgi::scene::prep::prepare(&desc).unwrap();
     let mut plain = linkgi::solver::SolveParams::from_settings(&scene.settings);
-    plain.sky.sub = 0;
+    plain.terms.sky_refine = false;
     let (solver, sol) = common::solve_with(scene, plain);
     let mean_sky = sol.e_sky.iter().sum::<Vec3>() / sol.e_sky.len() as f32;
     eprintln!("image sky: mean E_sky {mean_sky}");

@@ -18,9 +18,9 @@ fn agree_on(name: &str) {
     let scene = prep::prepare(&desc).expect("prepares");
     let mut params = SolveParams::from_settings(&scene.settings);
     params.tracer = TracerKind::Bvh;
-    let bvh_solver = Solver::new(scene.clone(), params, &|_, _| {});
+    let bvh_solver = Solver::new(scene.clone(), params, &|_, _| {}).unwrap();
     params.tracer = TracerKind::Kd;
-    let kd_solver = Solver::new(scene.clone(), params, &|_, _| {});
+    let kd_solver = Solver::new(scene.clone(), params, &|_, _| {}).unwrap();
     for s in [&bvh_solver, &kd_solver] {
         s.accel().validate().expect("structure valid");
         s.links().validate().expect("links valid");

@@ -62,12 +62,12 @@ pub fn moved_lights(scene: &PreparedScene) -> Option<Vec<Light>> {
 
 /// Scores the preview of a move of the first light (see the module doc);
 /// None when the scene has no light.
-pub fn score(scene: &PreparedScene, smoothing_deg: f32) -> Option<PreviewRow> {
-    let moved = moved_lights(scene)?;
+pub fn score(scene: &PreparedScene, smoothing_deg: f32) -> crate::Result<Option<PreviewRow>> {
+    let Some(moved) = moved_lights(scene) else { return Ok(None) };
     let mut settings = scene.settings;
     settings.bounces = Bounces::Auto;
     settings.smoothing_angle_deg = smoothing_deg;
-    let mut solver = Solver::new(scene.clone(), SolveParams::from_settings(&settings), &|_, _| {});
+    let mut solver = Solver::new(scene.clone(), SolveParams::from_settings(&settings), &|_, _| {})?;
     let t = Instant::now();
     solver.preview_lights(moved.clone());
     let (preview_light_links_ms, preview_shadow_rays) = (solver.light_links().ms, solver.light_links().shadow_rays);
@@ -78,7 +78,7 @@ pub fn score(scene: &PreparedScene, smoothing_deg: f32) -> Option<PreviewRow> {
     let full = solver.solve();
     let full_ms = t.elapsed().as_secs_f64() * 1e3;
     let total = |s: &crate::solver::Solution| -> Vec<Vec3> { s.total() };
-    Some(PreviewRow {
+    Ok(Some(PreviewRow {
         rays: settings.rays_per_vertex,
         smoothing_deg,
         preview_light_links_ms,
@@ -89,5 +89,5 @@ pub fn score(scene: &PreparedScene, smoothing_deg: f32) -> Option<PreviewRow> {
         e_indirect: error_stats(&preview.e_indirect, &full.e_indirect, &[]),
         e_direct: error_stats(&preview.e_direct, &full.e_direct, &[]),
         e_total: error_stats(&total(&preview), &total(&full), &[]),
-    })
+    }))
 }

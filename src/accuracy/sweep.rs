@@ -87,7 +87,7 @@ pub fn sweep(
     reference: &Reference,
     params: &SweepParams,
     progress: &dyn Fn(usize, usize),
-) -> Vec<SweepRow> {
+) -> crate::Result<Vec<SweepRow>> {
     let angle = params.smoothing_angle_deg.unwrap_or(if scene.settings.smoothing_angle_deg > 0.0 {
         scene.settings.smoothing_angle_deg
     } else {
@@ -100,7 +100,7 @@ pub fn sweep(
         settings.rays_per_vertex = rays;
         let solve_params = SolveParams::from_settings(&settings);
         let t = Instant::now();
-        let solver = Solver::new(scene.clone(), solve_params, &|_, _| {});
+        let solver = Solver::new(scene.clone(), solve_params, &|_, _| {})?;
         let build_ms = t.elapsed().as_secs_f64() * 1e3;
         let (kd_ms, links_ms) = (solver.accel_build_ms(), solver.links().stats.shoot_ms);
         // Everything else the build traced or computed, timed as a whole.
@@ -139,5 +139,5 @@ pub fn sweep(
         }
         progress(k + 1, params.rays.len());
     }
-    rows
+    Ok(rows)
 }

@@ -111,7 +111,7 @@ pub fn run(args: ErrorArgs) -> Result<()> {
     );
     let params = SweepParams::default();
     let b = bar(params.rays.len(), "ray counts");
-    let rows = accuracy::sweep(&prepared, &r, &params, &|done, _| b.set_position(done as u64));
+    let rows = accuracy::sweep(&prepared, &r, &params, &|done, _| b.set_position(done as u64))?;
     b.finish_and_clear();
     let ladder_samples: Vec<u32> = match &args.path_samples {
         Some(s) => s.iter().copied().filter(|&s| s > 0).collect(),
@@ -121,7 +121,7 @@ pub fn run(args: ErrorArgs) -> Result<()> {
     let ladder = path::ladder(&prepared, &r, &ladder_samples, &|done, _| b.set_position(done as u64));
     b.finish_and_clear();
     let angle = rows.iter().map(|r| r.smoothing_deg).fold(0.0, f32::max);
-    let preview = preview::score(&prepared, angle);
+    let preview = preview::score(&prepared, angle)?;
     let csv_path = args.out.join("errors.csv");
     std::fs::write(&csv_path, accuracy::csv::to_csv(&prepared.name, &rows, &ladder, preview.as_ref()))
         .with_context(|| format!("writing {}", csv_path.display()))?;

@@ -101,7 +101,7 @@ fn merge_batch(
 }
 
 /// Shoots every vertex's rays on `devices` and builds the merged links;
-/// with `record`, also the per-ray state selective updates read
+/// with the near hits where `keep` says, and the per-ray state selective updates read
 /// ([`RayHits`], as the CPU's `shoot_links_recording` keeps it).
 /// `progress(done, total)` is called as batches are merged.
 pub fn shoot_links_gpu(
@@ -109,9 +109,10 @@ pub fn shoot_links_gpu(
     params: &LinkParams,
     sched: &ScheduleParams,
     devices: &mut [LogicalDevice],
-    record: bool,
+    keep: crate::links::Recording,
     progress: &(dyn Fn(usize, usize) + Sync),
 ) -> Result<(Links, Option<RayHits>, Vec<DeviceShare>)> {
+    let record = keep.ray_hits;
     if devices.is_empty() {
         return Err(Error::Gpu("no device to shoot rays on".into()));
     }
@@ -121,7 +122,7 @@ pub fn shoot_links_gpu(
         d.tracer.set_directions(&setup.directions);
     }
     let verts = ray_vertices(&setup);
-    let near = crate::links::near::NearRule::new(scene, setup.directions.len() as u32, params);
+    let near = keep.near.then(|| crate::links::near::NearRule::new(scene, setup.directions.len() as u32, params)).flatten();
     let n = verts.len();
     let rays = setup.directions.len();
     let cursor = Mutex::new(0usize);

@@ -46,7 +46,7 @@ pub use merge::{HIT_BACK, HIT_MISS};
 pub use near::{NearHit, NearHits, NearParams};
 pub use reassign::{reassign_links, Lineage, ReassignStats};
 pub use selective::ReshootStats;
-pub use shoot::{shoot_links_recording, LinkParams, RaySetup};
+pub use shoot::{shoot_links_recording, LinkParams, RaySetup, Recording};
 #[cfg(any(test, feature = "internals"))]
 pub use shoot::shoot_links;
 

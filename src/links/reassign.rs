@@ -48,7 +48,7 @@
 
 use super::merge::{RayHits, HIT_BACK, HIT_MISS};
 use super::selective::recorded;
-use super::shoot::{links_from_records, ray_origin, RaySetup, TraceScratch, TO_TRACE};
+use super::shoot::{links_from_records, ray_origin, RaySetup, Recording, TraceScratch, TO_TRACE};
 use super::{HitRecord, LinkParams, Links};
 use crate::csr::Csr;
 use crate::scene::prep::{PreparedScene, NO_VERTEX};
@@ -297,6 +297,7 @@ pub fn reassign_links(
     lineage: &Lineage,
     tracer: &dyn CpuTracer,
     params: &LinkParams,
+    near: bool,
     progress: &(dyn Fn(usize, usize) + Sync),
 ) -> (Links, RayHits, ReassignStats) {
     let start = Instant::now();
@@ -315,7 +316,7 @@ pub fn reassign_links(
         };
         traced.fetch_add(n as u64, Ordering::Relaxed);
     };
-    let (links, state) = links_from_records(scene, &setup, params, true, progress, &fill);
+    let (links, state) = links_from_records(scene, &setup, params, Recording { near, ray_hits: true }, progress, &fill);
     let state = state.expect("recorded");
     let rays_traced = traced.into_inner();
     let total = (scene.vertex_count() * rays) as u64;

@@ -359,8 +359,18 @@ pub fn plain_origin(scene: &PreparedScene, v: usize, nudge: f32) -> Vec3 {
     p + (inward + n) * d
 }
 
-/// Shoots every vertex's rays with a CPU tracer and builds the merged links.
-/// `progress(done, total)` is called after each batch.
+/// What a link build keeps beside the links.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Recording {
+    /// The near hits ([`super::near`]; the solve's `near` term).
+    pub near: bool,
+    /// Every ray's hit id ([`RayHits`]): the state of selective updates
+    /// ([`super::selective`]) and of refinement ([`super::reassign`]).
+    pub ray_hits: bool,
+}
+
+/// Shoots every vertex's rays with a CPU tracer and builds the merged links
+/// with their near hits. `progress(done, total)` is called after each batch.
 #[cfg(any(test, feature = "internals"))]
 pub fn shoot_links(
     scene: &PreparedScene,
@@ -368,21 +378,19 @@ pub fn shoot_links(
     params: &LinkParams,
     progress: &(dyn Fn(usize, usize) + Sync),
 ) -> Links {
-    shoot_links_recording(scene, tracer, params, false, progress).0
+    shoot_links_recording(scene, tracer, params, Recording { near: true, ray_hits: false }, progress).0
 }
 
-/// [`shoot_links`], also returning every ray's hit id when `record` is set
-/// (the state of selective updates, [`super::selective`], and of
-/// refinement, [`super::reassign`]).
+/// [`shoot_links`], keeping the near hits and every ray's hit id as `keep` says.
 pub fn shoot_links_recording(
     scene: &PreparedScene,
     tracer: &dyn CpuTracer,
     params: &LinkParams,
-    record: bool,
+    keep: Recording,
     progress: &(dyn Fn(usize, usize) + Sync),
 ) -> (Links, Option<RayHits>) {
     let setup = RaySetup::new(scene, params);
-    links_from_records(scene, &setup, params, record, progress, &|v, scratch, hits| {
+    links_from_records(scene, &setup, params, keep, progress, &|v, scratch, hits| {
         setup.trace_vertex_with(tracer, v, scratch, hits)
     })
 }
@@ -397,17 +405,18 @@ pub(super) fn links_from_records(
     scene: &PreparedScene,
     setup: &RaySetup,
     params: &LinkParams,
-    record: bool,
+    keep: Recording,
     progress: &(dyn Fn(usize, usize) + Sync),
     fill: &(dyn Fn(usize, &mut TraceScratch, &mut Vec<HitRecord>) + Sync),
 ) -> (Links, Option<RayHits>) {
+    let record = keep.ray_hits;
     let start = Instant::now();
     let n = scene.vertex_count();
     let rays = setup.directions.len();
     let weight_per_ray = std::f64::consts::PI / rays as f64;
     let mut csr = CsrBuilder::new(n);
     let mut ids = Vec::with_capacity(if record { n * rays } else { 0 });
-    let near = super::near::NearRule::new(scene, rays as u32, params);
+    let near = keep.near.then(|| super::near::NearRule::new(scene, rays as u32, params)).flatten();
     const CHUNK: usize = 32;
     for batch_start in (0..n).step_by(params.batch_vertices.max(1)) {
         let batch_end = (batch_start + params.batch_vertices.max(1)).min(n);

@@ -170,8 +170,8 @@ pub fn through_any(portals: &[Portal], p: Vec3, d: Vec3) -> bool {
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct PortalParams {
     /// Samples per vertex and portal, `side^2` (rounded down to a square,
-    /// at most `MAX_SIDE`^2); 0 turns portals off (the link rays alone
-    /// then integrate every direction). [`PortalParams::for_link_rays`]
+    /// at most `MAX_SIDE`^2); at least 1 (the `sky_portals` term switches
+    /// portals off: the link rays alone then integrate every direction). [`PortalParams::for_link_rays`]
     /// scales it with the link rays; 64 by default.
     pub rays: u32,
 }

@@ -12,6 +12,7 @@ use super::{Portal, PortalSamples, SkyRefineParams, SkyRefinement, SkyVisibility
 use crate::exchange::denoise::smooth::{pooled_variance, smooth, smooth_adaptive, SmoothMode, SmoothParams};
 use crate::links::{Lineage, LinkParams, RaySetup};
 use crate::scene::prep::PreparedScene;
+use crate::scene::terms::Terms;
 use crate::trace::Tracer;
 use glam::Vec3;
 
@@ -24,32 +25,38 @@ pub struct SkyRays {
     pub portals: PortalSamples,
 }
 
-/// The portals of `scene`'s sky that get rays with `params` (none without
-/// a sky or with portal rays off).
-pub fn portals_of<'a>(scene: &'a PreparedScene, params: &SkyRefineParams) -> &'a [Portal] {
+/// The portals of `scene`'s sky that get rays under `terms` (none without
+/// a sky or with the `sky_portals` term off).
+pub fn portals_of<'a>(scene: &'a PreparedScene, terms: &Terms) -> &'a [Portal] {
     match &scene.sky {
-        Some(s) if params.portal.side() > 0 => &s.portals,
+        Some(s) if terms.sky_portals => &s.portals,
         _ => &[],
     }
 }
 
 impl SkyRays {
     /// Traces the refined cells of the links' misses `vis` (links shot with
-    /// `link`) and the portal samples with `tracer`; nothing without a sky.
+    /// `link`) and the portal samples with `tracer`, each where its term of
+    /// `terms` is on (`sky_refine`, `sky_portals`); nothing without a sky.
     pub fn trace(
         scene: &PreparedScene,
         tracer: &dyn Tracer,
         vis: &SkyVisibility,
         link: &LinkParams,
         params: &SkyRefineParams,
+        terms: &Terms,
     ) -> crate::Result<SkyRays> {
         if scene.sky.is_none() {
             return Ok(SkyRays::default());
         }
         // One ray setup (origins, frames, wedges) for both.
         let setup = RaySetup::new(scene, link);
-        let (portals, seed) = (portals_of(scene, params), link.seed);
-        let refine = SkyRefinement::compute(scene, tracer, &setup, vis, portals, seed, params)?;
+        let (portals, seed) = (portals_of(scene, terms), link.seed);
+        let refine = if terms.sky_refine {
+            SkyRefinement::compute(scene, tracer, &setup, vis, portals, seed, params)?
+        } else {
+            SkyRefinement::default()
+        };
         let portals = PortalSamples::compute(scene, tracer, &setup, portals, seed, &params.portal)?;
         Ok(SkyRays { refine, portals })
     }
@@ -75,10 +82,11 @@ impl SkyRays {
         lineage: &Lineage,
         link: &LinkParams,
         params: &SkyRefineParams,
+        terms: &Terms,
     ) -> crate::Result<(SkyRays, u64)> {
-        let portals = portals_of(scene, params);
+        let portals = portals_of(scene, terms);
         if scene.sky.is_none() || !portals.is_empty() || !old.portals.is_empty() || old.refine.is_empty() {
-            return Ok((Self::trace(scene, tracer, vis, link, params)?, 0));
+            return Ok((Self::trace(scene, tracer, vis, link, params, terms)?, 0));
         }
         let setup = RaySetup::new(scene, link);
         let rows: Vec<Option<usize>> = lineage
@@ -98,8 +106,9 @@ impl SkyRays {
     /// rays' misses `vis` (shot with `link`) and refined cells for the
     /// directions outside the portals, the portals' own rays for those
     /// through them, smoothed with their noise at feature angle `angle_deg`
-    /// when `smoothing` says so (module doc). Zero without a sky or where no
-    /// ray missed.
+    /// (0: not smoothed; `crate::solver::SolveParams::sky_smoothing_angle`)
+    /// by `smoothing`'s adaptive filter (module doc). Zero without a sky or
+    /// where no ray missed.
     pub fn irradiance(
         &self,
         scene: &PreparedScene,
@@ -128,7 +137,7 @@ impl SkyRays {
             portals: &self.portals.portals,
         };
         let (angle, sp) = (angle_deg, smoothing);
-        let smoothed = sp.sky && sp.mode == SmoothMode::Adaptive && angle > 0.0;
+        let smoothed = sp.mode == SmoothMode::Adaptive && angle > 0.0;
         // The portals' part: stratified over the opening, left unsmoothed.
         let portal_e = self.portals.irradiance(sky, &s.positions, &s.normals, p.seed);
         let add_portals = |mut e: Vec<Vec3>| {

@@ -58,7 +58,8 @@ use std::time::Instant;
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SkyRefineParams {
     /// Sub-cells a side of a refined cell: `sub * sub` fresh rays replace
-    /// its one ray (at most `MAX_SUB`); 0 turns refinement off.
+    /// its one ray (1 to `MAX_SUB`; the `sky_refine` term switches
+    /// refinement off).
     pub sub: u32,
     /// Rays from each vertex toward each of the sky's portals (`super::portal`).
     pub portal: super::PortalParams,

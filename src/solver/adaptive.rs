@@ -223,6 +223,7 @@ pub fn solve_planned_with(
 ) -> crate::Result<Refined> {
     let settings = current.settings.refine;
     let params = SolveParams::from_settings(&current.settings);
+    params.validate()?;
     let mut rounds = Vec::new();
     // On the CPU the rounds record every ray's hit, so the next round carries them over.
     let carry = plan.refining && matches!(compute, Compute::Cpu);
@@ -289,7 +290,7 @@ pub fn solve_planned_with(
         }
         let Some((next, parents)) = next else {
             if plan.refining {
-                let full = params.staged();
+                let full = params;
                 if full.links != solver.params.links {
                     // The rounds' links were coarser: a fresh solver of the final mesh.
                     let tl = Instant::now();
@@ -300,7 +301,7 @@ pub fn solve_planned_with(
                     // The final mesh: the parts the rounds left out (and the
                     // emitter links at full samples), and its solve.
                     let mut parts = Part::NEAR_AND_NOISE.to_vec();
-                    if full.emitter != solver.params.emitter {
+                    if full.emitter != solver.params.emitter && full.terms.emitter_links {
                         parts.insert(0, Part::Emitters);
                     }
                     solver.params = full;
@@ -326,7 +327,7 @@ pub fn solve_planned_with(
         let mut prepared = prep::prepare(&next)?;
         prepared.sky = s.sky.clone();
         current = next;
-        if last && params.staged().links != solver.params.links {
+        if last && params.links != solver.params.links {
             // The next round marks nothing that would be split: it is the
             // final mesh, traced once at the full parameters (no marking
             // solve of it first).
@@ -388,7 +389,7 @@ impl Solver {
         progress: &(dyn Fn(usize, usize) + Sync),
         parts: &[Part],
     ) -> Solver {
-        Solver::cpu(scene, params.staged(), true, progress, parts)
+        Solver::cpu(scene, params, true, progress, parts)
     }
 
     /// The solver of `scene`, prepared from a refinement of this solver's
@@ -408,7 +409,7 @@ impl Solver {
         let accel = Accel::build(params.tracer, &scene.positions, &scene.triangles, &params.bvh, &params.kd);
         scene.moved_origins = crate::links::buried::find(&scene, &accel, params.links.nudge);
         let lineage = Lineage::new(&self.scene, &mut scene, parents, self.params.links.nudge);
-        let (links, hits, stats) = reassign_links(&self.scene, hits, &scene, &lineage, &accel, &params.links, progress);
+        let (links, hits, stats) = reassign_links(&self.scene, hits, &scene, &lineage, &accel, &params.links, params.terms.near, progress);
         let mut solver = Solver::assemble(scene, params, accel, links, None, Compute::Cpu, Some(hits), &[]);
         let change = Change::Split { before: &self.scene, links: &self.links, traced: &self.traced, lineage: &lineage };
         solver.update_parts(&Part::SOURCES, &change);

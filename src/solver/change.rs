@@ -76,7 +76,7 @@ impl Solver {
         self.scene.emission = emission;
         let e = &self.traced.emitter_links;
         let uncovered = self.scene.emission.iter().zip(&e.covered).any(|(m, &c)| *m != Vec3::ZERO && !c);
-        if !uncovered || e.fallback.is_some() || self.params.emitter.samples == 0 {
+        if !uncovered || e.fallback.is_some() || !self.params.terms.emitter_links {
             return false;
         }
         self.retrace(&[Part::Emitters, Part::NearEmitters]);
@@ -89,7 +89,7 @@ impl Solver {
     /// turned or rescaled sky needs no rays. Returns whether it traced.
     pub fn set_sky(&mut self, sky: Option<Sky>) -> bool {
         self.scene.sky = sky;
-        let same_portals = portals_of(&self.scene, &self.params.sky) == self.traced.sky.portals.portals.as_slice();
+        let same_portals = portals_of(&self.scene, &self.params.terms) == self.traced.sky.portals.portals.as_slice();
         // A sky where there was none at the last trace: its rays were never traced.
         let untraced = self.scene.sky.is_some() && !self.traced.near.sky.traced;
         if same_portals && !untraced {
@@ -110,9 +110,11 @@ impl Solver {
     /// smoothing, hidden vertices, corrections) take effect at the next
     /// solve; a change to what was traced (links, tracer, structures,
     /// lights, emitters, sky, near field, noise check) rebuilds the solver
-    /// on its compute. Returns whether it rebuilt.
+    /// on its compute. Returns whether it rebuilt; parameters that do not
+    /// pass [`SolveParams::validate`] are an error and change nothing.
     pub fn set_params(&mut self, params: SolveParams) -> crate::Result<bool> {
-        let params = self.with_decisions(params).staged();
+        params.validate()?;
+        let params = self.with_decisions(params);
         if self.params.same_traced(&params) {
             if params.hidden != self.params.hidden || params.terms != self.params.terms {
                 self.links_changed();

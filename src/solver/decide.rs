@@ -152,7 +152,6 @@ impl Solver {
                 forced,
             });
         }
-        self.params = self.params.staged();
         for d in &out {
             log::info!("{}", d.describe());
         }

@@ -71,7 +71,9 @@ impl Solver {
     /// selective update first calls `show` with the solver in its preview
     /// state: the remade vertices' link groups shot at `rays` rays, their
     /// light links traced from the vertices alone, everything else as
-    /// before the move; the full update follows.
+    /// before the move; the full update follows. `params` that do not
+    /// pass [`SolveParams::validate`] are logged as an error and the
+    /// solver's own kept: a deformation always lands.
     pub fn deform(
         mut self,
         scene: PreparedScene,
@@ -80,7 +82,7 @@ impl Solver {
         progress: &(dyn Fn(usize, usize) + Sync),
     ) -> (Solver, DeformStats) {
         let start = Instant::now();
-        let params = self.with_decisions(params).staged();
+        let params = self.deform_params(params);
         let scene = self.keeping_moved_origins(scene);
         let same = self.ray_hits.is_some() && params.same_links(&self.params);
         let motion = if same { Motion::between(&self.scene, &scene) } else { None };
@@ -185,7 +187,7 @@ impl Solver {
         params: SolveParams,
         progress: &(dyn Fn(usize, usize) + Sync),
     ) -> (Solver, bool) {
-        let params = self.with_decisions(params).staged();
+        let params = self.deform_params(params);
         let scene = self.keeping_moved_origins(scene);
         let same_mesh = self.scene.triangles == scene.triangles && params.same_structures(&self.params);
         let compute = self.compute.clone();
@@ -272,6 +274,22 @@ impl Solver {
 
 /// A solver of `scene` built from scratch on `compute`; on the CPU where
 /// the GPU fails (with a warning).
+impl Solver {
+    /// What a deformation runs with: `params` with the terms this solver
+    /// decided off kept off; parameters that do not pass
+    /// [`SolveParams::validate`] leave the solver's own in place (the
+    /// deformation goes on; the error is logged).
+    fn deform_params(&self, params: SolveParams) -> SolveParams {
+        match params.validate() {
+            Ok(()) => self.with_decisions(params),
+            Err(e) => {
+                log::error!("{e}; the deformation keeps the solver's parameters");
+                self.params
+            }
+        }
+    }
+}
+
 fn rebuilt(
     scene: PreparedScene,
     params: SolveParams,
@@ -282,7 +300,8 @@ fn rebuilt(
         Ok(s) => s,
         Err(e) => {
             log::warn!("{e}; solving on the CPU");
-            Solver::new(scene, params, progress)
+            let record = scene.meshes.iter().any(|m| m.dynamic);
+            Solver::cpu(scene, params, record, progress, &Part::ALL)
         }
     }
 }

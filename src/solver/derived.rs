@@ -16,7 +16,7 @@ impl Solver {
     /// (`crate::sky::SkyRays::irradiance`).
     pub fn e_sky(&self) -> Vec<Vec3> {
         let p = &self.params;
-        self.traced.sky.irradiance(&self.scene, &self.links.sky, &p.links, &p.smoothing, p.smoothing_angle_deg)
+        self.traced.sky.irradiance(&self.scene, &self.links.sky, &p.links, &p.smoothing, p.sky_smoothing_angle())
     }
 
     /// The emitters' direct light at every vertex, W/m^2: the emitter links'
@@ -114,7 +114,7 @@ impl Solver {
             }
             // Pooled over the feature ring: a vertex's own estimate is correlated with its noise
             // (see the smoothing's module doc).
-            exchange::smooth(&var, &s.rings, &s.normals, self.params.smoothing_angle_deg)
+            exchange::smooth(&var, &s.rings, &s.normals, self.params.smoothing_angle())
         }
     }
 

@@ -34,8 +34,6 @@ use crate::sky::SkyRays;
 use crate::trace::{Accel, TracerKind};
 use compute::Tracers;
 use std::sync::{Arc, Mutex};
-#[cfg(any(test, feature = "internals"))]
-use std::time::Instant;
 use traced::{Change, Inputs, Part, Traced};
 
 pub mod adaptive;
@@ -99,13 +97,19 @@ struct Caches {
 impl Solver {
     /// Builds the acceleration structure (`params.tracer`), the vertex
     /// links (reporting `progress(done, total)` vertices) and every traced
-    /// part, on the CPU.
-    pub fn new(scene: PreparedScene, params: SolveParams, progress: &(dyn Fn(usize, usize) + Sync)) -> Solver {
+    /// part, on the CPU. Fails only where `params` do not pass
+    /// [`SolveParams::validate`].
+    pub fn new(
+        scene: PreparedScene,
+        params: SolveParams,
+        progress: &(dyn Fn(usize, usize) + Sync),
+    ) -> crate::Result<Solver> {
+        params.validate()?;
         let record = scene.meshes.iter().any(|m| m.dynamic);
-        Solver::cpu(scene, params.staged(), record, progress, &Part::ALL)
+        Ok(Solver::cpu(scene, params, record, progress, &Part::ALL))
     }
 
-    /// The CPU solver of `scene` with staged `params`: its structure
+    /// The CPU solver of `scene` with `params` (valid): its structure
     /// (`params.tracer`) built, then [`Solver::on_cpu`].
     fn cpu(
         scene: PreparedScene,
@@ -130,7 +134,8 @@ impl Solver {
         parts: &[Part],
     ) -> Solver {
         scene.moved_origins = links::buried::find(&scene, &accel, params.links.nudge);
-        let (links, ray_hits) = links::shoot_links_recording(&scene, &accel, &params.links, record, progress);
+        let keep = links::Recording { near: params.terms.near, ray_hits: record };
+        let (links, ray_hits) = links::shoot_links_recording(&scene, &accel, &params.links, keep, progress);
         Solver::assemble(scene, params, accel, links, None, Compute::Cpu, ray_hits, parts)
     }
 
@@ -167,7 +172,8 @@ impl Solver {
     /// `params.tracer` names on the CPU and uploaded to each logical
     /// device, the links on the GPU's logical devices, and every traced
     /// part on the GPU tracer. Fails where the GPU does (no device, a
-    /// driver that cannot build the structure).
+    /// driver that cannot build the structure) and where `params` do not
+    /// pass [`SolveParams::validate`].
     pub fn new_on(
         scene: PreparedScene,
         params: SolveParams,
@@ -185,7 +191,7 @@ impl Solver {
         progress: &(dyn Fn(usize, usize) + Sync),
         parts: &[Part],
     ) -> crate::Result<Solver> {
-        let params = params.staged();
+        params.validate()?;
         let g = match compute {
             Compute::Cpu => {
                 let record = scene.meshes.iter().any(|m| m.dynamic);
@@ -237,9 +243,9 @@ impl Solver {
         g: &compute::GpuCompute,
         progress: &(dyn Fn(usize, usize) + Sync),
     ) -> crate::Result<(Links, Option<RayHits>, GpuState)> {
-        let record = scene.meshes.iter().any(|m| m.dynamic);
+        let keep = links::Recording { near: params.terms.near, ray_hits: scene.meshes.iter().any(|m| m.dynamic) };
         let (links, ray_hits, shares) =
-            gpu::shoot_links_gpu(scene, &params.links, &g.schedule, &mut logical, record, progress)?;
+            gpu::shoot_links_gpu(scene, &params.links, &g.schedule, &mut logical, keep, progress)?;
         let tracer = logical.swap_remove(0).tracer;
         let gpu_links = GpuLinks::new(tracer.dev.clone(), &links, &scene.albedo)?;
         Ok((links, ray_hits, GpuState { tracer, links: gpu_links, shares }))
@@ -330,7 +336,8 @@ impl Solver {
         &self.scene
     }
 
-    /// The parameters its stages run with ([`SolveParams::staged`]).
+    /// The parameters its stages run with: those it was built or last set
+    /// with, and the terms it decided off (`decide.rs`) off.
     pub fn params(&self) -> &SolveParams {
         &self.params
     }
@@ -506,15 +513,4 @@ impl Solver {
             cpu_traced_rays: if self.gpu.is_none() { self.links.stats.rays } else { 0 } + t.cpu_rays(),
         }
     }
-}
-
-/// Convenience: build and solve in one call, timing smoothing too.
-#[cfg(any(test, feature = "internals"))]
-pub fn solve(scene: PreparedScene, params: SolveParams) -> (Solver, Solution, SolveStats) {
-    let solver = Solver::new(scene, params, &|_, _| {});
-    let t = Instant::now();
-    let solution = solver.solve();
-    let total_ms = t.elapsed().as_secs_f64() * 1e3;
-    let stats = solver.stats(&solution, (total_ms - solution.gather.ms).max(0.0));
-    (solver, solution, stats)
 }

@@ -23,8 +23,8 @@ use crate::scene::{Settings, TracerKind};
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SolveParams {
     /// Which optional terms are on (all by default): the one switch of
-    /// every optional stage ([`Terms`]); [`SolveParams::staged`] applies it
-    /// to the stages' parameters.
+    /// every optional stage ([`Terms`]), which each stage reads (a count
+    /// of 0 never switches a term off: [`SolveParams::validate`]).
     pub terms: Terms,
     /// Terms kept on whatever a sample of their work says (none by default).
     pub forced: Terms,
@@ -65,7 +65,10 @@ pub struct SolveParams {
     pub hidden: HiddenParams,
     /// More rays where a vertex's view of the sky has an edge (`crate::sky::refine`).
     pub sky: crate::sky::SkyRefineParams,
-    /// Feature angle of smoothing, degrees; 0: off.
+    /// Feature angle of smoothing, degrees, in [0, 180]: neighbours whose
+    /// normals differ by more are left out (0 leaves every neighbour out:
+    /// nothing is smoothed). Read through [`SolveParams::smoothing_angle`],
+    /// which the `smoothing` term sets to 0.
     pub smoothing_angle_deg: f32,
     /// The smoothing filter (noise-aware by default, `crate::exchange::denoise::smooth`).
     pub smoothing: SmoothParams,
@@ -83,7 +86,7 @@ impl SolveParams {
     /// structures: a deformation then keeps the recorded hits and re-traces
     /// only what moved.
     pub fn same_links(&self, other: &SolveParams) -> bool {
-        self.same_structures(other) && self.links == other.links
+        self.same_structures(other) && self.links == other.links && self.terms.near == other.terms.near
     }
 
     /// Whether `other` traces everything as these do (links, lights,
@@ -91,14 +94,25 @@ impl SolveParams {
     /// what a parameter change retraces; anything else takes effect at the
     /// next solve.
     pub fn same_traced(&self, other: &SolveParams) -> bool {
+        // A traced term: on in both with the same parameters, or off in both.
+        fn same<T: PartialEq>(on: (bool, bool), a: &T, b: &T) -> bool {
+            on.0 == on.1 && (!on.0 || a == b)
+        }
+        let (a, b) = (&self.terms, &other.terms);
+        let near = |x: bool, y: bool| (a.near && x, b.near && y);
         self.same_links(other)
             && self.light == other.light
-            && self.emitter == other.emitter
-            && self.near_emitter == other.near_emitter
-            && self.near_sky == other.near_sky
-            && self.near_gather == other.near_gather
-            && self.sky == other.sky
-            && self.smoothing.noise.check_vertices == other.smoothing.noise.check_vertices
+            && same((a.emitter_links, b.emitter_links), &self.emitter, &other.emitter)
+            && same(near(a.near_emitters, b.near_emitters), &self.near_emitter, &other.near_emitter)
+            && same(near(a.near_sky, b.near_sky), &self.near_sky, &other.near_sky)
+            && same(near(a.near_gather, b.near_gather), &self.near_gather, &other.near_gather)
+            && same((a.sky_refine, b.sky_refine), &self.sky.sub, &other.sky.sub)
+            && same((a.sky_portals, b.sky_portals), &self.sky.portal, &other.sky.portal)
+            && same(
+                (a.noise_check, b.noise_check),
+                &self.smoothing.noise.check_vertices,
+                &other.smoothing.noise.check_vertices,
+            )
     }
 }
 
@@ -152,44 +166,83 @@ impl SolveParams {
         p
     }
 
-    /// The parameters as the stages read them: a term that is off
-    /// ([`SolveParams::terms`]) gets its stage's count (or feature angle)
-    /// of 0, which each stage reads as nothing to trace or smooth. The
-    /// solver runs with these; applying it twice changes nothing.
-    pub fn staged(mut self) -> SolveParams {
-        let t = self.terms;
-        if !t.emitter_links {
-            self.emitter.samples = 0;
+    /// The feature angle the smoothing of `E_i` runs with, degrees: 0
+    /// (nothing smoothed) when the `smoothing` term is off, else
+    /// [`SolveParams::smoothing_angle_deg`].
+    pub fn smoothing_angle(&self) -> f32 {
+        if self.terms.smoothing {
+            self.smoothing_angle_deg
+        } else {
+            0.0
         }
-        if !t.near {
-            self.links.near.factor = 0.0;
+    }
+
+    /// The feature angle `E_sky` is smoothed with, degrees: 0 when the
+    /// `sky_smoothing` term (or `smoothing`) is off.
+    pub fn sky_smoothing_angle(&self) -> f32 {
+        if self.terms.sky_smoothing {
+            self.smoothing_angle()
+        } else {
+            0.0
         }
-        if !t.near_emitters {
-            self.near_emitter.samples = 0;
+    }
+
+    /// Checks every stage's range: counts of rays and samples at least 1
+    /// (a term is switched off by [`SolveParams::terms`], never by a count
+    /// of 0), link rays a square number, angles and shares in range, every
+    /// float finite. An error names the parameter and its value.
+    pub fn validate(&self) -> crate::Result<()> {
+        let bad = |what: &str, v: &dyn std::fmt::Debug, want: &str| {
+            Err(crate::Error::Setting(format!("{what} = {v:?} is not {want}")))
+        };
+        let rays = self.links.rays_per_vertex;
+        let k = (rays as f64).sqrt().round() as u64;
+        if rays == 0 || k * k != rays as u64 {
+            return bad("links.rays_per_vertex", &rays, "a non-zero square number (k*k)");
         }
-        if !t.near_sky {
-            self.near_sky.samples = 0;
-            self.near_sky.portal_samples = 0;
+        let counts: [(&str, u32); 9] = [
+            ("emitter.samples", self.emitter.samples),
+            ("near_emitter.samples", self.near_emitter.samples),
+            ("near_sky.samples", self.near_sky.samples),
+            ("near_sky.portal_samples", self.near_sky.portal_samples),
+            ("near_gather.rays", self.near_gather.rays),
+            ("sky.portal.rays", self.sky.portal.rays),
+            ("smoothing.noise.check_vertices", self.smoothing.noise.check_vertices),
+            ("smoothing.passes", self.smoothing.passes),
+            ("links.batch_vertices", self.links.batch_vertices.min(1 << 31) as u32),
+        ];
+        for (what, v) in counts {
+            if v == 0 {
+                return bad(what, &v, "at least 1 (switch a term off in `terms` instead)");
+            }
         }
-        if !t.near_gather {
-            self.near_gather.rays = 0;
+        if !(1..=crate::sky::refine::MAX_SUB).contains(&self.sky.sub) {
+            return bad("sky.sub", &self.sky.sub, &format!("in 1..={}", crate::sky::refine::MAX_SUB));
         }
-        if !t.sky_refine {
-            self.sky.sub = 0;
+        let a = self.smoothing_angle_deg;
+        if !(a.is_finite() && (0.0..=180.0).contains(&a)) {
+            return bad("smoothing_angle_deg", &a, "in [0, 180]");
         }
-        if !t.sky_portals {
-            self.sky.portal.rays = 0;
+        let near = &self.links.near;
+        if !(near.factor.is_finite() && near.factor > 0.0) {
+            return bad("links.near.factor", &near.factor, "finite and above 0");
         }
-        if !t.noise_check {
-            self.smoothing.noise.check_vertices = 0;
+        if !(near.max_share > 0.0 && near.max_share <= 1.0) {
+            return bad("links.near.max_share", &near.max_share, "in (0, 1]");
         }
-        if !t.smoothing {
-            self.smoothing_angle_deg = 0.0;
+        if !(self.pay_share.is_finite() && self.pay_share >= 0.0) {
+            return bad("pay_share", &self.pay_share, "finite and at least 0");
         }
-        if !t.sky_smoothing {
-            self.smoothing.sky = false;
+        if !(self.links.nudge.is_finite() && self.links.nudge >= 0.0) {
+            return bad("links.nudge", &self.links.nudge, "finite and at least 0");
         }
-        self
+        if self.gather.bounces == crate::scene::Bounces::Fixed(0) {
+            return bad("gather.bounces", &self.gather.bounces, "at least 1 (or auto)");
+        }
+        if !(self.gather.tolerance.is_finite() && self.gather.tolerance > 0.0) {
+            return bad("gather.tolerance", &self.gather.tolerance, "finite and above 0");
+        }
+        Ok(())
     }
 
     /// The seed of every sample the solve draws (the link directions' and,
@@ -267,6 +320,73 @@ mod tests {
         solve_only.gather.max_bounces += 1;
         solve_only.smoothing_angle_deg += 5.0;
         assert!(a.same_traced(&solve_only));
+    }
+
+    /// A traced term switched on or off retraces; a switched-off term's
+    /// own parameters retrace nothing; a solve-only term (smoothing,
+    /// reconstruct) never retraces.
+    #[test]
+    fn a_term_retraces_as_its_parameters_do() {
+        let a = SolveParams::default();
+        for name in ["emitter_links", "near_emitters", "near_sky", "near_gather", "sky_refine", "sky_portals", "noise_check"] {
+            let mut off = a;
+            off.terms.set(name, false).unwrap();
+            assert!(!a.same_traced(&off), "{name}");
+        }
+        let mut near_off = a;
+        near_off.terms.near = false;
+        assert!(!a.same_links(&near_off));
+        let mut other = near_off;
+        other.near_gather.rays += 1;
+        other.near_emitter.samples += 1;
+        assert!(near_off.same_traced(&other), "near-field parameters of a near field that is off");
+        assert!(!a.same_traced(&SolveParams { near_gather: other.near_gather, ..a }));
+        let mut solve_only = a;
+        (solve_only.terms.smoothing, solve_only.terms.reconstruct, solve_only.terms.hidden) = (false, false, false);
+        assert!(a.same_traced(&solve_only));
+    }
+
+    /// The smoothing terms read through one accessor each.
+    #[test]
+    fn switched_off_smoothing_has_no_angle() {
+        let mut p = SolveParams { smoothing_angle_deg: 30.0, ..SolveParams::default() };
+        assert_eq!((p.smoothing_angle(), p.sky_smoothing_angle()), (30.0, 30.0));
+        p.terms.sky_smoothing = false;
+        assert_eq!((p.smoothing_angle(), p.sky_smoothing_angle()), (30.0, 0.0));
+        (p.terms.sky_smoothing, p.terms.smoothing) = (true, false);
+        assert_eq!((p.smoothing_angle(), p.sky_smoothing_angle()), (0.0, 0.0));
+    }
+
+    /// The presets and the settings' parameters pass; a count of 0 (the
+    /// old way to switch a term off), rays that are not a square and
+    /// values out of range fail, naming the parameter.
+    #[test]
+    fn validate_names_what_is_wrong() {
+        for p in [SolveParams::default(), SolveParams::preview(), SolveParams::reference()] {
+            p.validate().unwrap();
+        }
+        SolveParams::from_settings(&Settings::default()).validate().unwrap();
+        type Edit = fn(&mut SolveParams);
+        let cases: [(&str, Edit); 12] = [
+            ("links.rays_per_vertex", |p| p.links.rays_per_vertex = 200),
+            ("links.rays_per_vertex", |p| p.links.rays_per_vertex = 0),
+            ("emitter.samples", |p| p.emitter.samples = 0),
+            ("near_emitter.samples", |p| p.near_emitter.samples = 0),
+            ("near_sky.portal_samples", |p| p.near_sky.portal_samples = 0),
+            ("near_gather.rays", |p| p.near_gather.rays = 0),
+            ("sky.portal.rays", |p| p.sky.portal.rays = 0),
+            ("sky.sub", |p| p.sky.sub = 0),
+            ("smoothing.noise.check_vertices", |p| p.smoothing.noise.check_vertices = 0),
+            ("smoothing_angle_deg", |p| p.smoothing_angle_deg = f32::NAN),
+            ("links.near.factor", |p| p.links.near.factor = 0.0),
+            ("pay_share", |p| p.pay_share = -1.0),
+        ];
+        for (name, edit) in cases {
+            let mut p = SolveParams::default();
+            edit(&mut p);
+            let e = p.validate().expect_err(name).to_string();
+            assert!(e.contains(name), "{name}: {e}");
+        }
     }
 
     /// The presets are `const fn` (usable in a `const`), and the portal

@@ -97,7 +97,7 @@ impl Solver {
 
     fn solve_as(&self, quick: bool) -> Solution {
         let s = &self.scene;
-        let angle = self.params.smoothing_angle_deg;
+        let angle = self.params.smoothing_angle();
         let src = self.sources();
         let gathered = self.gathered(&src, &self.params.gather, quick);
         let mut e_indirect = if quick {

@@ -35,6 +35,7 @@ use crate::exchange::near::NearChange;
 use crate::exchange::{EmitterLinks, LightLinks, NearEmitters, NearField, NearGather, NearLight, NearSky, NoiseCheck};
 use crate::links::{Lineage, Links, NearHits};
 use crate::scene::prep::PreparedScene;
+use crate::scene::terms::Terms;
 use crate::sky::rays::portals_of;
 use crate::sky::SkyRays;
 use std::time::Instant;
@@ -182,6 +183,24 @@ impl Part {
         }
     }
 
+    /// Whether `terms` leave the part anything to trace. The switched-off
+    /// parts of the near field are traced over no near hits and the others
+    /// left empty, which is what a part gives that has nothing to trace
+    /// (no emitters, no near hits). The light links and the sky's rays are
+    /// always traced (the sky's two terms, `sky_refine` and
+    /// `sky_portals`, are read by [`SkyRays::trace`]).
+    pub fn on(self, terms: &Terms) -> bool {
+        match self {
+            Part::LightLinks | Part::Sky => true,
+            Part::Emitters => terms.emitter_links,
+            Part::NearLight => terms.near,
+            Part::NearEmitters => terms.near && terms.near_emitters,
+            Part::NearSky => terms.near && terms.near_sky,
+            Part::NearGather => terms.near && terms.near_gather,
+            Part::NoiseCheck => terms.noise_check,
+        }
+    }
+
     /// The part's place in [`Part::ALL`].
     pub fn index(self) -> usize {
         self as usize
@@ -193,13 +212,19 @@ impl Traced {
     /// `inputs` (module doc); records each part's [`PartCost`] and whether
     /// the CPU structure traced some of it.
     pub fn update(&mut self, parts: &[Part], change: &Change, inputs: Inputs, t: Tracers) {
-        let Inputs { scene, links, near, params } = inputs;
-        let (rays, seed) = (params.links.rays_per_vertex, params.seed());
+        let Inputs { scene, links, near: near_hits, params } = inputs;
+        let (rays, seed, terms) = (params.links.rays_per_vertex, params.seed(), &params.terms);
+        let no_hits = NearHits::default();
         for &part in parts {
             t.take_cpu_used();
             let start = Instant::now();
             let mut redone = None;
+            let on = part.on(terms);
+            // A switched-off part is traced afresh, a near-field one from no near hits.
+            let (near, change) = if on { (near_hits, change) } else { (&no_hits, &Change::Fresh) };
             match (part, change) {
+                (Part::Emitters, _) if !on => self.emitter_links = EmitterLinks::none(scene.vertex_count()),
+                (Part::NoiseCheck, _) if !on => self.noise_check = NoiseCheck::default(),
                 (Part::LightLinks, Change::Deformed(c)) => {
                     let light = &mut self.light_links;
                     redone =
@@ -252,6 +277,7 @@ impl Traced {
                             lineage,
                             &params.links,
                             &params.sky,
+                            terms,
                         )
                     });
                     self.sky = sky;
@@ -273,14 +299,14 @@ impl Traced {
                 }
                 (Part::Sky, _) => {
                     self.sky = t.any("tracing sky rays", |tr| {
-                        SkyRays::trace(scene, tr, &links.sky, &params.links, &params.sky)
+                        SkyRays::trace(scene, tr, &links.sky, &params.links, &params.sky, terms)
                     });
                 }
                 (Part::NearSky, _) => {
                     self.near.sky = if scene.sky.is_none() {
                         NearSky::default()
                     } else {
-                        let portals = portals_of(scene, &params.sky);
+                        let portals = portals_of(scene, terms);
                         t.any("tracing near-hit sky light", |tr| {
                             NearSky::compute(scene, near, portals, tr, &params.near_sky, seed, rays)
                         })

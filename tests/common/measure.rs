@@ -41,7 +41,7 @@ pub fn solve(scene: &prep::PreparedScene, change: impl FnOnce(&mut SolveParams))
     let mut params = SolveParams::from_settings(&scene.settings);
     change(&mut params);
     let t = Instant::now();
-    let solver = Solver::new(scene.clone(), params, &|_, _| {});
+    let solver = Solver::new(scene.clone(), params, &|_, _| {}).unwrap();
     let sol = solver.solve();
     eprintln!(
         "  {} at {} rays, seed {}: built and solved in {:.1} s",

@@ -13,7 +13,7 @@ pub fn solve(desc: &SceneDesc) -> (Solver, Solution) {
 }
 
 pub fn solve_with(scene: prep::PreparedScene, params: SolveParams) -> (Solver, Solution) {
-    let solver = Solver::new(scene, params, &|_, _| {});
+    let solver = Solver::new(scene, params, &|_, _| {}).unwrap();
     solver.validate().expect("every structure and table valid");
     let sol = solver.solve();
     for v in sol.e_direct.iter().chain(&sol.e_indirect).chain(&sol.e_indirect_raw) {

@@ -43,7 +43,7 @@
 //! twice too large on `window` and off by more inside one scene where the
 //! light is uneven: the solver measures the ratio on the scene instead,
 //! locally ([`crate::exchange::denoise::noise_check`]), and keeps the model for a solver
-//! without a check (`check_vertices = 0`).
+//! without a check (the `noise_check` term off).
 
 use crate::exchange::bounce::operator::radiosity;
 use crate::links::Links;
@@ -62,7 +62,8 @@ pub struct NoiseParams {
     /// How the ratio falls with the rays: `scale * (reference_rays / n_C)^exponent`, at most 1.
     pub exponent: f32,
     /// Vertices of the noise check (`crate::exchange::denoise::noise_check`), whose measured
-    /// ratio replaces the model's; 0: the model alone.
+    /// ratio replaces the model's; at least 1 (the `noise_check` term off:
+    /// the model alone).
     pub check_vertices: u32,
     /// The check's ratio around a sampled vertex is a Gaussian kernel
     /// average whose width is the distance to its `check_neighbours`-th

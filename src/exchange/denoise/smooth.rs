@@ -92,10 +92,6 @@ pub struct SmoothParams {
     pub passes: u32,
     /// Calibration of the noise estimate (`crate::exchange::denoise::noise`).
     pub noise: crate::exchange::denoise::noise::NoiseParams,
-    /// Smooth the sky's direct light `E_sky` too, by the same adaptive
-    /// filter with its own sampling variance (`pooled_variance`); adaptive
-    /// mode only.
-    pub sky: bool,
 }
 
 impl SmoothParams {
@@ -105,7 +101,6 @@ impl SmoothParams {
         mode: SmoothMode::Adaptive,
         passes: 2,
         noise: crate::exchange::denoise::noise::NoiseParams::DEFAULT,
-        sky: true,
     };
 }
 

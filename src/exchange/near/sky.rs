@@ -68,10 +68,11 @@ use std::time::Instant;
 /// How the sky at near hits is sampled.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct NearSkyParams {
-    /// Cosine-distributed directions per near hit (0 with `portal_samples`
-    /// 0: off). Default 1 (module doc: more read the same).
+    /// Cosine-distributed directions per near hit, at least 1 (the
+    /// `near_sky` term switches the part off). Default 1 (module doc: more
+    /// read the same).
     pub samples: u32,
-    /// Points per near hit and portal, rounded down to a square grid. Default 1.
+    /// Points per near hit and portal, rounded down to a square grid; at least 1. Default 1.
     pub portal_samples: u32,
 }
 
@@ -88,11 +89,6 @@ impl Default for NearSkyParams {
 }
 
 impl NearSkyParams {
-    /// True when no sample is taken.
-    pub fn is_off(&self) -> bool {
-        self.samples == 0 && self.portal_side() == 0
-    }
-
     /// Cells a side of a portal's grid.
     pub fn portal_side(&self) -> u32 {
         ((self.portal_samples.min(portal::MAX_SIDE * portal::MAX_SIDE) as f64).sqrt().floor() as u32)
@@ -137,7 +133,7 @@ impl NearSky {
         let start = Instant::now();
         let n = scene.vertex_count();
         let mut out = NearSky { traced: true, portals: portals.to_vec(), ..Default::default() };
-        if near.is_empty() || params.is_off() {
+        if near.is_empty() {
             return Ok(out);
         }
         let inv = 1.0 / rays_per_vertex.max(1) as f32;

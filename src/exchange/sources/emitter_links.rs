@@ -93,8 +93,9 @@ use std::time::Instant;
 /// Parameters of the emitter links.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct EmitterLinkParams {
-    /// Shadow rays per vertex toward the emitters (0: no emitter links,
-    /// emitters' light through the vertex links alone). Default 64;
+    /// Shadow rays per vertex toward the emitters, at least 1 (the
+    /// `emitter_links` term switches them off: emitters' light then goes
+    /// through the vertex links alone). Default 64;
     /// `SolveParams::from_settings` gives the vertex links' rays per vertex
     /// (at least 64), so this noise falls with theirs.
     pub samples: u32,
@@ -179,6 +180,12 @@ pub const NO_GROUP: u32 = u32::MAX;
 const CHUNK_VERTICES: usize = 8192;
 
 impl EmitterLinks {
+    /// No emitter links for `n` vertices (nothing emits, or the
+    /// `emitter_links` term is off): every vertex's row empty, none covered.
+    pub fn none(n: usize) -> EmitterLinks {
+        EmitterLinks { rows: Csr::empty_rows(n), covered: vec![false; n], ..Default::default() }
+    }
+
     /// The emitter links of `scene` traced with `tracer`; empty when nothing emits.
     pub fn compute(
         scene: &PreparedScene,
@@ -189,8 +196,8 @@ impl EmitterLinks {
         let start = Instant::now();
         let n = scene.vertex_count();
         let (emitters, group_vertex) = emitters_of(scene);
-        let mut out = EmitterLinks { rows: Csr::empty_rows(n), covered: vec![false; n], ..Default::default() };
-        if emitters.is_empty() || params.samples == 0 {
+        let mut out = EmitterLinks::none(n);
+        if emitters.is_empty() {
             return Ok(out);
         }
         let pairs = n as u64 * emitters.len() as u64;
@@ -244,7 +251,6 @@ impl EmitterLinks {
         let (before, _) = emitters_of(old_scene);
         let same = old.is_active()
             && old.fallback.is_none()
-            && params.samples > 0
             && lineage.kept.len() == n
             && n as u64 * emitters.len() as u64 <= params.max_pairs
             && group_vertex.len() == old.group_vertex.len()
