@@ -119,6 +119,9 @@ pub struct SettingsFile {
     /// Most positions refinement may add to the scene's input (the budget).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub refine_max_added: Option<u32>,
+    /// The lighting mesh's triangle budget (dense meshes above it are simplified).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub refine_max_triangles: Option<u32>,
     /// The budget's former key (read as `refine_max_added`, with a warning).
     #[serde(skip_serializing)]
     pub refine_max_vertices: Option<u32>,
@@ -367,6 +370,7 @@ fn settings_from(path: &Path, s: &SettingsFile) -> Result<Settings> {
                 }
                 (None, None) => d.refine.max_added,
             },
+            max_triangles: s.refine_max_triangles.unwrap_or(d.refine.max_triangles),
         },
         near_share: s.near_share.unwrap_or(d.near_share),
     };
@@ -593,6 +597,7 @@ pub fn to_toml(scene: &SceneDesc, obj_names: &[String]) -> String {
             refine_max_edge: (s.refine.max_edge != dr.max_edge).then_some(s.refine.max_edge),
             refine_tolerance: (s.refine.tolerance != dr.tolerance).then_some(s.refine.tolerance),
             refine_max_added: (s.refine.max_added != dr.max_added).then_some(s.refine.max_added),
+            refine_max_triangles: (s.refine.max_triangles != dr.max_triangles).then_some(s.refine.max_triangles),
             refine_max_vertices: None,
             near_share: (s.near_share != Settings::default().near_share).then_some(s.near_share),
         },

@@ -29,8 +29,10 @@ pub mod prep;
 pub mod refine;
 pub mod rings;
 pub mod shapes;
+pub mod simplify;
 pub mod terms;
 pub mod texture;
+pub mod transfer;
 
 use glam::{Mat4, Quat, Vec3};
 use std::path::PathBuf;

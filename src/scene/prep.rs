@@ -23,6 +23,7 @@
 //! origins are nudged into their own face group (docs/DESIGN.md §3).
 
 use super::texture::{CornerTextures, NO_MAP};
+use super::transfer::{Transfer, NO_TRANSFER};
 use super::{Light, SceneDesc, Settings};
 use crate::sky::Sky;
 use crate::{Error, Result};
@@ -57,8 +58,35 @@ pub struct MeshRange {
     pub vertex_input: Vec<u32>,
     /// Per solver triangle of the mesh (`triangles` in order): the index of
     /// the input triangle (`MeshDesc::triangles`) it is. Preparation keeps
-    /// the input's triangle order and drops only degenerate ones.
+    /// the input's triangle order and drops only degenerate ones (of a
+    /// simplified mesh, the index of its lighting triangle,
+    /// [`super::simplify`]).
     pub triangle_input: Vec<u32>,
+    /// Of a simplified mesh ([`super::simplify`]), per input position:
+    /// where a position the lighting mesh dropped reads its value (a
+    /// triangle of [`PreparedScene::triangles`] and its corners' weights,
+    /// [`super::transfer`]); [`Transfer::NONE`] for the others. Empty for
+    /// a mesh that was not simplified.
+    pub input_transfer: Vec<Transfer>,
+}
+
+/// A per-vertex value [`PreparedScene::on_input`] can read at an input
+/// position a lighting mesh dropped: a weighted sum of three.
+pub trait Interpolate: Copy + std::ops::Add<Output = Self> {
+    /// `self` times weight `w`.
+    fn weighted(self, w: f32) -> Self;
+}
+
+impl Interpolate for f32 {
+    fn weighted(self, w: f32) -> f32 {
+        self * w
+    }
+}
+
+impl Interpolate for Vec3 {
+    fn weighted(self, w: f32) -> Vec3 {
+        self * w
+    }
 }
 
 /// [`MeshRange::input_vertex`] of an input position no kept triangle uses.
@@ -488,6 +516,33 @@ impl MeshPrep {
     }
 }
 
+/// The lighting mesh of a dense `mesh` ([`super::simplify`]) prepared, and
+/// the transfer of every input position it dropped ([`super::transfer`],
+/// triangles local to the mesh).
+fn lighting_mesh(mesh: &super::MeshDesc, share: f32, max_error: f32) -> Result<(MeshPrep, Vec<Transfer>)> {
+    use super::{simplify, transfer};
+    let world = check_mesh(mesh)?;
+    let s = simplify::simplify(mesh, &world, share, max_error);
+    let mp = prepare_mesh(&s.mesh)?;
+    let region: Vec<u32> = mp.triangle_input.iter().map(|&t| s.region[t as usize]).collect();
+    let lighting = transfer::Lighting { positions: &mp.positions, triangles: &mp.triangles, region: &region };
+    let input_region = simplify::regions(mesh);
+    let input = transfer::Input { positions: &world, triangles: &mesh.triangles, region: &input_region };
+    let t = transfer::transfers(&input, &lighting, |i| mp.input_vertex[i] == NO_VERTEX);
+    let lost = (0..world.len()).filter(|&i| mp.input_vertex[i] == NO_VERTEX && t[i].tri == NO_TRANSFER).count();
+    log::info!(
+        "{}: lighting mesh of {} triangles for the input's {} (surface moved at most {:.2} mm); {} input \
+         positions read it through a transfer{}",
+        mesh.name,
+        mp.triangles.len(),
+        mesh.triangles.len(),
+        s.error * 1e3,
+        t.iter().filter(|t| t.tri != NO_TRANSFER).count(),
+        if lost > 0 { format!(", {lost} find no lighting triangle facing them and keep no value") } else { String::new() }
+    );
+    Ok((mp, t))
+}
+
 /// Prepares a scene for solving. Errors name the mesh and the problem.
 pub fn prepare(scene: &SceneDesc) -> Result<PreparedScene> {
     scene.settings.validate()?;
@@ -513,8 +568,13 @@ pub fn prepare(scene: &SceneDesc) -> Result<PreparedScene> {
     };
     let mut textures = CornerTextures::default();
     let mut pos_base = 0u32;
+    let share = super::simplify::keep_share(scene);
+    let max_error = super::simplify::MAX_ERROR_SHARE * super::refine::scene_diagonal(scene);
     for mesh in &scene.meshes {
-        let mp = prepare_mesh(mesh)?;
+        let (mp, mut transfer) = match share.filter(|_| super::simplify::simplifiable(mesh)) {
+            Some(share) => lighting_mesh(mesh, share, max_error)?,
+            None => (prepare_mesh(mesh)?, Vec::new()),
+        };
         let n = mp.triangles.len();
         match &mp.textures {
             Some(t) => {
@@ -532,6 +592,7 @@ pub fn prepare(scene: &SceneDesc) -> Result<PreparedScene> {
         }
         let vbase = out.positions.len() as u32;
         let tbase = out.triangles.len() as u32;
+        transfer.iter_mut().filter(|t| t.tri != NO_TRANSFER).for_each(|t| t.tri += tbase);
         out.positions.extend(&mp.positions);
         out.normals.extend(&mp.normals);
         out.albedo.extend(&mp.albedo);
@@ -548,6 +609,7 @@ pub fn prepare(scene: &SceneDesc) -> Result<PreparedScene> {
             input_vertex: mp.input_vertex.iter().map(|&v| if v == NO_VERTEX { v } else { v + vbase }).collect(),
             vertex_input: mp.vertex_input.clone(),
             triangle_input: mp.triangle_input.clone(),
+            input_transfer: transfer,
         });
         pos_base += mp.welded_count;
     }
@@ -595,14 +657,14 @@ impl PreparedScene {
 
     /// [`Self::on_input`] into the caller's buffer (one entry per input
     /// position of mesh `mesh`, reused from update to update): positions
-    /// no kept triangle uses are left as they are. Returns how many entries
+    /// that take no value are left as they are. Returns how many entries
     /// were written, 0 if there is no mesh `mesh` or `out` has another length.
-    pub fn on_input_into<T: Copy>(&self, mesh: usize, values: &[T], out: &mut [T]) -> usize {
+    pub fn on_input_into<T: Interpolate>(&self, mesh: usize, values: &[T], out: &mut [T]) -> usize {
         let Some(m) = self.meshes.get(mesh).filter(|m| m.input_vertex.len() == out.len()) else { return 0 };
         let mut written = 0;
-        for (o, &v) in out.iter_mut().zip(&m.input_vertex) {
-            if let Some(x) = values.get(v as usize) {
-                *o = *x;
+        for (i, o) in out.iter_mut().enumerate() {
+            if let Some(x) = self.input_value(m, i, values) {
+                *o = x;
                 written += 1;
             }
         }
@@ -611,15 +673,28 @@ impl PreparedScene {
 
     /// A per-vertex result (`values[v]` for solver vertex `v`, e.g.
     /// `Solution::e_indirect`) read on input mesh `mesh`'s own positions,
-    /// in their order (`MeshRange::input_vertex`); `None` where no kept
-    /// triangle uses the position; empty if there is no mesh `mesh`.
-    pub fn on_input<T: Copy>(&self, mesh: usize, values: &[T]) -> Vec<Option<T>> {
+    /// in their order: a position's solver vertex
+    /// ([`MeshRange::input_vertex`]), or for a position a simplified
+    /// lighting mesh dropped, its transfer ([`MeshRange::input_transfer`]:
+    /// the lighting triangle's corner values weighted); `None` where the
+    /// position takes no value (no kept triangle uses it, or no lighting
+    /// triangle faces it); empty if there is no mesh `mesh`.
+    pub fn on_input<T: Interpolate>(&self, mesh: usize, values: &[T]) -> Vec<Option<T>> {
         self.meshes.get(mesh).map_or_else(Vec::new, |m| {
-            m.input_vertex
-                .iter()
-                .map(|&v| if v == NO_VERTEX { None } else { values.get(v as usize).copied() })
-                .collect()
+            (0..m.input_vertex.len()).map(|i| self.input_value(m, i, values)).collect()
         })
+    }
+
+    /// The value of input position `i` of mesh `m` (see [`Self::on_input`]).
+    fn input_value<T: Interpolate>(&self, m: &MeshRange, i: usize, values: &[T]) -> Option<T> {
+        let v = m.input_vertex[i];
+        if v != NO_VERTEX {
+            return values.get(v as usize).copied();
+        }
+        let t = m.input_transfer.get(i).filter(|t| t.tri != NO_TRANSFER)?;
+        let c = self.triangles.get(t.tri as usize)?;
+        let [a, b, d] = [values.get(c[0] as usize)?, values.get(c[1] as usize)?, values.get(c[2] as usize)?];
+        Some(a.weighted(t.weights[0]) + b.weighted(t.weights[1]) + d.weighted(t.weights[2]))
     }
 
     /// Number of solver vertices.

@@ -254,7 +254,17 @@ pub struct RefineSettings {
     /// budget), so a scene of any size refines where its light needs it; a
     /// pass or round that would pass it is cut to it, and a note says so.
     pub max_added: u32,
+    /// The lighting mesh's triangle budget: a scene whose input has more
+    /// triangles has its dense static meshes simplified until the whole
+    /// fits it ([`crate::scene::simplify`]; their own positions take the
+    /// light through a transfer). At least 1000. Lower: faster solves of
+    /// dense scenes, light interpolated over larger triangles.
+    pub max_triangles: u32,
 }
+
+/// The default [`RefineSettings::max_triangles`]: above every built-in
+/// scene (conference: 237k triangles), so none is simplified.
+pub const DEFAULT_MAX_TRIANGLES: u32 = 300_000;
 
 /// Whether the solver refines coarse meshes.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
@@ -275,20 +285,38 @@ pub const AUTO_EDGE_SHARE: f32 = 0.08;
 
 impl Default for RefineSettings {
     fn default() -> Self {
-        Self { mode: RefineMode::Auto, max_edge: 0.0, tolerance: 0.25, max_added: 250_000 }
+        Self {
+            mode: RefineMode::Auto,
+            max_edge: 0.0,
+            tolerance: 0.25,
+            max_added: 250_000,
+            max_triangles: DEFAULT_MAX_TRIANGLES,
+        }
     }
 }
 
 impl RefineSettings {
     /// Refinement off.
     pub const fn off() -> Self {
-        Self { mode: RefineMode::Off, max_edge: 0.0, tolerance: 0.25, max_added: 250_000 }
+        Self {
+            mode: RefineMode::Off,
+            max_edge: 0.0,
+            tolerance: 0.25,
+            max_added: 250_000,
+            max_triangles: DEFAULT_MAX_TRIANGLES,
+        }
     }
 
     /// Checks ranges: finite non-negative edge, positive finite tolerance.
     pub fn validate(&self) -> crate::Result<()> {
         if !(self.max_edge.is_finite() && self.max_edge >= 0.0) {
             return Err(crate::Error::Setting(format!("refine_max_edge = {} is not a length >= 0", self.max_edge)));
+        }
+        if self.max_triangles < 1000 {
+            return Err(crate::Error::Setting(format!(
+                "refine_max_triangles = {} is below 1000",
+                self.max_triangles
+            )));
         }
         if !(self.tolerance.is_finite() && self.tolerance > 0.0) {
             return Err(crate::Error::Setting(format!("refine_tolerance = {} is not positive", self.tolerance)));

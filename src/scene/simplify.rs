@@ -1,0 +1,308 @@
+//! The lighting mesh where the input is denser than the light needs:
+//! dense meshes reduced by meshoptimizer's edge-collapse simplifier
+//! ([`meshopt`], `simplify_with_locks`), the counterpart of refinement
+//! ([`super::refine`]) under one setting, [`RefineSettings`]: refinement
+//! splits meshes coarser than the light needs, simplification collapses
+//! meshes denser than the scene's triangle budget.
+//!
+//! **Which meshes.** A scene whose input has more triangles than
+//! [`RefineSettings::max_triangles`] (with refinement `auto`) has every
+//! static mesh of at least [`MIN_TRIANGLES`] triangles reduced to the same
+//! share of its triangles, so the whole fits the budget
+//! ([`keep_share`]). The simplifier may stop short of it: no collapse
+//! moves the surface more than [`MAX_ERROR_SHARE`] of the scene's diagonal
+//! (meshoptimizer's absolute quadric error), so curved detail and
+//! silhouettes keep their shape and only flat or gently curved regions
+//! collapse far. Deforming meshes are never simplified (their positions
+//! move per input vertex).
+//!
+//! **What is kept exactly.** Each region of one material and one texture
+//! map is simplified on its own with its border locked, so material and
+//! texture boundaries and the mesh's open borders (a window's edge, a
+//! box's opening) keep every vertex and edge as given. Corners that
+//! differ in texture coordinates, texture factor, per-vertex albedo or
+//! emission are separate vertices (an attribute seam is a border, locked).
+//! A vertex whose faces meet at more than the mesh's crease angle is
+//! locked, so creases (a cube's edges) stay. (meshoptimizer's
+//! `Regularize`, for even triangle sizes, collapses nothing under an
+//! absolute error bound of this size: measured on a 20x20 grid.)
+//!
+//! The result keeps the input's positions and numbering and replaces its
+//! triangles; the positions no kept triangle uses take their light from
+//! the lighting triangle beside them ([`super::transfer`]).
+
+use super::refine::{RefineMode, RefineSettings};
+use super::texture::NO_MAP;
+use super::{MeshDesc, SceneDesc};
+use glam::Vec3;
+use meshopt::{SimplifyOptions, VertexDataAdapter};
+use std::collections::HashMap;
+
+/// Meshes with fewer triangles are never simplified (they cost little).
+pub const MIN_TRIANGLES: usize = 1000;
+
+/// The largest distance a collapse may move the surface, as a share of the
+/// scene's bounding-box diagonal (0.2%: 2 cm in a 10 m room).
+pub const MAX_ERROR_SHARE: f32 = 0.002;
+
+/// Whether `mesh` may be simplified: static, and at least [`MIN_TRIANGLES`].
+pub fn simplifiable(mesh: &MeshDesc) -> bool {
+    !mesh.dynamic && mesh.deform.is_empty() && mesh.triangles.len() >= MIN_TRIANGLES
+}
+
+/// The share of its triangles each simplifiable mesh of `scene` keeps so
+/// the whole fits [`RefineSettings::max_triangles`]; `None` where nothing
+/// is simplified (refinement off, the scene within the budget, or no mesh
+/// that may be simplified). At least 1% of them.
+pub fn keep_share(scene: &SceneDesc) -> Option<f32> {
+    let r: &RefineSettings = &scene.settings.refine;
+    if r.mode == RefineMode::Off {
+        return None;
+    }
+    let total: usize = scene.meshes.iter().map(|m| m.triangles.len()).sum();
+    if total <= r.max_triangles as usize {
+        return None;
+    }
+    let dense: usize = scene.meshes.iter().filter(|m| simplifiable(m)).map(|m| m.triangles.len()).sum();
+    if dense == 0 {
+        return None;
+    }
+    let room = (r.max_triangles as usize).saturating_sub(total - dense).max(dense / 100);
+    Some((room as f32 / dense as f32).min(1.0))
+}
+
+/// What simplifying one mesh gave.
+#[derive(Clone, Debug)]
+pub struct Simplified {
+    /// The mesh with its lighting triangles (positions, materials and
+    /// attributes as given; `triangle_material` and the texture maps per
+    /// new triangle).
+    pub mesh: MeshDesc,
+    /// Per triangle of `mesh`: the region it belongs to (one material and
+    /// texture map), as [`regions`] numbers them for the input.
+    pub region: Vec<u32>,
+    /// The largest surface error of a region's collapses, metres.
+    pub error: f32,
+}
+
+/// Per triangle of `mesh`: its region (material and texture map), numbered
+/// in order of first appearance; the transfer matches dropped positions to
+/// lighting triangles of their own region.
+pub fn regions(mesh: &MeshDesc) -> Vec<u32> {
+    let mut ids: HashMap<(u32, u32), u32> = HashMap::new();
+    (0..mesh.triangles.len())
+        .map(|t| {
+            let next = ids.len() as u32;
+            *ids.entry(region_key(mesh, t)).or_insert(next)
+        })
+        .collect()
+}
+
+fn region_key(mesh: &MeshDesc, t: usize) -> (u32, u32) {
+    let map = mesh.textures.as_ref().map_or(NO_MAP, |x| x.triangle_map[t]);
+    (mesh.triangle_material[t], map)
+}
+
+/// `mesh` (world positions `world`, as [`super::prep::check_mesh`] gives
+/// them) reduced to about `share` of its triangles, no collapse moving the
+/// surface more than `max_error` metres (module doc).
+pub fn simplify(mesh: &MeshDesc, world: &[Vec3], share: f32, max_error: f32) -> Simplified {
+    let region = regions(mesh);
+    // Corners with the same position and attributes are one vertex.
+    let bits = |v: Vec3| v.to_array().map(f32::to_bits);
+    let mut ids: HashMap<[u32; 14], u32> = HashMap::with_capacity(world.len());
+    let mut first_given: Vec<u32> = Vec::new();
+    let vertex_of: Vec<u32> = (0..world.len())
+        .map(|i| {
+            let mut k = [0u32; 14];
+            k[..3].copy_from_slice(&bits(world[i]));
+            if let Some(t) = &mesh.textures {
+                k[3..5].copy_from_slice(&t.uv[i].to_array().map(f32::to_bits));
+                k[5..8].copy_from_slice(&bits(t.factor[i]));
+            }
+            if let Some(a) = &mesh.vertex_albedo {
+                k[8..11].copy_from_slice(&bits(a[i]));
+            }
+            if let Some(e) = &mesh.vertex_emission {
+                k[11..14].copy_from_slice(&bits(e[i]));
+            }
+            *ids.entry(k).or_insert_with(|| {
+                first_given.push(i as u32);
+                (first_given.len() - 1) as u32
+            })
+        })
+        .collect();
+    let cos_crease = mesh.crease_angle_deg.to_radians().cos();
+    let regions_n = region.iter().copied().max().map_or(0, |m| m as usize + 1);
+    let mut by_region: Vec<Vec<usize>> = vec![Vec::new(); regions_n];
+    for (t, &r) in region.iter().enumerate() {
+        by_region[r as usize].push(t);
+    }
+    let mut out = mesh.clone();
+    out.triangles.clear();
+    out.triangle_material.clear();
+    let mut out_region = Vec::new();
+    let mut out_map = Vec::new();
+    let mut error = 0f32;
+    for (r, tris) in by_region.iter().enumerate() {
+        let Some(&t0) = tris.first() else { continue };
+        let (material, map) = region_key(mesh, t0);
+        let mut local: HashMap<u32, u32> = HashMap::new();
+        let mut given: Vec<u32> = Vec::new();
+        let mut indices: Vec<u32> = Vec::with_capacity(tris.len() * 3);
+        let mut first_n: Vec<Vec3> = Vec::new();
+        let mut lock: Vec<bool> = Vec::new();
+        for &t in tris {
+            let corners = mesh.triangles[t].map(|i| vertex_of[i as usize]);
+            let [a, b, c] = mesh.triangles[t].map(|i| world[i as usize]);
+            let n = (b - a).cross(c - a).normalize_or_zero();
+            if corners[0] == corners[1] || corners[1] == corners[2] || corners[0] == corners[2] || n == Vec3::ZERO {
+                continue; // preparation drops it anyway
+            }
+            for v in corners {
+                let l = *local.entry(v).or_insert_with(|| {
+                    given.push(first_given[v as usize]);
+                    first_n.push(n);
+                    lock.push(false);
+                    (given.len() - 1) as u32
+                });
+                // A crease through the vertex: its faces differ by more than the crease angle.
+                if first_n[l as usize].dot(n) < cos_crease {
+                    lock[l as usize] = true;
+                }
+                indices.push(l);
+            }
+        }
+        let target = ((indices.len() / 3) as f32 * share).ceil() as usize * 3;
+        let simplified = if indices.len() / 3 >= MIN_TRIANGLES / 10 && target < indices.len() {
+            let positions: Vec<[f32; 3]> = given.iter().map(|&i| world[i as usize].to_array()).collect();
+            let adapter = VertexDataAdapter::new(bytemuck::cast_slice(&positions), 12, 0)
+                .expect("12-byte positions divide their own buffer");
+            let options = SimplifyOptions::LockBorder | SimplifyOptions::ErrorAbsolute;
+            let mut e = 0f32;
+            let s = meshopt::simplify_with_locks(&indices, &adapter, &lock, target, max_error, options, Some(&mut e));
+            error = error.max(e);
+            s
+        } else {
+            indices
+        };
+        for t in simplified.chunks_exact(3) {
+            out.triangles.push([given[t[0] as usize], given[t[1] as usize], given[t[2] as usize]]);
+            out.triangle_material.push(material);
+            out_region.push(r as u32);
+            out_map.push(map);
+        }
+    }
+    if let Some(t) = &mut out.textures {
+        t.triangle_map = out_map;
+    }
+    Simplified { mesh: out, region: out_region, error }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::shapes::MeshBuilder;
+
+    fn world(m: &MeshDesc) -> Vec<Vec3> {
+        crate::scene::prep::check_mesh(m).unwrap()
+    }
+
+    /// Undirected edges (by their ends' positions) used by exactly one triangle.
+    fn border_edges(tris: &[[u32; 3]], w: &[Vec3]) -> Vec<([u32; 3], [u32; 3])> {
+        let mut count: HashMap<([u32; 3], [u32; 3]), u32> = HashMap::new();
+        let key = |i: u32| w[i as usize].to_array().map(f32::to_bits);
+        for t in tris {
+            for k in 0..3 {
+                let (a, b) = (key(t[k]), key(t[(k + 1) % 3]));
+                *count.entry((a.min(b), a.max(b))).or_default() += 1;
+            }
+        }
+        let mut e: Vec<_> = count.into_iter().filter(|&(_, c)| c == 1).map(|(e, _)| e).collect();
+        e.sort_unstable();
+        e
+    }
+
+    /// A finely tessellated cube: its faces collapse, its twelve edges
+    /// keep every vertex (creases locked), and the surface stays on the
+    /// cube (every kept vertex was an input vertex; the triangles cover
+    /// each face's area).
+    #[test]
+    fn a_dense_cube_keeps_its_edges() {
+        let mut b = MeshBuilder::new();
+        let m = b.add_material("white", Vec3::splat(0.5));
+        b.cuboid(Vec3::splat(-1.0), Vec3::splat(1.0), 24, m, false);
+        let mesh = b.finish("cube", 30.0);
+        let w = world(&mesh);
+        let s = simplify(&mesh, &w, 0.05, 0.01);
+        assert!(s.mesh.triangles.len() < mesh.triangles.len() / 4, "{} of {}", s.mesh.triangles.len(), mesh.triangles.len());
+        let used: std::collections::HashSet<u32> = s.mesh.triangles.iter().flatten().copied().collect();
+        let on_edge = |p: Vec3| p.abs().to_array().iter().filter(|c| (**c - 1.0).abs() < 1e-6).count() >= 2;
+        // Every position on a cube edge (in any of its copies) is still used.
+        let edge_positions: std::collections::HashSet<[u32; 3]> =
+            w.iter().filter(|p| on_edge(**p)).map(|p| p.to_array().map(f32::to_bits)).collect();
+        let kept: std::collections::HashSet<[u32; 3]> =
+            used.iter().map(|&i| w[i as usize].to_array().map(f32::to_bits)).collect();
+        assert!(edge_positions.iter().all(|p| kept.contains(p)), "a crease vertex was collapsed");
+        let area = |tris: &[[u32; 3]]| -> f32 {
+            tris.iter().map(|t| (w[t[1] as usize] - w[t[0] as usize]).cross(w[t[2] as usize] - w[t[0] as usize]).length() / 2.0).sum()
+        };
+        assert!((area(&s.mesh.triangles) - 24.0).abs() < 1e-3, "area {}", area(&s.mesh.triangles));
+    }
+
+    /// A box open on one side: the opening's rim (the mesh's border) keeps
+    /// every edge as given.
+    #[test]
+    fn an_open_box_keeps_its_border() {
+        let mut b = MeshBuilder::new();
+        let m = b.add_material("white", Vec3::splat(0.5));
+        let wall = Some(m);
+        b.cuboid_holed(Vec3::splat(-1.0), Vec3::splat(1.0), [20, 20, 20], [wall, wall, wall, wall, wall, None], true, None);
+        let mesh = b.finish("open box", 30.0);
+        let w = world(&mesh);
+        let s = simplify(&mesh, &w, 0.05, 0.01);
+        assert!(s.mesh.triangles.len() < mesh.triangles.len() / 4);
+        let before = border_edges(&mesh.triangles, &w);
+        let after = border_edges(&s.mesh.triangles, &w);
+        assert!(!before.is_empty());
+        assert_eq!(before, after, "the opening's rim changed");
+    }
+
+    /// Two materials on one grid: the boundary between them keeps every
+    /// vertex and each lighting triangle keeps one material.
+    #[test]
+    fn material_boundaries_stay() {
+        let mut b = MeshBuilder::new();
+        let red = b.add_material("red", Vec3::new(0.8, 0.1, 0.1));
+        let grey = b.add_material("grey", Vec3::splat(0.5));
+        b.quad_grid(Vec3::ZERO, Vec3::X, Vec3::Z, 40, 40, grey);
+        b.quad_grid(Vec3::new(1.0, 0.0, 0.0), Vec3::X, Vec3::Z, 40, 40, red);
+        let mesh = b.finish("floor", 30.0);
+        let w = world(&mesh);
+        let s = simplify(&mesh, &w, 0.05, 0.01);
+        assert!(s.mesh.triangles.len() < mesh.triangles.len() / 4);
+        let used: std::collections::HashSet<[u32; 3]> =
+            s.mesh.triangles.iter().flatten().map(|&i| w[i as usize].to_array().map(f32::to_bits)).collect();
+        for p in w.iter().filter(|p| (p.x - 1.0).abs() < 1e-6) {
+            assert!(used.contains(&p.to_array().map(f32::to_bits)), "boundary vertex {p} collapsed");
+        }
+        for (t, &mat) in s.mesh.triangles.iter().zip(&s.mesh.triangle_material) {
+            let c = (w[t[0] as usize] + w[t[1] as usize] + w[t[2] as usize]) / 3.0;
+            assert_eq!(mat, if c.x > 1.0 { red } else { grey });
+        }
+    }
+
+    #[test]
+    fn the_budget_sets_the_share() {
+        let mut scene = crate::scene::builtin::builtin("cornell").unwrap();
+        assert_eq!(keep_share(&scene), None, "a built-in is within the default budget");
+        let total: usize = scene.meshes.iter().map(|m| m.triangles.len()).sum();
+        scene.settings.refine.max_triangles = 1000;
+        let dense: usize = scene.meshes.iter().filter(|m| simplifiable(m)).map(|m| m.triangles.len()).sum();
+        let share = keep_share(&scene).expect("over the budget");
+        let kept = (total - dense) as f32 + share * dense as f32;
+        assert!((kept - 1000f32.max(total as f32 - dense as f32 + dense as f32 / 100.0)).abs() < 2.0, "{kept}");
+        scene.settings.refine.mode = RefineMode::Off;
+        assert_eq!(keep_share(&scene), None);
+    }
+}
