@@ -14,6 +14,7 @@ pub mod builtin;
 pub mod contact;
 pub mod deform;
 pub mod deformer;
+pub mod dense;
 pub mod edges;
 pub mod emission;
 pub mod file;

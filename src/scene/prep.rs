@@ -519,10 +519,10 @@ impl MeshPrep {
 /// The lighting mesh of a dense `mesh` ([`super::simplify`]) prepared, and
 /// the transfer of every input position it dropped ([`super::transfer`],
 /// triangles local to the mesh).
-fn lighting_mesh(mesh: &super::MeshDesc, share: f32, max_error: f32) -> Result<(MeshPrep, Vec<Transfer>)> {
+fn lighting_mesh(mesh: &super::MeshDesc, share: f32) -> Result<(MeshPrep, Vec<Transfer>)> {
     use super::{simplify, transfer};
     let world = check_mesh(mesh)?;
-    let s = simplify::simplify(mesh, &world, share, max_error);
+    let s = simplify::simplify(mesh, &world, share, simplify::MAX_ERROR);
     let mp = prepare_mesh(&s.mesh)?;
     let region: Vec<u32> = mp.triangle_input.iter().map(|&t| s.region[t as usize]).collect();
     let lighting = transfer::Lighting { positions: &mp.positions, triangles: &mp.triangles, region: &region };
@@ -531,7 +531,7 @@ fn lighting_mesh(mesh: &super::MeshDesc, share: f32, max_error: f32) -> Result<(
     let t = transfer::transfers(&input, &lighting, |i| mp.input_vertex[i] == NO_VERTEX);
     let lost = (0..world.len()).filter(|&i| mp.input_vertex[i] == NO_VERTEX && t[i].tri == NO_TRANSFER).count();
     log::info!(
-        "{}: lighting mesh of {} triangles for the input's {} (surface moved at most {:.2} mm); {} input \
+        "{}: lighting mesh of {} triangles for the input's {} (simplifier's error {:.1} mm); {} input \
          positions read it through a transfer{}",
         mesh.name,
         mp.triangles.len(),
@@ -569,10 +569,9 @@ pub fn prepare(scene: &SceneDesc) -> Result<PreparedScene> {
     let mut textures = CornerTextures::default();
     let mut pos_base = 0u32;
     let share = super::simplify::keep_share(scene);
-    let max_error = super::simplify::MAX_ERROR_SHARE * super::refine::scene_diagonal(scene);
     for mesh in &scene.meshes {
         let (mp, mut transfer) = match share.filter(|_| super::simplify::simplifiable(mesh)) {
-            Some(share) => lighting_mesh(mesh, share, max_error)?,
+            Some(share) => lighting_mesh(mesh, share)?,
             None => (prepare_mesh(mesh)?, Vec::new()),
         };
         let n = mp.triangles.len();
