@@ -167,7 +167,7 @@ pub use scene::builder::{MeshInput, SceneBuilder};
 pub use scene::deform::{deform_scene, has_deformers, Deform, DeformKind};
 pub use scene::file::write_scene;
 pub use scene::load as load_scene;
-pub use scene::prep::{prepare, PreparedScene};
+pub use scene::prep::{prepare, Interpolate, PreparedScene};
 pub use scene::refine::{RefineMode, RefineSettings};
 pub use scene::terms::Terms;
 pub use scene::texture::{CornerTextures, MeshTextures, Sampler, Texture, TextureMap, Wrap};

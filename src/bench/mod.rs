@@ -19,6 +19,7 @@ pub mod memory;
 pub mod paper;
 pub mod peer;
 pub mod report;
+pub mod scale;
 pub mod scenes;
 
 pub use paper::paper_rows;

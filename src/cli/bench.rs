@@ -32,6 +32,15 @@ pub struct BenchArgs {
     /// Write the tables as markdown.
     #[arg(long, value_name = "FILE")]
     pub markdown: Option<PathBuf>,
+    /// The scaling table instead: the one scene given, subdivided at these
+    /// levels (4^k times its triangles each; e.g. `0,1,2,3`), each solved
+    /// as `solve` does (the lighting mesh simplified past the budget), with
+    /// its time, peak memory and picture against the first level's.
+    #[arg(long, value_name = "LEVELS", value_delimiter = ',')]
+    pub scale: Vec<u32>,
+    /// Where `--scale` writes each level's picture (`level<k>.png`).
+    #[arg(long, value_name = "DIR", default_value = "bench-scale")]
+    pub out: PathBuf,
 }
 
 pub fn run(args: BenchArgs) -> Result<()> {
@@ -55,6 +64,9 @@ pub fn run(args: BenchArgs) -> Result<()> {
             }
             None => setup::load(n, &overrides)?,
         });
+    }
+    if !args.scale.is_empty() {
+        return scale(&args, &descs, &computes);
     }
     let per_scene = (params.warmup + params.runs) as u64;
     let bar = ProgressBar::new(per_scene * (descs.len() * computes.len()) as u64);
@@ -98,6 +110,44 @@ pub fn run(args: BenchArgs) -> Result<()> {
         let text =
             serde_json::to_string_pretty(&serde_json::json!({ "backend": backend, "params": params, "rows": rows }))?;
         std::fs::write(p, text).with_context(|| format!("writing {}", p.display()))?;
+        println!("wrote {}", p.display());
+    }
+    if let Some(p) = &args.markdown {
+        std::fs::write(p, &md).with_context(|| format!("writing {}", p.display()))?;
+        println!("wrote {}", p.display());
+    }
+    Ok(())
+}
+
+/// `bench --scale`: the scaling table of one scene on the first backend.
+fn scale(args: &BenchArgs, descs: &[scene::SceneDesc], computes: &[(String, crate::solver::Compute)]) -> Result<()> {
+    let [desc] = descs else { anyhow::bail!("--scale takes one scene ({} given)", descs.len()) };
+    let (label, compute) = computes.first().context("no backend to run on")?;
+    std::fs::create_dir_all(&args.out).with_context(|| format!("creating {}", args.out.display()))?;
+    let mut written = Vec::new();
+    let rows = bench::scale::run(
+        desc,
+        &args.scale,
+        compute,
+        (320, 240),
+        &|level| eprintln!("{}: level {level} ({label})", desc.name),
+        &mut |level, img| {
+            let path = args.out.join(format!("level{level}.png"));
+            match crate::render::write_png(img, crate::auto_exposure(img), &path) {
+                Ok(()) => written.push(path),
+                Err(e) => log::warn!("{e}"),
+            }
+        },
+    )?;
+    let md = bench::scale::markdown(&desc.name, &rows, desc.settings.refine.max_triangles);
+    println!("{md}");
+    println!("{label}: {}", compute.describe());
+    for p in &written {
+        println!("wrote {}", p.display());
+    }
+    if let Some(p) = &args.json {
+        std::fs::write(p, serde_json::to_string_pretty(&serde_json::json!({ "scene": desc.name, "rows": rows }))?)
+            .with_context(|| format!("writing {}", p.display()))?;
         println!("wrote {}", p.display());
     }
     if let Some(p) = &args.markdown {

@@ -61,6 +61,10 @@ pub struct Overrides {
     /// Most positions refinement may add to the input (default 250000).
     #[arg(long, value_name = "N")]
     pub refine_max_added: Option<u32>,
+    /// The lighting mesh's triangle budget: a denser input has its dense
+    /// static meshes simplified to fit it (default 300000, at least 1000).
+    #[arg(long, value_name = "N")]
+    pub refine_max_triangles: Option<u32>,
     /// Number of bounces (`solve --bounces`).
     #[arg(skip)]
     pub bounces: Option<Bounces>,
@@ -108,6 +112,9 @@ impl Overrides {
         }
         if let Some(n) = self.refine_max_added {
             settings.refine.max_added = n;
+        }
+        if let Some(n) = self.refine_max_triangles {
+            settings.refine.max_triangles = n;
         }
         settings
     }
@@ -272,7 +279,7 @@ pub fn setup(scene: &str, overrides: &Overrides) -> Result<Setup> {
     }
     let before: usize = desc.meshes.iter().map(|m| m.triangles.len()).sum();
     let plan = adaptive::Plan::of(&desc);
-    if plan.refining {
+    if plan.apriori {
         desc = crate::scene::refine::apriori(&desc, &desc.settings.refine).0;
     }
     let prepared = prep::prepare(&desc).with_context(|| format!("preparing scene {scene}"))?;

@@ -14,6 +14,8 @@ pub mod builtin;
 pub mod contact;
 pub mod deform;
 pub mod deformer;
+// Dense copies: the scaling bench and the tests.
+#[cfg(any(test, feature = "internals", feature = "cli"))]
 pub mod dense;
 pub mod edges;
 pub mod emission;

@@ -522,25 +522,52 @@ impl MeshPrep {
 fn lighting_mesh(mesh: &super::MeshDesc, share: f32) -> Result<(MeshPrep, Vec<Transfer>)> {
     use super::{simplify, transfer};
     let world = check_mesh(mesh)?;
-    let s = simplify::simplify(mesh, &world, share, simplify::MAX_ERROR);
-    let mp = prepare_mesh(&s.mesh)?;
-    let region: Vec<u32> = mp.triangle_input.iter().map(|&t| s.region[t as usize]).collect();
-    let lighting = transfer::Lighting { positions: &mp.positions, triangles: &mp.triangles, region: &region };
+    let (lo, hi) = world.iter().fold((Vec3::splat(f32::MAX), Vec3::splat(f32::MIN)), |(l, h), p| (l.min(*p), h.max(*p)));
+    let extent = (hi - lo).max_element().max(0.0);
     let input_region = simplify::regions(mesh);
     let input = transfer::Input { positions: &world, triangles: &mesh.triangles, region: &input_region };
-    let t = transfer::transfers(&input, &lighting, |i| mp.input_vertex[i] == NO_VERTEX);
-    let lost = (0..world.len()).filter(|&i| mp.input_vertex[i] == NO_VERTEX && t[i].tri == NO_TRANSFER).count();
-    log::info!(
-        "{}: lighting mesh of {} triangles for the input's {} (simplifier's error {:.1} mm); {} input \
-         positions read it through a transfer{}",
-        mesh.name,
-        mp.triangles.len(),
-        mesh.triangles.len(),
-        s.error * 1e3,
-        t.iter().filter(|t| t.tri != NO_TRANSFER).count(),
-        if lost > 0 { format!(", {lost} find no lighting triangle facing them and keep no value") } else { String::new() }
-    );
-    Ok((mp, t))
+    let mut last = None;
+    for (k, &bound) in simplify::ERROR_BOUNDS.iter().enumerate() {
+        let s = simplify::simplify(mesh, &world, share, bound);
+        let mp = prepare_mesh(&s.mesh)?;
+        let region: Vec<u32> = mp.triangle_input.iter().map(|&t| s.region[t as usize]).collect();
+        let lighting = transfer::Lighting { positions: &mp.positions, triangles: &mp.triangles, region: &region };
+        let t = transfer::transfers(&input, &lighting, |i| mp.input_vertex[i] == NO_VERTEX);
+        let dropped = (0..world.len()).filter(|&i| mp.input_vertex[i] == NO_VERTEX).count();
+        let lost = (0..world.len()).filter(|&i| mp.input_vertex[i] == NO_VERTEX && t[i].tri == NO_TRANSFER).count();
+        let mut distances: Vec<f32> = t.iter().filter(|t| t.tri != NO_TRANSFER).map(|t| t.distance).collect();
+        let farthest = distances.iter().copied().fold(0f32, f32::max);
+        let p999 = if distances.is_empty() {
+            0.0
+        } else {
+            let k = (distances.len() - 1) * 999 / 1000;
+            *distances.select_nth_unstable_by(k, f32::total_cmp).1
+        };
+        let ok = lost as f64 <= simplify::MAX_LOST * dropped.max(1) as f64 && p999 <= simplify::MAX_DISTANCE * extent;
+        log::info!(
+            "{}: lighting mesh of {} triangles for the input's {} (simplifier's bound {bound} of the extent, \
+             error {:.1} mm); {} input positions read it through a transfer, 99.9% within {:.1} mm of it (the \
+             farthest {:.1} mm){}{}",
+            mesh.name,
+            mp.triangles.len(),
+            mesh.triangles.len(),
+            s.error * 1e3,
+            dropped - lost,
+            p999 * 1e3,
+            farthest * 1e3,
+            if lost > 0 { format!(", {lost} find no lighting triangle facing them and keep no value") } else { String::new() },
+            match (ok, k + 1 < simplify::ERROR_BOUNDS.len()) {
+                (true, _) => "",
+                (false, true) => "; the surface moved too far: simplified again with a tighter bound",
+                (false, false) => "; the surface moved too far even at the tightest bound: kept",
+            }
+        );
+        last = Some((mp, t));
+        if ok {
+            break;
+        }
+    }
+    Ok(last.expect("at least one error bound"))
 }
 
 /// Prepares a scene for solving. Errors name the mesh and the problem.
@@ -673,8 +700,8 @@ impl PreparedScene {
     /// A per-vertex result (`values[v]` for solver vertex `v`, e.g.
     /// `Solution::e_indirect`) read on input mesh `mesh`'s own positions,
     /// in their order: a position's solver vertex
-    /// ([`MeshRange::input_vertex`]), or for a position a simplified
-    /// lighting mesh dropped, its transfer ([`MeshRange::input_transfer`]:
+    /// (`MeshRange::input_vertex`), or for a position a simplified
+    /// lighting mesh dropped, its transfer (`MeshRange::input_transfer`:
     /// the lighting triangle's corner values weighted); `None` where the
     /// position takes no value (no kept triangle uses it, or no lighting
     /// triangle faces it); empty if there is no mesh `mesh`.

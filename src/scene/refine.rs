@@ -256,7 +256,7 @@ pub struct RefineSettings {
     pub max_added: u32,
     /// The lighting mesh's triangle budget: a scene whose input has more
     /// triangles has its dense static meshes simplified until the whole
-    /// fits it ([`crate::scene::simplify`]; their own positions take the
+    /// fits it (`scene/simplify.rs`; their own positions take the
     /// light through a transfer). At least 1000. Lower: faster solves of
     /// dense scenes, light interpolated over larger triangles.
     pub max_triangles: u32,
@@ -305,6 +305,12 @@ impl RefineSettings {
             max_added: 250_000,
             max_triangles: DEFAULT_MAX_TRIANGLES,
         }
+    }
+
+    /// Whether the lighting mesh is made for the light (`refine = "auto"`:
+    /// coarse meshes refined, dense ones simplified).
+    pub fn auto(&self) -> bool {
+        self.mode == RefineMode::Auto
     }
 
     /// Checks ranges: finite non-negative edge, positive finite tolerance.

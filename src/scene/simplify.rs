@@ -1,12 +1,14 @@
 //! The lighting mesh where the input is denser than the light needs:
 //! dense meshes reduced by meshoptimizer's edge-collapse simplifier
 //! ([`meshopt`], `simplify_with_locks`), the counterpart of refinement
-//! ([`super::refine`]) under one setting, [`RefineSettings`]: refinement
+//! ([`super::refine`]) under one setting,
+//! [`RefineSettings`](super::refine::RefineSettings): refinement
 //! splits meshes coarser than the light needs, simplification collapses
 //! meshes denser than the scene's triangle budget.
 //!
 //! **Which meshes.** A scene whose input has more triangles than
-//! [`RefineSettings::max_triangles`] (with refinement `auto`) has every
+//! [`RefineSettings::max_triangles`](super::refine::RefineSettings::max_triangles)
+//! (with refinement `auto`) has every
 //! static mesh of at least [`MIN_TRIANGLES`] triangles reduced to the same
 //! share of its triangles, so the whole fits the budget ([`keep_share`]).
 //! Deforming meshes are never simplified (their positions move per input
@@ -32,7 +34,6 @@
 //! triangles; the positions no kept triangle uses take their light from
 //! the lighting triangle beside them ([`super::transfer`]).
 
-use super::refine::{RefineMode, RefineSettings};
 use super::texture::NO_MAP;
 use super::{MeshDesc, SceneDesc};
 use glam::Vec3;
@@ -42,13 +43,30 @@ use std::collections::HashMap;
 /// Meshes with fewer triangles are never simplified (they cost little).
 pub const MIN_TRIANGLES: usize = 1000;
 
-/// The simplifier's error bound, as a share of each mesh's extent
-/// (meshoptimizer's relative error; with `Regularize` it holds a
-/// regularisation term beside the distance moved, so it bounds the
-/// distance from above). The triangle budget stops it first on every
-/// scene measured; this only keeps it from collapsing shapes where the
-/// budget would allow it.
-pub const MAX_ERROR: f32 = 0.05;
+/// The simplifier's error bounds tried in turn, as shares of each mesh's
+/// extent (meshoptimizer's relative error; with `Regularize` it holds a
+/// regularisation term beside the distance moved). The first whose
+/// lighting mesh passes the transfer's check (`prep.rs`: at most
+/// [`MAX_LOST`] of the dropped positions without a facing lighting
+/// triangle, and 99.9% of them within [`MAX_DISTANCE`] of the extent of
+/// the point they read) is kept, so the budget yields where the surface
+/// would move. Sponza (docs/DENSE.md): cut from 4.25M to 300k triangles at
+/// a bound of 5% it lost its arches and roof (2% of the dropped positions
+/// found no lighting triangle facing them); from 1.06M its error was
+/// 0.06% of the extent and the picture the coarse one's. A bound of 0.5%
+/// first would cost the regular triangles: the Cornell box's dense copy
+/// then kept 34,837 of its 92,928 triangles (budget 5,808).
+pub const ERROR_BOUNDS: [f32; 3] = [0.05, 0.005, 0.0005];
+
+/// The share of dropped input positions that may find no lighting
+/// triangle facing them (a simplification that loses more is redone
+/// with the next of [`ERROR_BOUNDS`]).
+pub const MAX_LOST: f64 = 0.001;
+
+/// How far 99.9% of the dropped input positions may lie from the point
+/// they read, as a share of the mesh's extent.
+pub const MAX_DISTANCE: f32 = 0.01;
+
 
 /// Whether `mesh` may be simplified: static, and at least [`MIN_TRIANGLES`].
 pub fn simplifiable(mesh: &MeshDesc) -> bool {
@@ -56,12 +74,14 @@ pub fn simplifiable(mesh: &MeshDesc) -> bool {
 }
 
 /// The share of its triangles each simplifiable mesh of `scene` keeps so
-/// the whole fits [`RefineSettings::max_triangles`]; `None` where nothing
+/// the whole fits
+/// [`RefineSettings::max_triangles`](super::refine::RefineSettings::max_triangles);
+/// `None` where nothing
 /// is simplified (refinement off, the scene within the budget, or no mesh
 /// that may be simplified). At least 1% of them.
 pub fn keep_share(scene: &SceneDesc) -> Option<f32> {
-    let r: &RefineSettings = &scene.settings.refine;
-    if r.mode == RefineMode::Off {
+    let r = &scene.settings.refine;
+    if !r.auto() {
         return None;
     }
     let total: usize = scene.meshes.iter().map(|m| m.triangles.len()).sum();
@@ -170,6 +190,7 @@ pub fn simplify(mesh: &MeshDesc, world: &[Vec3], share: f32, max_error: f32) -> 
         let positions: Vec<[f32; 3]> = given.iter().map(|&i| world[i as usize].to_array()).collect();
         let adapter = VertexDataAdapter::new(bytemuck::cast_slice(&positions), 12, 0)
             .expect("12-byte positions divide their own buffer");
+        let mut e = 0f32;
         let s = meshopt::simplify_with_locks(
             &indices,
             &adapter,
@@ -177,9 +198,9 @@ pub fn simplify(mesh: &MeshDesc, world: &[Vec3], share: f32, max_error: f32) -> 
             target,
             max_error,
             SimplifyOptions::Regularize,
-            Some(&mut error),
+            Some(&mut e),
         );
-        error *= meshopt::simplify_scale(&adapter);
+        error = e * meshopt::simplify_scale(&adapter);
         s
     } else {
         indices
@@ -205,6 +226,7 @@ pub fn simplify(mesh: &MeshDesc, world: &[Vec3], share: f32, max_error: f32) -> 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::scene::refine::RefineMode;
     use crate::scene::shapes::MeshBuilder;
 
     fn world(m: &MeshDesc) -> Vec<Vec3> {
@@ -237,7 +259,7 @@ mod tests {
         b.cuboid(Vec3::splat(-1.0), Vec3::splat(1.0), 24, m, false);
         let mesh = b.finish("cube", 30.0);
         let w = world(&mesh);
-        let s = simplify(&mesh, &w, 0.05, MAX_ERROR);
+        let s = simplify(&mesh, &w, 0.05, ERROR_BOUNDS[0]);
         assert!(s.mesh.triangles.len() < mesh.triangles.len() / 4, "{} of {}", s.mesh.triangles.len(), mesh.triangles.len());
         let used: std::collections::HashSet<u32> = s.mesh.triangles.iter().flatten().copied().collect();
         let on_edge = |p: Vec3| p.abs().to_array().iter().filter(|c| (**c - 1.0).abs() < 1e-6).count() >= 2;
@@ -264,7 +286,7 @@ mod tests {
         b.cuboid_holed(Vec3::splat(-1.0), Vec3::splat(1.0), [20, 20, 20], [wall, wall, wall, wall, wall, None], true, None);
         let mesh = b.finish("open box", 30.0);
         let w = world(&mesh);
-        let s = simplify(&mesh, &w, 0.05, MAX_ERROR);
+        let s = simplify(&mesh, &w, 0.05, ERROR_BOUNDS[0]);
         assert!(s.mesh.triangles.len() < mesh.triangles.len() / 4);
         let point = |p: [u32; 3]| Vec3::from_array(p.map(f32::from_bits));
         let length = |e: &[([u32; 3], [u32; 3])]| e.iter().map(|&(a, b)| (point(a) - point(b)).length()).sum::<f32>();
@@ -298,7 +320,7 @@ mod tests {
         b.quad_grid(Vec3::new(1.0, 0.0, 0.0), Vec3::X, Vec3::Z, 40, 40, red);
         let mesh = b.finish("floor", 30.0);
         let w = world(&mesh);
-        let s = simplify(&mesh, &w, 0.05, MAX_ERROR);
+        let s = simplify(&mesh, &w, 0.05, ERROR_BOUNDS[0]);
         assert!(s.mesh.triangles.len() < mesh.triangles.len() / 4);
         let mut area = [0f32; 2];
         let mut of: HashMap<[u32; 3], u32> = HashMap::new();

@@ -36,6 +36,8 @@ pub struct Transfer {
     pub tri: u32,
     /// Weights of the triangle's corners 0, 1, 2.
     pub weights: [f32; 3],
+    /// Distance from the position to the point it reads, metres.
+    pub distance: f32,
 }
 
 /// [`Transfer::tri`] of a position that takes no value.
@@ -43,7 +45,7 @@ pub const NO_TRANSFER: u32 = u32::MAX;
 
 impl Transfer {
     /// No value.
-    pub const NONE: Transfer = Transfer { tri: NO_TRANSFER, weights: [0.0; 3] };
+    pub const NONE: Transfer = Transfer { tri: NO_TRANSFER, weights: [0.0; 3], distance: 0.0 };
 }
 
 /// The least cosine between a dropped position's normal and a lighting
@@ -193,7 +195,7 @@ impl Grid {
                 break;
             }
         }
-        best.map(|(_, tri, weights, _)| Transfer { tri, weights })
+        best.map(|(distance, tri, weights, _)| Transfer { tri, weights, distance })
     }
 
     /// Whether the segment from `p` to `q` (on triangle `own`) crosses

@@ -147,7 +147,11 @@ pub struct Plan {
     pub coarse: Vec<bool>,
     /// The a-priori target length, metres.
     pub target: f32,
-    /// Whether any refinement runs (`refine = "auto"` and a coarse mesh).
+    /// Whether coarse meshes are split a priori (`refine = "auto"` and a
+    /// coarse mesh).
+    pub apriori: bool,
+    /// Whether error-driven rounds run: a-priori splits on a scene within
+    /// the lighting mesh's triangle budget.
     pub refining: bool,
     /// Most positions the refined scene may hold: the input's positions
     /// plus the budget ([`refine::RefineSettings::max_added`]).
@@ -155,14 +159,21 @@ pub struct Plan {
 }
 
 impl Plan {
-    /// The plan for `desc` as loaded, by its refinement settings.
+    /// The plan for `desc` as loaded, by its refinement settings. A scene
+    /// over the lighting mesh's triangle budget
+    /// ([`crate::scene::simplify::keep_share`]) is not refined where the
+    /// light needs it: its dense meshes are simplified to the budget
+    /// instead (coarse ones still split a priori), and a round's splits
+    /// would be collapsed again by the next round's simplification.
     pub fn of(desc: &SceneDesc) -> Plan {
         let settings = &desc.settings.refine;
         let target = settings.target_edge(desc);
         let coarse = refine::coarse_meshes(desc, target);
-        let refining = settings.mode == RefineMode::Auto && coarse.contains(&true);
+        let simplified = crate::scene::simplify::keep_share(desc).is_some();
+        let apriori = settings.mode == RefineMode::Auto && coarse.contains(&true);
+        let refining = apriori && !simplified;
         let max_positions = positions(desc) + settings.max_added as usize;
-        Plan { coarse, target, refining, max_positions }
+        Plan { coarse, target, apriori, refining, max_positions }
     }
 }
 
@@ -189,7 +200,7 @@ impl Plan {
 /// ```
 pub fn solve(desc: &SceneDesc, compute: &Compute, progress: &(dyn Fn(usize, usize) + Sync)) -> crate::Result<Refined> {
     let plan = Plan::of(desc);
-    let current = if plan.refining { refine::apriori(desc, &desc.settings.refine).0 } else { desc.clone() };
+    let current = if plan.apriori { refine::apriori(desc, &desc.settings.refine).0 } else { desc.clone() };
     let prepared = prep::prepare(&current)?;
     solve_planned(current, prepared, &plan, compute, progress)
 }
