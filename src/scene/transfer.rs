@@ -153,49 +153,52 @@ impl Grid {
         ((p - self.origin) / self.cell).floor().as_ivec3().to_array()
     }
 
-    /// The transfer of a position `p` with normal `n` in region `region`.
+    /// The transfer of a position `p` with normal `n` in region `region`:
+    /// the candidates (own region, facing it) of growing shells until the
+    /// nearest is closer than the next shell, then the nearest that `p`
+    /// sees, tested against every triangle gathered.
     fn find(&self, l: &Lighting, p: Vec3, n: Vec3, region: u32) -> Option<Transfer> {
         let k = self.key(p);
         let mut seen: Vec<u32> = Vec::new();
-        let mut best: Option<(f32, u32, [f32; 3], Vec3)> = None;
+        let mut shell: Vec<u32> = Vec::new();
+        let mut candidates: Vec<(f32, u32, [f32; 3], Vec3)> = Vec::new();
         for r in 0..=MAX_RINGS {
-            let start = seen.len();
+            shell.clear();
             for x in -r..=r {
                 for y in -r..=r {
                     for z in -r..=r {
                         if x.abs().max(y.abs()).max(z.abs()) != r {
                             continue;
                         }
-                        let Some(list) = self.cells.get(&[k[0] + x, k[1] + y, k[2] + z]) else { continue };
-                        for &t in list {
-                            if !seen.contains(&t) {
-                                seen.push(t);
-                            }
+                        if let Some(list) = self.cells.get(&[k[0] + x, k[1] + y, k[2] + z]) {
+                            shell.extend_from_slice(list);
                         }
                     }
                 }
             }
-            for &t in &seen[start..] {
+            shell.sort_unstable();
+            shell.dedup();
+            shell.retain(|t| seen.binary_search(t).is_err());
+            for &t in &shell {
                 if l.region[t as usize] != region || self.normals[t as usize].dot(n) < MIN_COS {
                     continue;
                 }
                 let [a, b, c] = l.triangles[t as usize].map(|i| l.positions[i as usize]);
                 let (q, w) = closest_point(p, a, b, c);
-                let d = (q - p).length();
-                if best.is_some_and(|(bd, ..)| bd <= d) {
-                    continue;
-                }
-                if self.blocked(l, &seen, t, p, q) {
-                    continue;
-                }
-                best = Some((d, t, w, q));
+                candidates.push(((q - p).length(), t, w, q));
             }
+            seen.extend_from_slice(&shell);
+            seen.sort_unstable();
             // Anything in a later shell is at least `r * cell` away.
-            if best.is_some_and(|(d, ..)| d <= r as f32 * self.cell) {
+            if candidates.iter().any(|c| c.0 <= r as f32 * self.cell) {
                 break;
             }
         }
-        best.map(|(distance, tri, weights, _)| Transfer { tri, weights, distance })
+        candidates.sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+        candidates
+            .into_iter()
+            .find(|&(_, t, _, q)| !self.blocked(l, &seen, t, p, q))
+            .map(|(distance, tri, weights, _)| Transfer { tri, weights, distance })
     }
 
     /// Whether the segment from `p` to `q` (on triangle `own`) crosses
