@@ -528,7 +528,7 @@ fn lighting_mesh(mesh: &super::MeshDesc, share: f32) -> Result<(MeshPrep, Vec<Tr
     let input = transfer::Input { positions: &world, triangles: &mesh.triangles, region: &input_region };
     let mut last = None;
     for (k, &bound) in simplify::ERROR_BOUNDS.iter().enumerate() {
-        let s = simplify::simplify(mesh, &world, share, bound);
+        let s = simplify::simplify(mesh, &world, &input_region, share, bound);
         let mp = prepare_mesh(&s.mesh)?;
         let region: Vec<u32> = mp.triangle_input.iter().map(|&t| s.region[t as usize]).collect();
         let lighting = transfer::Lighting { positions: &mp.positions, triangles: &mp.triangles, region: &region };

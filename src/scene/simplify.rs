@@ -25,7 +25,7 @@
 //! creases (a cube's edges, a room's corners) keep every vertex.
 //! `Regularize` keeps the triangles' sizes even, which is what light
 //! interpolated over them wants: with the borders locked as well, a 40x40
-//! grid cut to 600 triangles kept 20x-uniform triangles inside its locked
+//! grid cut to 600 triangles kept 10x-uniform triangles inside its locked
 //! rim; with free borders and `Regularize`, 2.5x (the largest triangle's
 //! area over the mean). Curved detail and silhouettes keep their shape up
 //! to the error bound, [`MAX_ERROR`].
@@ -131,9 +131,9 @@ fn region_key(mesh: &MeshDesc, t: usize) -> (u32, u32) {
 
 /// `mesh` (world positions `world`, as [`super::prep::check_mesh`] gives
 /// them) reduced to about `share` of its triangles, no collapse moving the
-/// surface more than `max_error` of the mesh's extent (module doc).
-pub fn simplify(mesh: &MeshDesc, world: &[Vec3], share: f32, max_error: f32) -> Simplified {
-    let region = regions(mesh);
+/// surface more than `max_error` of the mesh's extent (module doc);
+/// `region` is [`regions`] of `mesh`.
+pub fn simplify(mesh: &MeshDesc, world: &[Vec3], region: &[u32], share: f32, max_error: f32) -> Simplified {
     let regions_n = region.iter().copied().max().map_or(0, |m| m as usize + 1);
     let mut key_of_region = vec![(0, 0); regions_n];
     for (t, &r) in region.iter().enumerate() {
@@ -259,7 +259,7 @@ mod tests {
         b.cuboid(Vec3::splat(-1.0), Vec3::splat(1.0), 24, m, false);
         let mesh = b.finish("cube", 30.0);
         let w = world(&mesh);
-        let s = simplify(&mesh, &w, 0.05, ERROR_BOUNDS[0]);
+        let s = simplify(&mesh, &w, &regions(&mesh), 0.05, ERROR_BOUNDS[0]);
         assert!(s.mesh.triangles.len() < mesh.triangles.len() / 4, "{} of {}", s.mesh.triangles.len(), mesh.triangles.len());
         let used: std::collections::HashSet<u32> = s.mesh.triangles.iter().flatten().copied().collect();
         let on_edge = |p: Vec3| p.abs().to_array().iter().filter(|c| (**c - 1.0).abs() < 1e-6).count() >= 2;
@@ -286,7 +286,7 @@ mod tests {
         b.cuboid_holed(Vec3::splat(-1.0), Vec3::splat(1.0), [20, 20, 20], [wall, wall, wall, wall, wall, None], true, None);
         let mesh = b.finish("open box", 30.0);
         let w = world(&mesh);
-        let s = simplify(&mesh, &w, 0.05, ERROR_BOUNDS[0]);
+        let s = simplify(&mesh, &w, &regions(&mesh), 0.05, ERROR_BOUNDS[0]);
         assert!(s.mesh.triangles.len() < mesh.triangles.len() / 4);
         let point = |p: [u32; 3]| Vec3::from_array(p.map(f32::from_bits));
         let length = |e: &[([u32; 3], [u32; 3])]| e.iter().map(|&(a, b)| (point(a) - point(b)).length()).sum::<f32>();
@@ -320,7 +320,7 @@ mod tests {
         b.quad_grid(Vec3::new(1.0, 0.0, 0.0), Vec3::X, Vec3::Z, 40, 40, red);
         let mesh = b.finish("floor", 30.0);
         let w = world(&mesh);
-        let s = simplify(&mesh, &w, 0.05, ERROR_BOUNDS[0]);
+        let s = simplify(&mesh, &w, &regions(&mesh), 0.05, ERROR_BOUNDS[0]);
         assert!(s.mesh.triangles.len() < mesh.triangles.len() / 4);
         let mut area = [0f32; 2];
         let mut of: HashMap<[u32; 3], u32> = HashMap::new();
